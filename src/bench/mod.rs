@@ -1,0 +1,11 @@
+//! Benchmarks that print tables (and JSON): speed next to error against the full-space reference.
+
+mod plot;
+mod sim;
+mod stats;
+
+pub use sim::{
+    run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimRow, SimulateOptions,
+    SimulateSummary,
+};
+pub use stats::median;

@@ -1,0 +1,560 @@
+//! `bench sim`: the reduced simulator against the full-space FEM reference over the same steps,
+//! for several shapes, scenarios, handle counts, cubature sizes and solvers.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use rand::seq::index::sample as sample_indices;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::stats::median;
+use crate::error::{Error, Result};
+use crate::geometry::{bundled, sample_surface, Cubature, SurfaceSampling, TetMesh, VoxelGrid};
+use crate::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
+use crate::skinning::{EigenmodeField, EigenmodeOptions, SkinningField};
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct SimBenchOptions {
+    /// Small meshes, few steps, fewer variants: fits in CI.
+    pub quick: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SimRow {
+    pub shape: String,
+    /// Vertices of the FEM mesh.
+    pub vertices: usize,
+    pub scenario: String,
+    pub field: String,
+    /// Handles without the constant one.
+    pub handles: usize,
+    pub cubature: usize,
+    pub solver: String,
+    /// Median reduced step, ms.
+    pub step_ms: f64,
+    /// Mean reduced step, ms (shows the cost of the slow steps the median hides).
+    pub step_mean_ms: f64,
+    /// Median FEM step, ms.
+    pub fem_step_ms: f64,
+    pub speedup: f64,
+    /// RMS distance of the lifted FEM vertices to the FEM reference over the whole trajectory,
+    /// in % of the bounding-box diagonal.
+    pub error_pct: f64,
+    pub mean_iterations: f64,
+    /// Steps where the solver hit its iteration limit.
+    pub unconverged_steps: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SimBenchReport {
+    pub rows: Vec<SimRow>,
+    /// Median time to lift 100k points (m = 16 handles plus the constant), ms.
+    pub lift_100k_ms: f64,
+}
+
+struct BenchShape {
+    name: &'static str,
+    mesh: Arc<TetMesh>,
+    grid: VoxelGrid,
+    eigen: EigenmodeField,
+    diagonal: f64,
+    young: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scenario {
+    Hanging,
+    Drop,
+    Poke,
+}
+
+impl Scenario {
+    fn name(self) -> &'static str {
+        match self {
+            Scenario::Hanging => "hanging",
+            Scenario::Drop => "drop",
+            Scenario::Poke => "poke",
+        }
+    }
+}
+
+/// Runs the bench; `progress` receives a line per finished piece of work.
+pub fn run_sim_bench(
+    options: &SimBenchOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<SimBenchReport> {
+    let quick = options.quick;
+    let handle_counts: &[usize] = if quick { &[4, 16] } else { &[4, 8, 16, 32] };
+    let cubatures: &[usize] = if quick { &[256, 1024] } else { &[256, 1024] };
+    let scenarios: &[Scenario] = if quick {
+        &[Scenario::Hanging, Scenario::Drop]
+    } else {
+        &[Scenario::Hanging, Scenario::Drop, Scenario::Poke]
+    };
+    let steps = if quick { 20 } else { 60 };
+    let max_modes = *handle_counts
+        .iter()
+        .max()
+        .expect("at least one handle count");
+    let shapes: [(&'static str, f64, usize); 3] = if quick {
+        [("plate", 2e7, 24), ("rod", 5e6, 32), ("creature", 5e5, 0)]
+    } else {
+        [("plate", 2e7, 48), ("rod", 5e6, 64), ("creature", 5e5, 0)]
+    };
+    let min_big_vertices = if quick { 2_000 } else { 30_000 };
+    let mut rows = Vec::new();
+    let mut lift_field = None;
+    for (name, young, resolution) in shapes {
+        let shape = prepare_shape(name, young, resolution, min_big_vertices, max_modes)?;
+        progress(&format!(
+            "{name}: {} FEM vertices, {} tets, eigenmodes in {} iterations",
+            shape.mesh.vertices.len(),
+            shape.mesh.tets.len(),
+            shape.eigen.iterations
+        ));
+        for &scenario in scenarios {
+            let params = scenario_params(&shape);
+            let started = Instant::now();
+            let (reference, fem_times) = run_fem(&shape, scenario, &params, steps)?;
+            let fem_step_ms = median(&fem_times) * 1e3;
+            progress(&format!(
+                "{name}/{}: FEM {steps} steps, median {fem_step_ms:.1} ms ({:.0} s)",
+                scenario.name(),
+                started.elapsed().as_secs_f64()
+            ));
+            for &m in handle_counts {
+                let field: Arc<dyn SkinningField> = Arc::new(shape.eigen.truncated(m));
+                for &cubature_size in cubatures {
+                    let cubature =
+                        Cubature::stratified(&shape.grid, cubature_size, shape.mesh.volume());
+                    let subspace = Arc::new(Subspace::build(
+                        field.clone(),
+                        *shape.eigen_normalization(),
+                        &cubature,
+                        params.density,
+                    ));
+                    for solver in [Solver::Newton, Solver::QuasiNewton] {
+                        let (row, _) =
+                            run_reduced(&shape, scenario, &params, &subspace, solver, &reference)?;
+                        let row = SimRow {
+                            shape: name.into(),
+                            vertices: shape.mesh.vertices.len(),
+                            scenario: scenario.name().into(),
+                            field: field.kind().into(),
+                            handles: m,
+                            cubature: cubature.len(),
+                            solver: solver.name().into(),
+                            fem_step_ms,
+                            speedup: fem_step_ms / row.step_ms,
+                            ..row
+                        };
+                        progress(&format!(
+                            "  m={m:<2} cubature={:<5} {:<12} step {:>8.3} ms  error {:.3}%",
+                            row.cubature, row.solver, row.step_ms, row.error_pct
+                        ));
+                        rows.push(row);
+                    }
+                }
+            }
+        }
+        if name == "creature" {
+            lift_field = Some((shape.eigen.truncated(16), shape));
+        }
+    }
+    let (field, shape) = lift_field.expect("the creature is benched");
+    let lift_100k_ms = time_lift(&field, &shape)?;
+    Ok(SimBenchReport { rows, lift_100k_ms })
+}
+
+impl BenchShape {
+    fn eigen_normalization(&self) -> &crate::geometry::Normalization {
+        self.eigen.normalization()
+    }
+}
+
+fn prepare_shape(
+    name: &'static str,
+    young: f64,
+    resolution: usize,
+    min_vertices: usize,
+    modes: usize,
+) -> Result<BenchShape> {
+    let shape = bundled(name).ok_or_else(|| Error::Geometry(format!("no bundled shape {name}")))?;
+    let fine = VoxelGrid::from_shape(&shape, 128, None);
+    // Resolution 0: the smallest that gives the mesh at least `min_vertices` vertices.
+    let grid = if resolution > 0 {
+        fine.resample(resolution)
+    } else {
+        let mut r = 16;
+        loop {
+            let grid = fine.resample(r);
+            let vertices = TetMesh::from_grid(&grid).vertices.len();
+            if vertices >= min_vertices || r >= 128 {
+                break grid;
+            }
+            r += 4;
+        }
+    };
+    let mesh = TetMesh::from_grid(&grid);
+    let (lo, hi) = grid.solid_bounds();
+    let eigen = EigenmodeField::compute(
+        mesh.clone(),
+        shape.normalization(),
+        &EigenmodeOptions {
+            modes,
+            ..Default::default()
+        },
+    )?;
+    Ok(BenchShape {
+        name,
+        mesh: Arc::new(mesh),
+        grid,
+        eigen,
+        diagonal: (hi - lo).norm(),
+        young,
+    })
+}
+
+fn scenario_params(shape: &BenchShape) -> SimParams {
+    SimParams {
+        young: shape.young,
+        ..SimParams::default()
+    }
+}
+
+/// Vertices within the first 10% of the x extent: the pinned end.
+fn pinned_vertices(mesh: &TetMesh) -> Vec<usize> {
+    let (lo, hi) = mesh.grid().solid_bounds();
+    let limit = lo.x + 0.1 * (hi.x - lo.x);
+    (0..mesh.vertices.len())
+        .filter(|&v| mesh.vertices[v].x <= limit + 1e-9)
+        .collect()
+}
+
+fn floor_height(shape: &BenchShape) -> f64 {
+    let (lo, _) = shape.mesh.grid().solid_bounds();
+    lo.z - 0.02 * shape.diagonal
+}
+
+/// The tip poke: half the object's weight, sideways and down, on the vertex farthest along x,
+/// for 0.15 s.
+fn poke(shape: &BenchShape, params: &SimParams) -> Poke {
+    let mesh = &shape.mesh;
+    let tip = (0..mesh.vertices.len())
+        .max_by(|&a, &b| mesh.vertices[a].x.total_cmp(&mesh.vertices[b].x))
+        .expect("vertices");
+    let weight = mesh.volume() * params.density * 9.81;
+    Poke {
+        point: mesh.vertices[tip],
+        force: Vector3::new(0.0, 0.4, -0.3) * weight,
+        start: 0.0,
+        end: 0.15,
+    }
+}
+
+fn run_fem(
+    shape: &BenchShape,
+    scenario: Scenario,
+    params: &SimParams,
+    steps: usize,
+) -> Result<(Vec<Vec<f64>>, Vec<f64>)> {
+    let mut fem = FemSim::new(shape.mesh.clone(), params.clone())?;
+    match scenario {
+        Scenario::Hanging => fem.pin_vertices(&pinned_vertices(&shape.mesh)),
+        Scenario::Drop => fem.add_obstacle(Obstacle::floor(floor_height(shape))),
+        Scenario::Poke => {
+            fem.pin_vertices(&pinned_vertices(&shape.mesh));
+            fem.add_poke(poke(shape, params));
+        }
+    }
+    let mut trajectory = Vec::with_capacity(steps);
+    let mut times = Vec::with_capacity(steps);
+    for _ in 0..steps {
+        let report = fem.step()?;
+        times.push(report.seconds);
+        trajectory.push(fem.positions().to_vec());
+    }
+    Ok((trajectory, times))
+}
+
+fn run_reduced(
+    shape: &BenchShape,
+    scenario: Scenario,
+    params: &SimParams,
+    subspace: &Arc<Subspace>,
+    solver: Solver,
+    reference: &[Vec<f64>],
+) -> Result<(SimRow, Vec<f32>)> {
+    let mesh = &shape.mesh;
+    let mut sim = ReducedSim::new(subspace.clone(), params.clone(), solver, shape.diagonal)?;
+    let masses: Vec<f64> = mesh
+        .lumped_volumes()
+        .iter()
+        .map(|v| v * params.density)
+        .collect();
+    let pin = |sim: &mut ReducedSim| {
+        let pinned = pinned_vertices(mesh);
+        let points: Vec<_> = pinned.iter().map(|&v| mesh.vertices[v]).collect();
+        let weights: Vec<_> = pinned.iter().map(|&v| masses[v]).collect();
+        sim.add_pins(&points, &weights);
+    };
+    match scenario {
+        Scenario::Hanging => pin(&mut sim),
+        Scenario::Drop => {
+            let (points, areas) = contact_points(mesh, 512);
+            sim.add_contact_points(&points, &areas);
+            sim.add_obstacle(Obstacle::floor(floor_height(shape)));
+        }
+        Scenario::Poke => {
+            pin(&mut sim);
+            sim.add_poke(poke(shape, params));
+        }
+    }
+    let lifter = Lifter::new(subspace.field(), subspace.normalization(), &mesh.vertices);
+    let mut lifted = vec![0.0f32; 3 * mesh.vertices.len()];
+    let mut times = Vec::with_capacity(reference.len());
+    let mut iterations = 0;
+    let mut unconverged_steps = 0;
+    let mut squared = 0.0;
+    for expected in reference {
+        let report = sim.step();
+        times.push(report.seconds);
+        iterations += report.iterations;
+        unconverged_steps += usize::from(!report.converged);
+        lifter.lift(sim.state(), &mut lifted);
+        squared += lifted
+            .iter()
+            .zip(expected)
+            .map(|(a, b)| (*a as f64 - b).powi(2))
+            .sum::<f64>();
+    }
+    let samples = (reference.len() * mesh.vertices.len()) as f64;
+    let row = SimRow {
+        shape: String::new(),
+        vertices: 0,
+        scenario: String::new(),
+        field: String::new(),
+        handles: 0,
+        cubature: 0,
+        solver: String::new(),
+        step_ms: median(&times) * 1e3,
+        step_mean_ms: times.iter().sum::<f64>() / times.len() as f64 * 1e3,
+        fem_step_ms: 0.0,
+        speedup: 0.0,
+        error_pct: (squared / samples).sqrt() / shape.diagonal * 100.0,
+        mean_iterations: iterations as f64 / reference.len() as f64,
+        unconverged_steps,
+    };
+    Ok((row, lifted))
+}
+
+/// Up to `count` boundary vertices of the mesh, with areas scaled so they still add up to the
+/// whole boundary area.
+fn contact_points(mesh: &TetMesh, count: usize) -> (Vec<Vector3<f64>>, Vec<f64>) {
+    let n = mesh.boundary_vertices.len();
+    let total: f64 = mesh.boundary_areas.iter().sum();
+    let chosen: Vec<usize> = if n <= count {
+        (0..n).collect()
+    } else {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut c = sample_indices(&mut rng, n, count).into_vec();
+        c.sort_unstable();
+        c
+    };
+    let kept: f64 = chosen.iter().map(|&i| mesh.boundary_areas[i]).sum();
+    let points = chosen
+        .iter()
+        .map(|&i| mesh.vertices[mesh.boundary_vertices[i] as usize])
+        .collect();
+    let areas = chosen
+        .iter()
+        .map(|&i| mesh.boundary_areas[i] * total / kept)
+        .collect();
+    (points, areas)
+}
+
+/// Median time to lift 100k surface points of `shape` with `field`.
+fn time_lift(field: &EigenmodeField, shape: &BenchShape) -> Result<f64> {
+    let source = bundled(shape.name).expect("bundled");
+    let grid = VoxelGrid::from_shape(&source, 64, None);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let samples = sample_surface(
+        &source,
+        &grid,
+        &SurfaceSampling {
+            count: 100_000,
+            ..Default::default()
+        },
+        &mut rng,
+    );
+    let lifter = Lifter::new(field, field.normalization(), &samples.points);
+    let z = nalgebra::DMatrix::from_fn(3, 4 * field.handle_count(), |d, a| {
+        0.01 * ((d + 3 * a) as f64).sin()
+    });
+    let mut out = vec![0.0f32; 3 * lifter.len()];
+    let mut times = Vec::new();
+    for _ in 0..50 {
+        let started = Instant::now();
+        lifter.lift(&z, &mut out);
+        times.push(started.elapsed().as_secs_f64());
+    }
+    Ok(median(&times) * 1e3)
+}
+
+/// One simulation of a bundled shape, reduced and (optionally) against the FEM reference: the
+/// CLI's `simulate`.
+#[derive(Clone, Debug)]
+pub struct SimulateOptions {
+    pub shape: String,
+    pub scenario: String,
+    pub modes: usize,
+    pub cubature: usize,
+    pub solver: Solver,
+    pub steps: usize,
+    /// FEM grid cells across the longest side.
+    pub resolution: usize,
+    pub young: f64,
+    pub reference: bool,
+}
+
+impl Default for SimulateOptions {
+    fn default() -> Self {
+        Self {
+            shape: "rod".into(),
+            scenario: "hanging".into(),
+            modes: 16,
+            cubature: 1024,
+            solver: Solver::QuasiNewton,
+            steps: 60,
+            resolution: 48,
+            young: 5e6,
+            reference: true,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SimulateSummary {
+    #[serde(flatten)]
+    pub row: SimRow,
+    pub tets: usize,
+    pub eigen_iterations: usize,
+    /// Largest vertex displacement of the reduced simulation at the last step, m.
+    pub max_displacement_m: f64,
+}
+
+pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
+    let scenario = match options.scenario.as_str() {
+        "hanging" => Scenario::Hanging,
+        "drop" => Scenario::Drop,
+        "poke" => Scenario::Poke,
+        other => {
+            return Err(Error::InvalidParameter {
+                name: "scenario",
+                reason: format!("unknown scenario {other:?} (hanging, drop, poke)"),
+            })
+        }
+    };
+    let name: &'static str = crate::geometry::BUNDLED
+        .iter()
+        .find(|n| **n == options.shape)
+        .ok_or_else(|| Error::InvalidParameter {
+            name: "shape",
+            reason: format!(
+                "unknown shape {:?} (one of {:?})",
+                options.shape,
+                crate::geometry::BUNDLED
+            ),
+        })?;
+    let shape = prepare_shape(name, options.young, options.resolution, 0, options.modes)?;
+    let params = scenario_params(&shape);
+    let (reference, fem_times) = if options.reference {
+        run_fem(&shape, scenario, &params, options.steps)?
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let field: Arc<dyn SkinningField> = Arc::new(shape.eigen.truncated(options.modes));
+    let cubature = Cubature::stratified(&shape.grid, options.cubature, shape.mesh.volume());
+    let subspace = Arc::new(Subspace::build(
+        field.clone(),
+        *shape.eigen_normalization(),
+        &cubature,
+        params.density,
+    ));
+    // Without a reference the trajectory is compared with nothing: feed rest positions.
+    let placeholder;
+    let trajectory: &[Vec<f64>] = if options.reference {
+        &reference
+    } else {
+        placeholder = vec![Vec::new(); options.steps];
+        &placeholder
+    };
+    let (mut row, lifted) = run_reduced(
+        &shape,
+        scenario,
+        &params,
+        &subspace,
+        options.solver,
+        trajectory,
+    )?;
+    let fem_step_ms = median(&fem_times) * 1e3;
+    row = SimRow {
+        shape: name.into(),
+        vertices: shape.mesh.vertices.len(),
+        scenario: scenario.name().into(),
+        field: field.kind().into(),
+        handles: options.modes,
+        cubature: cubature.len(),
+        solver: options.solver.name().into(),
+        fem_step_ms,
+        speedup: fem_step_ms / row.step_ms,
+        error_pct: if options.reference {
+            row.error_pct
+        } else {
+            f64::NAN
+        },
+        ..row
+    };
+    let max_displacement_m = lifted
+        .chunks(3)
+        .zip(&shape.mesh.vertices)
+        .map(|(x, v)| (Vector3::new(x[0] as f64, x[1] as f64, x[2] as f64) - v).norm())
+        .fold(0.0, f64::max);
+    Ok(SimulateSummary {
+        row,
+        tets: shape.mesh.tets.len(),
+        eigen_iterations: shape.eigen.iterations,
+        max_displacement_m,
+    })
+}
+
+/// Step time against error, one colour per solver.
+pub fn sim_plot(report: &SimBenchReport) -> String {
+    let series = |solver: &str, label, color| super::plot::Series {
+        label,
+        color,
+        points: report
+            .rows
+            .iter()
+            .filter(|r| r.solver == solver)
+            .map(|r| (r.step_ms, r.error_pct))
+            .collect(),
+    };
+    super::plot::scatter_svg(
+        "physskin: reduced step time against error vs FEM",
+        "median reduced step (ms, log scale)",
+        "RMS error (% of bounding diagonal)",
+        &[
+            series("newton", "full Newton", "#d62728"),
+            series(
+                "quasi_newton",
+                "quasi-Newton (L-BFGS, rest Hessian)",
+                "#1f77b4",
+            ),
+        ],
+    )
+}

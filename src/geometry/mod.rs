@@ -1,0 +1,19 @@
+//! Geometry in: loaders, the normalized frame, surface and interior sampling, the voxel inside
+//! test, cubature and tetrahedral meshes of the interior.
+
+mod cubature;
+mod mesh_io;
+mod point_index;
+mod primitives;
+mod sampling;
+mod shape;
+mod tetmesh;
+mod voxel;
+
+pub use cubature::Cubature;
+pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
+pub use primitives::{box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
+pub use sampling::{median_spacing, sample_surface, SurfaceSamples, SurfaceSampling};
+pub use shape::{Normalization, Shape};
+pub use tetmesh::{TetLocation, TetMesh};
+pub use voxel::VoxelGrid;

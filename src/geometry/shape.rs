@@ -1,0 +1,174 @@
+//! A shape as the pipeline sees it: positions (world units), optional triangles, and the map to [-1, 1]^3.
+
+use nalgebra::Vector3;
+
+use super::mesh_io::RawGeometry;
+use crate::error::{Error, Result};
+
+/// Uniform map between world units and the normalized cube [-1, 1]^3:
+/// `normalized = (world - center) / scale`, where `scale` is half the longest bounding-box side.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Normalization {
+    pub center: Vector3<f64>,
+    pub scale: f64,
+}
+
+impl Normalization {
+    pub fn to_normalized(&self, world: &Vector3<f64>) -> Vector3<f64> {
+        (world - self.center) / self.scale
+    }
+    pub fn to_world(&self, normalized: &Vector3<f64>) -> Vector3<f64> {
+        normalized * self.scale + self.center
+    }
+    pub fn identity() -> Self {
+        Self {
+            center: Vector3::zeros(),
+            scale: 1.0,
+        }
+    }
+}
+
+/// A triangle mesh, or a bare point cloud when `triangles` is empty. Positions are in world units.
+#[derive(Clone, Debug, Default)]
+pub struct Shape {
+    pub positions: Vec<Vector3<f64>>,
+    pub normals: Option<Vec<Vector3<f64>>>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Shape {
+    /// Validates and converts loaded geometry: finite coordinates, indices in range, a non-degenerate extent.
+    pub fn from_raw(raw: RawGeometry) -> Result<Self> {
+        let positions: Vec<Vector3<f64>> =
+            raw.positions.iter().map(|p| Vector3::from(*p)).collect();
+        let normals = raw
+            .normals
+            .map(|n| n.iter().map(|v| Vector3::from(*v)).collect());
+        Self::new(positions, normals, raw.triangles)
+    }
+
+    pub fn new(
+        positions: Vec<Vector3<f64>>,
+        normals: Option<Vec<Vector3<f64>>>,
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<Self> {
+        if positions.is_empty() {
+            return Err(Error::Geometry("the shape has no points".into()));
+        }
+        if let Some(i) = positions
+            .iter()
+            .position(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(Error::Geometry(format!(
+                "point {i} has a non-finite coordinate"
+            )));
+        }
+        if let Some(n) = &normals {
+            if n.len() != positions.len() {
+                return Err(Error::Geometry(format!(
+                    "{} normals for {} points",
+                    n.len(),
+                    positions.len()
+                )));
+            }
+        }
+        let count = positions.len() as u32;
+        if let Some((t, tri)) = triangles
+            .iter()
+            .enumerate()
+            .find(|(_, tri)| tri.iter().any(|&v| v >= count))
+        {
+            return Err(Error::Geometry(format!(
+                "triangle {t} {tri:?} indexes past the {count} vertices"
+            )));
+        }
+        let shape = Self {
+            positions,
+            normals,
+            triangles,
+        };
+        let (lo, hi) = shape.bounds();
+        let extent = (hi - lo).max();
+        if extent <= 0.0 {
+            return Err(Error::Geometry(
+                "the shape has zero extent (all points coincide)".into(),
+            ));
+        }
+        Ok(shape)
+    }
+
+    pub fn is_point_cloud(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    pub fn bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for p in &self.positions {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        (lo, hi)
+    }
+
+    pub fn bounding_diagonal(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        (hi - lo).norm()
+    }
+
+    /// The map that centers the bounding box and scales its longest half-side to 1.
+    pub fn normalization(&self) -> Normalization {
+        let (lo, hi) = self.bounds();
+        Normalization {
+            center: (lo + hi) * 0.5,
+            scale: (hi - lo).max() * 0.5,
+        }
+    }
+
+    /// A copy in normalized coordinates (normals are unchanged by a uniform scale).
+    pub fn normalized(&self, map: &Normalization) -> Shape {
+        Shape {
+            positions: self
+                .positions
+                .iter()
+                .map(|p| map.to_normalized(p))
+                .collect(),
+            normals: self.normals.clone(),
+            triangles: self.triangles.clone(),
+        }
+    }
+
+    pub fn triangle(&self, t: usize) -> [Vector3<f64>; 3] {
+        self.triangles[t].map(|v| self.positions[v as usize])
+    }
+
+    /// Enclosed volume by the divergence theorem, when the mesh is closed and consistently wound
+    /// (every directed edge appears once and its reverse once); `None` otherwise.
+    pub fn closed_volume(&self) -> Option<f64> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let mut directed = std::collections::HashMap::with_capacity(self.triangles.len() * 3);
+        for tri in &self.triangles {
+            for k in 0..3 {
+                let edge = (tri[k], tri[(k + 1) % 3]);
+                if edge.0 == edge.1 || directed.insert(edge, ()).is_some() {
+                    return None;
+                }
+            }
+        }
+        if directed
+            .keys()
+            .any(|&(a, b)| !directed.contains_key(&(b, a)))
+        {
+            return None;
+        }
+        let volume: f64 = (0..self.triangles.len())
+            .map(|t| {
+                let [a, b, c] = self.triangle(t);
+                a.dot(&b.cross(&c)) / 6.0
+            })
+            .sum();
+        Some(volume.abs())
+    }
+}

@@ -1,0 +1,300 @@
+//! Voxel inside test: voxelize the surface, close small holes, flood-fill the outside;
+//! every cell the outside cannot reach is solid. Works for closed meshes, open meshes with
+//! small holes and bare point clouds alike, because it never needs a consistent orientation.
+
+use std::collections::VecDeque;
+
+use nalgebra::Vector3;
+
+use super::shape::Shape;
+
+/// A regular grid of cubic cells over (a padded box around) a shape, with a solid mask.
+#[derive(Clone, Debug)]
+pub struct VoxelGrid {
+    /// Corner of cell (0, 0, 0).
+    pub origin: Vector3<f64>,
+    /// Edge length of one cell.
+    pub cell: f64,
+    pub dims: [usize; 3],
+    /// Cells the surface passes through (or that hold a cloud point).
+    pub surface: Vec<bool>,
+    /// Cells inside or on the surface.
+    pub solid: Vec<bool>,
+}
+
+impl VoxelGrid {
+    /// Voxelizes `shape` with `resolution` cells across the longest side of its bounding box.
+    /// `closing_radius` cells of dilation seal holes up to about twice that width before the
+    /// flood fill; `None` picks 1 for meshes and, for clouds, enough to bridge the point spacing.
+    pub fn from_shape(shape: &Shape, resolution: usize, closing_radius: Option<usize>) -> Self {
+        let (lo, hi) = shape.bounds();
+        let cell = (hi - lo).max() / resolution.max(1) as f64;
+        let radius = closing_radius.unwrap_or_else(|| default_closing_radius(shape, cell));
+        let pad = radius + 2;
+        let origin = lo - Vector3::repeat(pad as f64 * cell);
+        let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 2 * pad + 1);
+        let mut grid = Self {
+            origin,
+            cell,
+            dims,
+            surface: vec![false; dims[0] * dims[1] * dims[2]],
+            solid: Vec::new(),
+        };
+        if shape.is_point_cloud() {
+            for p in &shape.positions {
+                let idx = grid.cell_of(p);
+                let i = grid.index(idx);
+                grid.surface[i] = true;
+            }
+        } else {
+            for t in 0..shape.triangles.len() {
+                grid.rasterize_triangle(&shape.triangle(t));
+            }
+        }
+        grid.solid = grid.fill_inside(radius);
+        grid
+    }
+
+    pub fn len(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    pub fn index(&self, [i, j, k]: [usize; 3]) -> usize {
+        i + self.dims[0] * (j + self.dims[1] * k)
+    }
+
+    pub fn coords(&self, index: usize) -> [usize; 3] {
+        let i = index % self.dims[0];
+        let j = (index / self.dims[0]) % self.dims[1];
+        [i, j, index / (self.dims[0] * self.dims[1])]
+    }
+
+    /// The cell holding `p`, clamped to the grid.
+    pub fn cell_of(&self, p: &Vector3<f64>) -> [usize; 3] {
+        [0, 1, 2].map(|a| {
+            let f = ((p[a] - self.origin[a]) / self.cell).floor();
+            f.clamp(0.0, (self.dims[a] - 1) as f64) as usize
+        })
+    }
+
+    pub fn cell_center(&self, [i, j, k]: [usize; 3]) -> Vector3<f64> {
+        self.origin + Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * self.cell
+    }
+
+    pub fn cell_corner(&self, [i, j, k]: [usize; 3]) -> Vector3<f64> {
+        self.origin + Vector3::new(i as f64, j as f64, k as f64) * self.cell
+    }
+
+    /// Whether `p` lies in a solid cell; points outside the grid are outside.
+    pub fn contains(&self, p: &Vector3<f64>) -> bool {
+        let inside_box = (0..3).all(|a| {
+            let f = (p[a] - self.origin[a]) / self.cell;
+            f >= 0.0 && f < self.dims[a] as f64
+        });
+        inside_box && self.solid[self.index(self.cell_of(p))]
+    }
+
+    pub fn solid_count(&self) -> usize {
+        self.solid.iter().filter(|&&s| s).count()
+    }
+
+    /// Volume of the solid, counting cells the surface cuts as half full.
+    pub fn solid_volume(&self) -> f64 {
+        let (mut full, mut cut) = (0usize, 0usize);
+        for (s, f) in self.solid.iter().zip(&self.surface) {
+            match (*s, *f) {
+                (true, true) => cut += 1,
+                (true, false) => full += 1,
+                _ => {}
+            }
+        }
+        (full as f64 + 0.5 * cut as f64) * self.cell.powi(3)
+    }
+
+    /// The same region on a grid with `resolution` cells across the longest side: a coarse cell is
+    /// solid when at least half of the fine cells whose centers fall in it are solid.
+    pub fn resample(&self, resolution: usize) -> VoxelGrid {
+        let (lo, hi) = self.solid_bounds();
+        let cell = (hi - lo).max() / resolution.max(1) as f64;
+        let origin = lo - Vector3::repeat(cell);
+        let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 2);
+        let mut coarse = VoxelGrid {
+            origin,
+            cell,
+            dims,
+            surface: vec![false; dims[0] * dims[1] * dims[2]],
+            solid: vec![false; dims[0] * dims[1] * dims[2]],
+        };
+        let mut solid_hits = vec![0u32; coarse.len()];
+        let mut total = vec![0u32; coarse.len()];
+        for index in 0..self.len() {
+            let center = self.cell_center(self.coords(index));
+            let c = coarse.index(coarse.cell_of(&center));
+            total[c] += 1;
+            if self.solid[index] {
+                solid_hits[c] += 1;
+            }
+        }
+        for c in 0..coarse.len() {
+            coarse.solid[c] = total[c] > 0 && 2 * solid_hits[c] >= total[c] && solid_hits[c] > 0;
+        }
+        coarse.surface = coarse.boundary_cells();
+        coarse
+    }
+
+    /// Bounding box of the solid cells (whole cells).
+    pub fn solid_bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for index in (0..self.len()).filter(|&i| self.solid[i]) {
+            let c = self.cell_corner(self.coords(index));
+            lo = lo.inf(&c);
+            hi = hi.sup(&(c + Vector3::repeat(self.cell)));
+        }
+        (lo, hi)
+    }
+
+    /// Solid cells with at least one non-solid face neighbour.
+    fn boundary_cells(&self) -> Vec<bool> {
+        (0..self.len())
+            .map(|index| {
+                self.solid[index]
+                    && self
+                        .neighbours(self.coords(index))
+                        .into_iter()
+                        .any(|n| n.is_none_or(|n| !self.solid[self.index(n)]))
+            })
+            .collect()
+    }
+
+    fn neighbours(&self, [i, j, k]: [usize; 3]) -> [Option<[usize; 3]>; 6] {
+        let step = |c: usize, d: isize, n: usize| {
+            let v = c as isize + d;
+            (v >= 0 && (v as usize) < n).then_some(v as usize)
+        };
+        [
+            step(i, -1, self.dims[0]).map(|x| [x, j, k]),
+            step(i, 1, self.dims[0]).map(|x| [x, j, k]),
+            step(j, -1, self.dims[1]).map(|y| [i, y, k]),
+            step(j, 1, self.dims[1]).map(|y| [i, y, k]),
+            step(k, -1, self.dims[2]).map(|z| [i, j, z]),
+            step(k, 1, self.dims[2]).map(|z| [i, j, z]),
+        ]
+    }
+
+    fn rasterize_triangle(&mut self, tri: &[Vector3<f64>; 3]) {
+        let lo = tri[0].inf(&tri[1]).inf(&tri[2]);
+        let hi = tri[0].sup(&tri[1]).sup(&tri[2]);
+        let [i0, j0, k0] = self.cell_of(&lo);
+        let [i1, j1, k1] = self.cell_of(&hi);
+        // Slightly fattened cells: a face lying exactly on a cell boundary must mark a cell on
+        // at least one side despite round-off, or the flood fill leaks through it.
+        let half = Vector3::repeat(self.cell * 0.5 * (1.0 + 1e-6));
+        for k in k0..=k1 {
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let center = self.cell_center([i, j, k]);
+                    if triangle_overlaps_box(tri, &center, &half) {
+                        let index = self.index([i, j, k]);
+                        self.surface[index] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Morphological closing of the solid: dilate the surface by `radius`, flood the outside
+    /// from the grid border, then give the outside back the `radius` cells it lost.
+    fn fill_inside(&self, radius: usize) -> Vec<bool> {
+        let wall = self.dilate(&self.surface, radius);
+        let mut outside = vec![false; self.len()];
+        let mut queue = VecDeque::new();
+        for index in 0..self.len() {
+            let [i, j, k] = self.coords(index);
+            let border = i == 0
+                || j == 0
+                || k == 0
+                || i + 1 == self.dims[0]
+                || j + 1 == self.dims[1]
+                || k + 1 == self.dims[2];
+            if border && !wall[index] {
+                outside[index] = true;
+                queue.push_back(index);
+            }
+        }
+        while let Some(index) = queue.pop_front() {
+            for n in self.neighbours(self.coords(index)).into_iter().flatten() {
+                let n = self.index(n);
+                if !outside[n] && !wall[n] {
+                    outside[n] = true;
+                    queue.push_back(n);
+                }
+            }
+        }
+        let regrown = self.dilate(&outside, radius);
+        (0..self.len())
+            .map(|i| self.surface[i] || !regrown[i])
+            .collect()
+    }
+
+    /// Cells within `radius` steps (6-connected) of a set cell.
+    fn dilate(&self, mask: &[bool], radius: usize) -> Vec<bool> {
+        let mut current = mask.to_vec();
+        for _ in 0..radius {
+            let mut next = current.clone();
+            for index in (0..self.len()).filter(|&i| current[i]) {
+                for n in self.neighbours(self.coords(index)).into_iter().flatten() {
+                    let n = self.index(n);
+                    next[n] = true;
+                }
+            }
+            current = next;
+        }
+        current
+    }
+}
+
+/// For clouds: enough closing to bridge the typical gap between neighbouring points.
+fn default_closing_radius(shape: &Shape, cell: f64) -> usize {
+    if !shape.is_point_cloud() {
+        return 1;
+    }
+    let spacing = super::sampling::median_spacing(&shape.positions);
+    ((spacing / cell).ceil() as usize).clamp(1, 8)
+}
+
+/// Separating-axis test between a triangle and an axis-aligned box (center, half extents).
+pub(crate) fn triangle_overlaps_box(
+    tri: &[Vector3<f64>; 3],
+    center: &Vector3<f64>,
+    half: &Vector3<f64>,
+) -> bool {
+    let v = tri.map(|p| p - center);
+    let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+    let separated_on = |axis: Vector3<f64>| {
+        if axis.norm_squared() < 1e-30 {
+            return false;
+        }
+        let p = v.map(|x| x.dot(&axis));
+        let r = half.x * axis.x.abs() + half.y * axis.y.abs() + half.z * axis.z.abs();
+        p.iter().cloned().fold(f64::INFINITY, f64::min) > r
+            || p.iter().cloned().fold(f64::NEG_INFINITY, f64::max) < -r
+    };
+    for e in &edges {
+        for a in [Vector3::x(), Vector3::y(), Vector3::z()] {
+            if separated_on(a.cross(e)) {
+                return false;
+            }
+        }
+    }
+    for a in [Vector3::x(), Vector3::y(), Vector3::z()] {
+        if separated_on(a) {
+            return false;
+        }
+    }
+    !separated_on(edges[0].cross(&edges[1]))
+}

@@ -1,0 +1,216 @@
+//! Linear algebra glue: a symmetric sparse pattern assembled from elements, its sparse Cholesky
+//! (faer), and a dense Cholesky for the reduced systems.
+
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use faer::{MatMut, MatRef, Side};
+
+use crate::error::{Error, Result};
+
+/// The upper triangle (row <= column) of a symmetric matrix whose nonzeros couple the nodes of
+/// each element, with `block` scalar unknowns per node (1 for a Laplacian, 3 for elasticity).
+/// Element-local entries map to value slots precomputed once, so assembly is a scatter.
+pub struct ElementPattern {
+    size: usize,
+    block: usize,
+    nodes_per_element: usize,
+    symbolic: SymbolicSparseColMat<usize>,
+    /// Per element, per local (row, col) scalar pair with global row <= global col: the slot,
+    /// or `usize::MAX` for the lower half.
+    slots: Vec<u32>,
+}
+
+impl ElementPattern {
+    pub fn new(node_count: usize, block: usize, elements: &[impl AsRef<[u32]>]) -> Self {
+        let size = node_count * block;
+        let nodes_per_element = elements.first().map_or(0, |e| e.as_ref().len());
+        let mut columns: Vec<Vec<usize>> = vec![Vec::new(); size];
+        for e in elements {
+            for &a in e.as_ref() {
+                for &b in e.as_ref() {
+                    for d in 0..block {
+                        for f in 0..block {
+                            let (r, c) = (a as usize * block + d, b as usize * block + f);
+                            if r <= c {
+                                columns[c].push(r);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mut col_ptr = vec![0usize; size + 1];
+        let mut row_idx = Vec::new();
+        for (c, rows) in columns.iter_mut().enumerate() {
+            rows.sort_unstable();
+            rows.dedup();
+            row_idx.extend_from_slice(rows);
+            col_ptr[c + 1] = row_idx.len();
+        }
+        let local = nodes_per_element * block;
+        let mut slots = Vec::with_capacity(elements.len() * local * local);
+        for e in elements {
+            let e = e.as_ref();
+            for i in 0..local {
+                for j in 0..local {
+                    let r = e[i / block] as usize * block + i % block;
+                    let c = e[j / block] as usize * block + j % block;
+                    slots.push(if r <= c {
+                        let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
+                        (col_ptr[c] + rows.binary_search(&r).expect("in pattern")) as u32
+                    } else {
+                        u32::MAX
+                    });
+                }
+            }
+        }
+        let symbolic = SymbolicSparseColMat::new_checked(size, size, col_ptr, None, row_idx);
+        Self {
+            size,
+            block,
+            nodes_per_element,
+            symbolic,
+            slots,
+        }
+    }
+
+    pub fn nonzeros(&self) -> usize {
+        self.symbolic.row_idx().len()
+    }
+
+    /// Zeroed values for this pattern.
+    pub fn zeros(&self) -> Vec<f64> {
+        vec![0.0; self.nonzeros()]
+    }
+
+    /// Adds the element's dense local matrix (row-major, (nodes * block)^2) into `values`.
+    pub fn add_element(&self, values: &mut [f64], element: usize, local: &[f64]) {
+        let n = self.nodes_per_element * self.block;
+        let slots = &self.slots[element * n * n..(element + 1) * n * n];
+        for (slot, v) in slots.iter().zip(local) {
+            if *slot != u32::MAX {
+                values[*slot as usize] += v;
+            }
+        }
+    }
+
+    /// Adds `value` at (i, i).
+    pub fn add_diagonal(&self, values: &mut [f64], i: usize, value: f64) {
+        let rows = self.column_rows(i);
+        let k = rows.binary_search(&i).expect("diagonal in pattern");
+        values[self.symbolic.col_ptr()[i] + k] += value;
+    }
+
+    /// Adds `value` at (row, col) of the upper triangle (row <= col).
+    pub fn add_at(&self, values: &mut [f64], row: usize, col: usize, value: f64) {
+        let (row, col) = (row.min(col), row.max(col));
+        let k = self
+            .column_rows(col)
+            .binary_search(&row)
+            .expect("entry in pattern");
+        values[self.symbolic.col_ptr()[col] + k] += value;
+    }
+
+    /// Turns the rows and columns of `fixed` unknowns into identity rows, so a solve leaves them 0.
+    pub fn constrain(&self, values: &mut [f64], fixed: &[bool]) {
+        let ptr = self.symbolic.col_ptr();
+        let rows = self.symbolic.row_idx();
+        for c in 0..self.size {
+            for k in ptr[c]..ptr[c + 1] {
+                let r = rows[k];
+                if fixed[r] || fixed[c] {
+                    values[k] = if r == c { 1.0 } else { 0.0 };
+                }
+            }
+        }
+    }
+
+    /// The diagonal entries.
+    pub fn diagonal(&self, values: &[f64]) -> Vec<f64> {
+        let ptr = self.symbolic.col_ptr();
+        (0..self.size)
+            .map(|c| {
+                let rows = self.column_rows(c);
+                rows.binary_search(&c).map_or(0.0, |k| values[ptr[c] + k])
+            })
+            .collect()
+    }
+
+    fn column_rows(&self, c: usize) -> &[usize] {
+        let ptr = self.symbolic.col_ptr();
+        &self.symbolic.row_idx()[ptr[c]..ptr[c + 1]]
+    }
+
+    /// y = A x for the symmetric matrix with these upper-triangle values.
+    pub fn multiply(&self, values: &[f64], x: &[f64], y: &mut [f64]) {
+        y.iter_mut().for_each(|v| *v = 0.0);
+        let ptr = self.symbolic.col_ptr();
+        let rows = self.symbolic.row_idx();
+        for c in 0..self.size {
+            for k in ptr[c]..ptr[c + 1] {
+                let r = rows[k];
+                y[r] += values[k] * x[c];
+                if r != c {
+                    y[c] += values[k] * x[r];
+                }
+            }
+        }
+    }
+
+    /// A Cholesky factorization with this pattern's symbolic analysis (ordering) done once.
+    pub fn cholesky(&self) -> Result<SparseCholesky> {
+        let symbolic = SymbolicLlt::try_new(self.symbolic.as_ref(), Side::Upper)
+            .map_err(|e| Error::LinearAlgebra(format!("symbolic Cholesky: {e:?}")))?;
+        Ok(SparseCholesky {
+            symbolic,
+            numeric: None,
+        })
+    }
+}
+
+/// Sparse LL^T of matrices sharing one pattern: symbolic once, numeric per matrix.
+pub struct SparseCholesky {
+    symbolic: SymbolicLlt<usize>,
+    numeric: Option<Llt<usize, f64>>,
+}
+
+impl SparseCholesky {
+    /// Factors the matrix with `pattern`'s structure and these values; fails if it is not
+    /// positive definite.
+    pub fn factor(&mut self, pattern: &ElementPattern, values: &[f64]) -> Result<()> {
+        let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), values);
+        let llt = Llt::try_new_with_symbolic(self.symbolic.clone(), matrix, Side::Upper)
+            .map_err(|e| Error::LinearAlgebra(format!("sparse Cholesky: {e:?}")))?;
+        self.numeric = Some(llt);
+        Ok(())
+    }
+
+    /// Solves in place for every column of `rhs` (column-major, `rhs.len() / n` columns).
+    pub fn solve(&self, rhs: &mut [f64], n: usize) {
+        let llt = self.numeric.as_ref().expect("factor before solve");
+        let cols = rhs.len() / n;
+        llt.solve_in_place(MatMut::from_column_major_slice_mut(rhs, n, cols));
+    }
+}
+
+/// Dense LL^T of a symmetric positive definite matrix (column-major, n x n).
+pub struct DenseCholesky {
+    llt: faer::linalg::solvers::Llt<f64>,
+    n: usize,
+}
+
+impl DenseCholesky {
+    pub fn new(matrix: &[f64], n: usize) -> Result<Self> {
+        let llt = MatRef::from_column_major_slice(matrix, n, n)
+            .llt(Side::Lower)
+            .map_err(|e| Error::LinearAlgebra(format!("dense Cholesky: {e:?}")))?;
+        Ok(Self { llt, n })
+    }
+
+    pub fn solve(&self, rhs: &mut [f64]) {
+        let cols = rhs.len() / self.n;
+        self.llt
+            .solve_in_place(MatMut::from_column_major_slice_mut(rhs, self.n, cols));
+    }
+}

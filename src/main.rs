@@ -1,0 +1,242 @@
+//! The physskin command line: one binary, one subcommand per job.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use physskin::bench::{run_sim_bench, simulate, SimBenchOptions, SimBenchReport, SimulateOptions};
+use physskin::physics::Solver;
+
+#[derive(Parser)]
+#[command(
+    name = "physskin",
+    version,
+    about = "Physically based motion for any 3D object in real time"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate a bundled shape in its skinning subspace and compare with the full-space FEM.
+    Simulate {
+        /// Bundled shape: plate, rod, creature, box, sphere.
+        #[arg(long, default_value = "rod")]
+        shape: String,
+        /// hanging, drop or poke.
+        #[arg(long, default_value = "hanging")]
+        scenario: String,
+        /// Handles besides the constant one.
+        #[arg(long, default_value_t = 16)]
+        modes: usize,
+        #[arg(long, default_value_t = 1024)]
+        cubature: usize,
+        #[arg(long, value_enum, default_value = "quasi-newton")]
+        solver: SolverArg,
+        #[arg(long, default_value_t = 60)]
+        steps: usize,
+        /// FEM grid cells across the longest side.
+        #[arg(long, default_value_t = 48)]
+        resolution: usize,
+        /// Young's modulus, Pa.
+        #[arg(long, default_value_t = 5e6)]
+        young: f64,
+        /// Skip the FEM reference (no error figure).
+        #[arg(long)]
+        no_reference: bool,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Benchmarks; with no name, all of them.
+    Bench {
+        #[command(subcommand)]
+        which: Option<BenchCommand>,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Reduced simulation against the FEM reference: step time next to error.
+    Sim {
+        /// Small meshes and fewer variants (fits in CI).
+        #[arg(long)]
+        quick: bool,
+        /// Print JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Where to write the step-time-against-error plot (SVG).
+        #[arg(long, default_value = "target/bench/sim.svg")]
+        plot: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum SolverArg {
+    Newton,
+    QuasiNewton,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate {
+            shape,
+            scenario,
+            modes,
+            cubature,
+            solver,
+            steps,
+            resolution,
+            young,
+            no_reference,
+            json,
+        } => run_simulate(
+            SimulateOptions {
+                shape,
+                scenario,
+                modes,
+                cubature,
+                solver: match solver {
+                    SolverArg::Newton => Solver::Newton,
+                    SolverArg::QuasiNewton => Solver::QuasiNewton,
+                },
+                steps,
+                resolution,
+                young,
+                reference: !no_reference,
+            },
+            json,
+        ),
+        Command::Bench { which } => match which.unwrap_or(BenchCommand::Sim {
+            quick: false,
+            json: false,
+            plot: "target/bench/sim.svg".into(),
+        }) {
+            BenchCommand::Sim { quick, json, plot } => run_bench_sim(quick, json, &plot),
+        },
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("physskin: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
+    eprintln!(
+        "simulating {} ({}), {} handles + constant, {} cubature points, {} steps...",
+        options.shape, options.scenario, options.modes, options.cubature, options.steps
+    );
+    let summary = simulate(&options)?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summary).expect("serializable")
+        );
+        return Ok(());
+    }
+    let r = &summary.row;
+    println!(
+        "shape            {} ({} FEM vertices, {} tets)",
+        r.shape, r.vertices, summary.tets
+    );
+    println!("scenario         {}", r.scenario);
+    println!(
+        "field            {} ({} handles + constant, eigen-solve {} iterations)",
+        r.field, r.handles, summary.eigen_iterations
+    );
+    println!("cubature         {} points", r.cubature);
+    println!(
+        "reduced step     {:.3} ms median, {:.3} ms mean ({}, {:.1} iterations/step, {} steps unconverged)",
+        r.step_ms, r.step_mean_ms, r.solver, r.mean_iterations, r.unconverged_steps
+    );
+    if r.error_pct.is_finite() {
+        println!(
+            "FEM step         {:.1} ms median (speed-up {:.0}x)",
+            r.fem_step_ms, r.speedup
+        );
+        println!(
+            "error vs FEM     {:.3} % of the bounding diagonal (RMS over all vertices and steps)",
+            r.error_pct
+        );
+    }
+    println!(
+        "max displacement {:.4} m at the last step",
+        summary.max_displacement_m
+    );
+    Ok(())
+}
+
+fn run_bench_sim(quick: bool, json: bool, plot: &std::path::Path) -> physskin::Result<()> {
+    let report = run_sim_bench(&SimBenchOptions { quick }, |line| eprintln!("{line}"))?;
+    write_plot(&report, plot)?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("serializable")
+        );
+    } else {
+        print_table(&report);
+        println!("plot: {}", plot.display());
+    }
+    Ok(())
+}
+
+fn write_plot(report: &SimBenchReport, path: &std::path::Path) -> physskin::Result<()> {
+    let io = |source| physskin::Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    let svg = physskin::bench::sim_plot(report);
+    std::fs::File::create(path)
+        .and_then(|mut f| f.write_all(svg.as_bytes()))
+        .map_err(io)
+}
+
+fn print_table(report: &SimBenchReport) {
+    println!(
+        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>5}",
+        "shape",
+        "verts",
+        "scenario",
+        "field",
+        "m",
+        "cub",
+        "solver",
+        "step_ms",
+        "mean_ms",
+        "fem_ms",
+        "speedup",
+        "err_%",
+        "iters",
+        "unconv"
+    );
+    for r in &report.rows {
+        println!(
+            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>5}",
+            r.shape,
+            r.vertices,
+            r.scenario,
+            r.field,
+            r.handles,
+            r.cubature,
+            r.solver,
+            r.step_ms,
+            r.step_mean_ms,
+            r.fem_step_ms,
+            r.speedup,
+            r.error_pct,
+            r.mean_iterations,
+            r.unconverged_steps
+        );
+    }
+    println!("lift 100k points: {:.3} ms (median)", report.lift_100k_ms);
+}

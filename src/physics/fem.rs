@@ -1,0 +1,354 @@
+//! The full-space reference: linear tetrahedra of the same voxelized interior, the same
+//! material, forces and implicit Euler objective as the reduced simulator, solved by Newton with
+//! a PSD-projected Hessian and faer's sparse Cholesky. Pins here are exact (Dirichlet).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use nalgebra::{Matrix3, SMatrix, Vector3};
+use rayon::prelude::*;
+
+use super::material::Material;
+use super::obstacle::Obstacle;
+use super::reduced::StepReport;
+use super::scene::{Poke, SimParams};
+use crate::error::Result;
+use crate::geometry::TetMesh;
+use crate::linalg::{ElementPattern, SparseCholesky};
+use crate::skinning::linear_gradients;
+
+/// dP/dF contracted with a tetrahedron's basis gradients: rows d + 3e of vec(F), columns 3a + d.
+type TetJacobian = SMatrix<f64, 9, 12>;
+
+pub struct FemSim {
+    mesh: Arc<TetMesh>,
+    params: SimParams,
+    material: Material,
+    jacobians: Vec<TetJacobian>,
+    volumes: Vec<f64>,
+    masses: Vec<f64>,
+    x: Vec<f64>,
+    x_prev: Vec<f64>,
+    rest: Vec<f64>,
+    time: f64,
+    fixed: Vec<bool>,
+    obstacles: Vec<Obstacle>,
+    pokes: Vec<(usize, Poke)>,
+    pattern: ElementPattern,
+    cholesky: SparseCholesky,
+    decrement_tolerance: f64,
+}
+
+struct Evaluation {
+    energy: f64,
+    elastic: f64,
+    gradient: Vec<f64>,
+}
+
+const TET_CHUNK: usize = 4096;
+
+impl FemSim {
+    pub fn new(mesh: Arc<TetMesh>, params: SimParams) -> Result<Self> {
+        params.validate()?;
+        let (jacobians, volumes): (Vec<_>, Vec<_>) = mesh
+            .tets
+            .iter()
+            .map(|tet| {
+                let (grads, volume) = linear_gradients(&tet.map(|v| mesh.vertices[v as usize]));
+                let mut j = TetJacobian::zeros();
+                for a in 0..4 {
+                    for e in 0..3 {
+                        for d in 0..3 {
+                            j[(d + 3 * e, 3 * a + d)] = grads[a][e];
+                        }
+                    }
+                }
+                (j, volume)
+            })
+            .unzip();
+        let masses: Vec<f64> = mesh
+            .lumped_volumes()
+            .iter()
+            .map(|v| v * params.density)
+            .collect();
+        let rest: Vec<f64> = mesh.vertices.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
+        let pattern = ElementPattern::new(mesh.vertices.len(), 3, &mesh.tets);
+        let cholesky = pattern.cholesky()?;
+        let diagonal = {
+            let (lo, hi) = mesh.grid().solid_bounds();
+            (hi - lo).norm()
+        };
+        let length = params.tolerance * diagonal;
+        let total_mass: f64 = masses.iter().sum();
+        Ok(Self {
+            material: params.material(),
+            decrement_tolerance: total_mass * length * length / (params.dt * params.dt),
+            jacobians,
+            volumes,
+            masses,
+            x: rest.clone(),
+            x_prev: rest.clone(),
+            fixed: vec![false; rest.len()],
+            rest,
+            time: 0.0,
+            obstacles: Vec::new(),
+            pokes: Vec::new(),
+            pattern,
+            cholesky,
+            mesh,
+            params,
+        })
+    }
+
+    pub fn mesh(&self) -> &TetMesh {
+        &self.mesh
+    }
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    /// Vertex positions, x y z per vertex.
+    pub fn positions(&self) -> &[f64] {
+        &self.x
+    }
+    pub fn vertex_masses(&self) -> &[f64] {
+        &self.masses
+    }
+
+    /// Fixes these vertices at their rest positions.
+    pub fn pin_vertices(&mut self, vertices: &[usize]) {
+        for &v in vertices {
+            for d in 0..3 {
+                self.fixed[3 * v + d] = true;
+            }
+        }
+    }
+
+    pub fn add_obstacle(&mut self, obstacle: Obstacle) {
+        self.obstacles.push(obstacle);
+    }
+
+    /// Applies the poke at the vertex nearest its point.
+    pub fn add_poke(&mut self, poke: Poke) {
+        let nearest = (0..self.mesh.vertices.len())
+            .min_by(|&a, &b| {
+                let da = (self.mesh.vertices[a] - poke.point).norm_squared();
+                let db = (self.mesh.vertices[b] - poke.point).norm_squared();
+                da.total_cmp(&db)
+            })
+            .expect("a mesh has vertices");
+        self.pokes.push((nearest, poke));
+    }
+
+    pub fn step(&mut self) -> Result<StepReport> {
+        let started = Instant::now();
+        let predicted: Vec<f64> = self
+            .x
+            .iter()
+            .zip(&self.x_prev)
+            .map(|(a, b)| 2.0 * a - b)
+            .collect();
+        let previous = self.x.clone();
+        let mut x: Vec<f64> = predicted
+            .iter()
+            .zip(&self.rest)
+            .zip(&self.fixed)
+            .map(|((p, r), f)| if *f { *r } else { *p })
+            .collect();
+        let mut report = StepReport::default();
+        let mut current = self.evaluate(&x, &predicted, &previous);
+        for iteration in 0..=self.params.max_iterations {
+            let mut direction: Vec<f64> = current.gradient.iter().map(|g| -g).collect();
+            let values = self.hessian(&x);
+            self.cholesky.factor(&self.pattern, &values)?;
+            self.cholesky.solve(&mut direction, self.x.len());
+            let slope: f64 = direction
+                .iter()
+                .zip(&current.gradient)
+                .map(|(d, g)| d * g)
+                .sum();
+            report.decrement = slope.abs();
+            if report.decrement < self.decrement_tolerance {
+                report.converged = true;
+                break;
+            }
+            if iteration == self.params.max_iterations || !(slope < 0.0) {
+                break;
+            }
+            let mut step = 1.0;
+            let mut accepted = None;
+            for _ in 0..40 {
+                let trial: Vec<f64> = x
+                    .iter()
+                    .zip(&direction)
+                    .map(|(a, d)| a + step * d)
+                    .collect();
+                let next = self.evaluate(&trial, &predicted, &previous);
+                if next.energy.is_finite() && next.energy <= current.energy + 1e-4 * step * slope {
+                    accepted = Some((trial, next));
+                    break;
+                }
+                step *= 0.5;
+            }
+            let Some((trial, next)) = accepted else { break };
+            report.iterations += 1;
+            x = trial;
+            current = next;
+        }
+        self.x_prev = std::mem::replace(&mut self.x, x);
+        self.time += self.params.dt;
+        let h = self.params.dt;
+        report.elastic_energy = current.elastic;
+        report.kinetic_energy = (0..self.x.len())
+            .map(|i| 0.5 * self.masses[i / 3] * ((self.x[i] - self.x_prev[i]) / h).powi(2))
+            .sum();
+        report.gravity_energy = -(0..self.x.len())
+            .map(|i| self.masses[i / 3] * self.params.gravity[i % 3] * (self.x[i] - self.rest[i]))
+            .sum::<f64>();
+        report.seconds = started.elapsed().as_secs_f64();
+        Ok(report)
+    }
+
+    fn deformation(&self, t: usize, x: &[f64]) -> Matrix3<f64> {
+        let tet = self.mesh.tets[t];
+        let mut local = SMatrix::<f64, 12, 1>::zeros();
+        for a in 0..4 {
+            for d in 0..3 {
+                local[3 * a + d] = x[3 * tet[a] as usize + d];
+            }
+        }
+        let f = self.jacobians[t] * local;
+        Matrix3::from_column_slice(f.as_slice())
+    }
+
+    fn evaluate(&self, x: &[f64], predicted: &[f64], previous: &[f64]) -> Evaluation {
+        let h = self.params.dt;
+        let n = x.len();
+        let (elastic, mut gradient) = (0..self.mesh.tets.len())
+            .into_par_iter()
+            .fold(
+                || (0.0, vec![0.0; n]),
+                |(mut energy, mut gradient), t| {
+                    let (psi, piola) = self
+                        .material
+                        .energy_and_first_piola(&self.deformation(t, x));
+                    energy += self.volumes[t] * psi;
+                    let p = SMatrix::<f64, 9, 1>::from_column_slice(piola.as_slice());
+                    let local = self.jacobians[t].transpose() * p * self.volumes[t];
+                    for (a, &v) in self.mesh.tets[t].iter().enumerate() {
+                        for d in 0..3 {
+                            gradient[3 * v as usize + d] += local[3 * a + d];
+                        }
+                    }
+                    (energy, gradient)
+                },
+            )
+            .reduce(
+                || (0.0, vec![0.0; n]),
+                |(ea, mut ga), (eb, gb)| {
+                    ga.iter_mut().zip(&gb).for_each(|(a, b)| *a += b);
+                    (ea + eb, ga)
+                },
+            );
+        let mut energy = elastic;
+        let g = self.params.gravity;
+        for i in 0..n {
+            let m = self.masses[i / 3];
+            let inertial = x[i] - predicted[i];
+            let damped = x[i] - previous[i];
+            energy += m * inertial * inertial / (2.0 * h * h)
+                + self.params.damping * m * damped * damped / (2.0 * h)
+                - m * g[i % 3] * (x[i] - self.rest[i]);
+            gradient[i] +=
+                m * inertial / (h * h) + self.params.damping * m * damped / h - m * g[i % 3];
+        }
+        let kc = self.params.contact_stiffness;
+        for (&v, &area) in self
+            .mesh
+            .boundary_vertices
+            .iter()
+            .zip(&self.mesh.boundary_areas)
+        {
+            let v = v as usize;
+            let p = Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+            for obstacle in &self.obstacles {
+                if let Some(pen) = obstacle.penetration(&p) {
+                    energy += 0.5 * kc * area * pen.depth * pen.depth;
+                    for d in 0..3 {
+                        gradient[3 * v + d] -= kc * area * pen.depth * pen.normal[d];
+                    }
+                }
+            }
+        }
+        for (v, poke) in &self.pokes {
+            if poke.start <= self.time && self.time < poke.end {
+                for d in 0..3 {
+                    energy -= poke.force[d] * (x[3 * v + d] - self.rest[3 * v + d]);
+                    gradient[3 * v + d] -= poke.force[d];
+                }
+            }
+        }
+        for (g, fixed) in gradient.iter_mut().zip(&self.fixed) {
+            if *fixed {
+                *g = 0.0;
+            }
+        }
+        Evaluation {
+            energy,
+            elastic,
+            gradient,
+        }
+    }
+
+    /// The projected Hessian of the step objective (upper triangle values of the pattern).
+    fn hessian(&self, x: &[f64]) -> Vec<f64> {
+        let mut values = self.pattern.zeros();
+        let tets = self.mesh.tets.len();
+        for start in (0..tets).step_by(TET_CHUNK) {
+            let end = (start + TET_CHUNK).min(tets);
+            let locals: Vec<SMatrix<f64, 12, 12>> = (start..end)
+                .into_par_iter()
+                .map(|t| {
+                    let h9 = self
+                        .material
+                        .stress_derivative(&self.deformation(t, x), true);
+                    let j = &self.jacobians[t];
+                    j.transpose() * (h9 * j) * self.volumes[t]
+                })
+                .collect();
+            for (offset, local) in locals.iter().enumerate() {
+                // Local matrices are symmetric, so column-major storage reads as row-major.
+                self.pattern
+                    .add_element(&mut values, start + offset, local.as_slice());
+            }
+        }
+        let h = self.params.dt;
+        for i in 0..x.len() {
+            let m = self.masses[i / 3];
+            self.pattern
+                .add_diagonal(&mut values, i, m / (h * h) + self.params.damping * m / h);
+        }
+        let kc = self.params.contact_stiffness;
+        for (&v, &area) in self
+            .mesh
+            .boundary_vertices
+            .iter()
+            .zip(&self.mesh.boundary_areas)
+        {
+            let v = v as usize;
+            let p = Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+            for obstacle in &self.obstacles {
+                if let Some(pen) = obstacle.penetration(&p) {
+                    for d in 0..3 {
+                        for f in d..3 {
+                            let value = kc * area * pen.normal[d] * pen.normal[f];
+                            self.pattern
+                                .add_at(&mut values, 3 * v + d, 3 * v + f, value);
+                        }
+                    }
+                }
+            }
+        }
+        self.pattern.constrain(&mut values, &self.fixed);
+        values
+    }
+}

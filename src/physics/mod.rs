@@ -1,0 +1,18 @@
+//! Physics: materials, the reduced subspace and its implicit integrator, lifting, obstacles, and
+//! the full-space FEM reference.
+
+mod fem;
+mod lift;
+mod material;
+mod obstacle;
+mod reduced;
+mod scene;
+mod subspace;
+
+pub use fem::FemSim;
+pub use lift::Lifter;
+pub use material::{Material, MaterialModel, Matrix9};
+pub use obstacle::{Obstacle, Penetration};
+pub use reduced::{ReducedSim, Solver, StepReport};
+pub use scene::{Floor, Poke, SimParams};
+pub use subspace::{phi_of, sample, Subspace};

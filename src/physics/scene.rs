@@ -1,0 +1,125 @@
+//! What acts on an object besides its own elasticity: gravity, pinned regions, a floor, pokes,
+//! damping. Shared by the reduced simulator and the full-space reference so both see the same
+//! physics.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use super::material::MaterialModel;
+
+/// Material and integration parameters (SI units).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SimParams {
+    /// Young's modulus, Pa. Default 1e5.
+    pub young: f64,
+    /// Poisson ratio. Default 0.45.
+    pub poisson: f64,
+    /// Density, kg/m^3. Default 1000.
+    pub density: f64,
+    /// Constitutive model. Default stable Neo-Hookean.
+    pub model: MaterialModel,
+    /// Time step, s. Default 1/60.
+    pub dt: f64,
+    /// Gravity, m/s^2. Default (0, 0, -9.81).
+    pub gravity: Vector3<f64>,
+    /// Mass-proportional damping rate, 1/s (velocity decays as exp(-rate t)). Default 0.
+    pub damping: f64,
+    /// Pin penalty, 1/s^2 per unit mass (pinned points act like springs of this squared
+    /// angular frequency). Default 1e6.
+    pub pin_stiffness: f64,
+    /// Floor penalty, N/m^3 (pressure per metre of penetration). Default 1e7.
+    pub contact_stiffness: f64,
+    /// Newton stops when the step's mass-weighted RMS length is below this fraction of the
+    /// bounding-box diagonal. Default 1e-5.
+    pub tolerance: f64,
+    /// Newton iterations per step before the step is reported as not converged. Default 8.
+    pub max_iterations: usize,
+}
+
+impl Default for SimParams {
+    fn default() -> Self {
+        Self {
+            young: 1e5,
+            poisson: 0.45,
+            density: 1000.0,
+            model: MaterialModel::StableNeoHookean,
+            dt: 1.0 / 60.0,
+            gravity: Vector3::new(0.0, 0.0, -9.81),
+            damping: 0.0,
+            pin_stiffness: 1e6,
+            contact_stiffness: 1e7,
+            tolerance: 1e-5,
+            max_iterations: 8,
+        }
+    }
+}
+
+impl SimParams {
+    pub fn validate(&self) -> crate::Result<()> {
+        use crate::error::ensure;
+        ensure(self.young.is_finite() && self.young > 0.0, "young", || {
+            format!("must be a positive number of pascals, got {}", self.young)
+        })?;
+        ensure(
+            self.poisson.is_finite() && self.poisson > -1.0 && self.poisson < 0.5,
+            "poisson",
+            || format!("must lie in (-1, 0.5), got {}", self.poisson),
+        )?;
+        ensure(
+            self.density.is_finite() && self.density > 0.0,
+            "density",
+            || format!("must be positive, got {}", self.density),
+        )?;
+        ensure(self.dt.is_finite() && self.dt > 0.0, "dt", || {
+            format!("must be a positive number of seconds, got {}", self.dt)
+        })?;
+        ensure(
+            self.gravity.iter().all(|g| g.is_finite()),
+            "gravity",
+            || "must be finite".into(),
+        )?;
+        ensure(
+            self.damping.is_finite() && self.damping >= 0.0,
+            "damping",
+            || format!("must be >= 0, got {}", self.damping),
+        )?;
+        ensure(
+            self.pin_stiffness.is_finite() && self.pin_stiffness >= 0.0,
+            "pin_stiffness",
+            || format!("must be >= 0, got {}", self.pin_stiffness),
+        )?;
+        ensure(
+            self.contact_stiffness.is_finite() && self.contact_stiffness >= 0.0,
+            "contact_stiffness",
+            || format!("must be >= 0, got {}", self.contact_stiffness),
+        )?;
+        ensure(self.tolerance > 0.0, "tolerance", || {
+            "must be positive".into()
+        })?;
+        ensure(self.max_iterations > 0, "max_iterations", || {
+            "must be at least 1".into()
+        })
+    }
+
+    pub fn material(&self) -> super::material::Material {
+        super::material::Material::from_young_poisson(self.model, self.young, self.poisson)
+    }
+}
+
+/// A force on one material point for a time window.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct Poke {
+    /// Rest position of the point (world units).
+    pub point: Vector3<f64>,
+    /// Force, N.
+    pub force: Vector3<f64>,
+    /// Active for start <= t < end, s.
+    pub start: f64,
+    pub end: f64,
+}
+
+/// The horizontal floor `z = height` (normal +z); `None` means no floor.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct Floor {
+    pub height: f64,
+}

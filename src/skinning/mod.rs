@@ -1,0 +1,29 @@
+//! Skinning weight fields: the `SkinningField` trait and its implementations.
+
+mod eigenmodes;
+
+pub(crate) use eigenmodes::linear_gradients;
+pub use eigenmodes::{EigenmodeField, EigenmodeOptions};
+
+use nalgebra::Vector3;
+
+/// Continuous skinning weights W(X) (one column per handle, the constant rigid column included)
+/// and their spatial gradients, evaluated at any points of the shape's normalized frame
+/// ([-1, 1]^3, see [`crate::geometry::Normalization`]).
+pub trait SkinningField: Send + Sync {
+    /// Number of handles, the constant one included.
+    fn handle_count(&self) -> usize;
+
+    /// Writes the weights at `points` into `weights` (row-major, points x handles) and, when
+    /// asked, their gradients with respect to normalized coordinates into `gradients`
+    /// (points x handles, one vector each).
+    fn evaluate(
+        &self,
+        points: &[Vector3<f64>],
+        weights: &mut [f64],
+        gradients: Option<&mut [Vector3<f64>]>,
+    );
+
+    /// A short name for tables and logs ("eigen", "learned").
+    fn kind(&self) -> &'static str;
+}

@@ -1,0 +1,531 @@
+//! The reduced integrator and the FEM reference: invariants, closed-form motions, convergence
+//! under refinement, and hard cases that must neither blow up nor hide a failed solve.
+
+use std::sync::Arc;
+
+use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
+use physskin::geometry::{box_mesh, Cubature, Shape, TetMesh, VoxelGrid};
+use physskin::physics::{
+    FemSim, Lifter, MaterialModel, Obstacle, ReducedSim, SimParams, Solver, StepReport, Subspace,
+};
+use physskin::skinning::{EigenmodeField, EigenmodeOptions};
+
+struct Fixture {
+    shape: Shape,
+    mesh: Arc<TetMesh>,
+    subspace: Arc<Subspace>,
+    diagonal: f64,
+}
+
+fn fixture(
+    size: Vector3<f64>,
+    resolution: usize,
+    modes: usize,
+    cubature: usize,
+    density: f64,
+) -> Fixture {
+    let shape = box_mesh(size);
+    let grid = VoxelGrid::from_shape(&shape, 128, None).resample(resolution);
+    let mesh = TetMesh::from_grid(&grid);
+    let field = EigenmodeField::compute(
+        mesh.clone(),
+        shape.normalization(),
+        &EigenmodeOptions {
+            modes,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let cubature = Cubature::stratified(&grid, cubature, mesh.volume());
+    let subspace = Arc::new(Subspace::build(
+        Arc::new(field),
+        shape.normalization(),
+        &cubature,
+        density,
+    ));
+    Fixture {
+        diagonal: size.norm(),
+        shape,
+        mesh: Arc::new(mesh),
+        subspace,
+    }
+}
+
+fn bar() -> Fixture {
+    fixture(Vector3::new(1.0, 0.2, 0.2), 20, 8, 256, 1000.0)
+}
+
+fn total_energy(r: &StepReport) -> f64 {
+    r.kinetic_energy + r.elastic_energy + r.gravity_energy
+}
+
+fn pin_left_end(sim: &mut ReducedSim, f: &Fixture, params: &SimParams) {
+    let masses = f.mesh.lumped_volumes();
+    let left: Vec<usize> = (0..f.mesh.vertices.len())
+        .filter(|&v| f.mesh.vertices[v].x < -0.45)
+        .collect();
+    let points: Vec<_> = left.iter().map(|&v| f.mesh.vertices[v]).collect();
+    let m: Vec<_> = left.iter().map(|&v| masses[v] * params.density).collect();
+    sim.add_pins(&points, &m);
+}
+
+#[test]
+fn rest_stays_at_rest() {
+    let f = bar();
+    for solver in [Solver::Newton, Solver::QuasiNewton] {
+        let params = SimParams {
+            gravity: Vector3::zeros(),
+            ..Default::default()
+        };
+        let mut sim =
+            ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap();
+        pin_left_end(&mut sim, &f, &params);
+        for _ in 0..10 {
+            let r = sim.step();
+            assert!(r.converged);
+            assert_eq!(r.elastic_energy, 0.0);
+        }
+        assert!(
+            sim.state().amax() < 1e-12,
+            "{solver:?} drifted: {}",
+            sim.state().amax()
+        );
+    }
+    let mut fem = FemSim::new(
+        f.mesh.clone(),
+        SimParams {
+            gravity: Vector3::zeros(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    fem.step().unwrap();
+    let rest: Vec<f64> = f
+        .mesh
+        .vertices
+        .iter()
+        .flat_map(|v| [v.x, v.y, v.z])
+        .collect();
+    assert!(fem
+        .positions()
+        .iter()
+        .zip(&rest)
+        .all(|(a, b)| (a - b).abs() < 1e-12));
+}
+
+/// The constant handle carries any rigid motion exactly: x = R X + t everywhere, F = R.
+fn rigid_state(f: &Fixture, rotation: &Matrix3<f64>, translation: &Vector3<f64>) -> DMatrix<f64> {
+    let k = f.subspace.handles();
+    let mut z = DMatrix::zeros(3, 4 * k);
+    let a = rotation - Matrix3::identity();
+    for c in 0..3 {
+        for d in 0..3 {
+            z[(d, c)] = a[(d, c)];
+        }
+        z[(c, 3)] = translation[c];
+    }
+    z
+}
+
+#[test]
+fn rigid_motions_are_exact_and_cost_no_elastic_energy() {
+    let f = bar();
+    let rotation = *Rotation3::from_euler_angles(0.7, -1.1, 2.3).matrix();
+    let translation = Vector3::new(0.3, -2.0, 5.0);
+    let z = rigid_state(&f, &rotation, &translation);
+    let lifter = Lifter::new(
+        f.subspace.field(),
+        f.subspace.normalization(),
+        &f.shape.positions,
+    );
+    let mut out = vec![0.0f32; 3 * f.shape.positions.len()];
+    lifter.lift(&z, &mut out);
+    for (p, x) in f.shape.positions.iter().zip(out.chunks(3)) {
+        let expected = rotation * p + translation;
+        assert!((Vector3::new(x[0] as f64, x[1] as f64, x[2] as f64) - expected).norm() < 1e-5);
+    }
+    for model in [MaterialModel::NeoHookean, MaterialModel::StableNeoHookean] {
+        // A rigidly moving free body: zero gravity, moving at constant velocity, stays rigid.
+        let params = SimParams {
+            gravity: Vector3::zeros(),
+            model,
+            ..Default::default()
+        };
+        let mut sim =
+            ReducedSim::new(f.subspace.clone(), params, Solver::Newton, f.diagonal).unwrap();
+        let previous = rigid_state(&f, &rotation, &(translation - Vector3::new(0.01, 0.0, 0.0)));
+        sim.set_state(z.clone(), Some(previous));
+        let r = sim.step();
+        assert!(
+            r.elastic_energy.abs() < 1e-9,
+            "{model:?}: elastic energy {} in a rigid pose",
+            r.elastic_energy
+        );
+        assert!(r.converged);
+        let moved = rigid_state(&f, &rotation, &(translation + Vector3::new(0.01, 0.0, 0.0)));
+        assert!(
+            (sim.state() - moved).amax() < 1e-9,
+            "{model:?}: the rigid glide was not kept"
+        );
+    }
+}
+
+#[test]
+fn free_fall_matches_the_closed_form() {
+    let f = bar();
+    for solver in [Solver::Newton, Solver::QuasiNewton] {
+        let params = SimParams::default();
+        let h = params.dt;
+        let g = params.gravity.z;
+        let mut sim =
+            ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap();
+        let steps = 30;
+        for _ in 0..steps {
+            assert!(sim.step().converged);
+        }
+        let x = sim.position_of(&Vector3::new(0.2, 0.05, 0.0));
+        let n = steps as f64;
+        // Implicit Euler's fall after n steps is g h^2 n (n + 1) / 2 = g t^2 / 2 + g h t / 2.
+        let discrete = g * h * h * n * (n + 1.0) / 2.0;
+        assert!(
+            (x.z - discrete).abs() < 1e-6,
+            "{solver:?}: fell {} vs {}",
+            x.z,
+            discrete
+        );
+        let t = n * h;
+        let continuous = g * t * t / 2.0;
+        assert!((x.z - continuous).abs() <= (g * h * t / 2.0).abs() + 1e-6);
+        assert!((x.x - 0.2).abs() < 1e-6 && (x.y - 0.05).abs() < 1e-6);
+    }
+    let mut fem = FemSim::new(f.mesh.clone(), SimParams::default()).unwrap();
+    for _ in 0..10 {
+        fem.step().unwrap();
+    }
+    let h = 1.0 / 60.0;
+    let discrete = -9.81 * h * h * 10.0 * 11.0 / 2.0;
+    let z0 = f.mesh.vertices[0].z;
+    assert!((fem.positions()[2] - z0 - discrete).abs() < 1e-6);
+}
+
+/// Tip deflection of a damped cantilever after 0.6 s, FEM at a given resolution.
+fn fem_tip_deflection(resolution: usize) -> f64 {
+    let shape = box_mesh(Vector3::new(1.0, 0.2, 0.2));
+    let grid = VoxelGrid::from_shape(&shape, 128, None).resample(resolution);
+    let mesh = Arc::new(TetMesh::from_grid(&grid));
+    let params = SimParams {
+        young: 2e6,
+        damping: 30.0,
+        dt: 0.02,
+        ..Default::default()
+    };
+    let mut fem = FemSim::new(mesh.clone(), params).unwrap();
+    let left: Vec<usize> = (0..mesh.vertices.len())
+        .filter(|&v| mesh.vertices[v].x < -0.49)
+        .collect();
+    fem.pin_vertices(&left);
+    for _ in 0..30 {
+        assert!(fem.step().unwrap().converged);
+    }
+    let tip = (0..mesh.vertices.len())
+        .filter(|&v| mesh.vertices[v].x > 0.49)
+        .map(|v| fem.positions()[3 * v + 2] - mesh.vertices[v].z)
+        .sum::<f64>();
+    tip / (0..mesh.vertices.len())
+        .filter(|&v| mesh.vertices[v].x > 0.49)
+        .count() as f64
+}
+
+#[test]
+fn fem_reference_converges_under_refinement() {
+    let d: Vec<f64> = [5, 10, 20].iter().map(|&r| fem_tip_deflection(r)).collect();
+    assert!(d.iter().all(|x| *x < 0.0), "the tip sags: {d:?}");
+    let (first, second) = ((d[1] - d[0]).abs(), (d[2] - d[1]).abs());
+    assert!(
+        second < 0.6 * first,
+        "successive differences must shrink: {d:?}"
+    );
+}
+
+#[test]
+fn hanging_bar_loses_energy_and_keeps_its_pins() {
+    let f = bar();
+    for solver in [Solver::Newton, Solver::QuasiNewton] {
+        let params = SimParams {
+            young: 1e6,
+            ..Default::default()
+        };
+        let mut sim =
+            ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap();
+        pin_left_end(&mut sim, &f, &params);
+        let mut worst: f64 = 0.0;
+        for _ in 0..60 {
+            let r = sim.step();
+            assert!(r.converged, "{solver:?} did not converge: {r:?}");
+            worst = worst.max(total_energy(&r));
+        }
+        assert!(
+            worst <= 1e-6,
+            "{solver:?}: implicit Euler must not create energy, got {worst}"
+        );
+        let drift = sim
+            .pinned_positions()
+            .iter()
+            .zip(f.mesh.vertices.iter().filter(|v| v.x < -0.45))
+            .map(|(x, v)| (x - v).norm())
+            .fold(0.0, f64::max);
+        assert!(drift < 2e-3, "pins drifted {drift} m");
+        let tip = sim.position_of(&Vector3::new(0.5, 0.0, 0.0));
+        assert!(
+            tip.z < -0.01,
+            "{solver:?}: the free end sags, got {}",
+            tip.z
+        );
+    }
+}
+
+#[test]
+fn drop_onto_the_floor_comes_to_rest_above_it() {
+    let f = bar();
+    let params = SimParams {
+        young: 1e6,
+        damping: 2.0,
+        ..Default::default()
+    };
+    let mut sim =
+        ReducedSim::new(f.subspace.clone(), params, Solver::QuasiNewton, f.diagonal).unwrap();
+    let points: Vec<_> = f
+        .mesh
+        .boundary_vertices
+        .iter()
+        .map(|&v| f.mesh.vertices[v as usize])
+        .collect();
+    sim.add_contact_points(&points, &f.mesh.boundary_areas);
+    sim.add_obstacle(Obstacle::floor(-0.15));
+    for _ in 0..120 {
+        let r = sim.step();
+        assert!(r.elastic_energy.is_finite());
+    }
+    let lowest = points
+        .iter()
+        .map(|p| sim.position_of(p).z)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        lowest > -0.16 && lowest < -0.145,
+        "resting on the floor at -0.15, lowest point {lowest}"
+    );
+}
+
+struct HardCase {
+    name: &'static str,
+    size: Vector3<f64>,
+    resolution: usize,
+    params: SimParams,
+    inverted: bool,
+}
+
+fn hard_cases() -> Vec<HardCase> {
+    let bar = Vector3::new(1.0, 0.2, 0.2);
+    let mut cases = vec![
+        HardCase {
+            name: "nu 0.49",
+            size: bar,
+            resolution: 20,
+            params: SimParams {
+                poisson: 0.49,
+                ..Default::default()
+            },
+            inverted: false,
+        },
+        HardCase {
+            name: "thin plate",
+            size: Vector3::new(1.0, 0.6, 0.02),
+            resolution: 40,
+            params: SimParams {
+                young: 1e6,
+                ..Default::default()
+            },
+            inverted: false,
+        },
+        HardCase {
+            name: "sliver",
+            size: Vector3::new(1.0, 0.03, 0.03),
+            resolution: 48,
+            params: SimParams::default(),
+            inverted: false,
+        },
+        HardCase {
+            name: "inverted start",
+            size: bar,
+            resolution: 20,
+            params: SimParams::default(),
+            inverted: true,
+        },
+    ];
+    for young in [1e3, 1e8] {
+        cases.push(HardCase {
+            name: "young",
+            size: bar,
+            resolution: 20,
+            params: SimParams {
+                young,
+                ..Default::default()
+            },
+            inverted: false,
+        });
+    }
+    for dt in [1.0 / 30.0, 1.0 / 500.0] {
+        cases.push(HardCase {
+            name: "dt",
+            size: bar,
+            resolution: 20,
+            params: SimParams {
+                dt,
+                ..Default::default()
+            },
+            inverted: false,
+        });
+    }
+    cases
+}
+
+#[test]
+fn hard_cases_stay_finite_and_bounded() {
+    for case in hard_cases() {
+        let f = fixture(case.size, case.resolution, 8, 256, case.params.density);
+        for solver in [Solver::Newton, Solver::QuasiNewton] {
+            let mut sim =
+                ReducedSim::new(f.subspace.clone(), case.params.clone(), solver, f.diagonal)
+                    .unwrap();
+            pin_left_end(&mut sim, &f, &case.params);
+            if case.inverted {
+                // Every point starts mirrored through the x = 0 plane: det F = -1 everywhere.
+                let z = rigid_state(
+                    &f,
+                    &Matrix3::from_diagonal(&Vector3::new(-1.0, 1.0, 1.0)),
+                    &Vector3::zeros(),
+                );
+                sim.set_state(z, None);
+            }
+            let mut first = None;
+            let mut worst: f64 = f64::NEG_INFINITY;
+            for _ in 0..40 {
+                let r = sim.step();
+                let e = total_energy(&r);
+                assert!(
+                    e.is_finite() && sim.state().iter().all(|v| v.is_finite()),
+                    "{} {solver:?}: non-finite",
+                    case.name
+                );
+                first.get_or_insert(e);
+                worst = worst.max(e);
+            }
+            // Backward Euler never gains energy beyond its first step's (pins included as springs).
+            let first = first.unwrap();
+            assert!(
+                worst <= first.abs().max(1.0) * 1.05 + first.max(0.0),
+                "{} {solver:?}: energy grew to {worst} from {first}",
+                case.name
+            );
+        }
+    }
+}
+
+#[test]
+fn an_unconverged_step_is_reported() {
+    let f = bar();
+    let params = SimParams {
+        young: 1e8,
+        max_iterations: 1,
+        tolerance: 1e-9,
+        ..Default::default()
+    };
+    let mut sim = ReducedSim::new(
+        f.subspace.clone(),
+        params.clone(),
+        Solver::QuasiNewton,
+        f.diagonal,
+    )
+    .unwrap();
+    pin_left_end(&mut sim, &f, &params);
+    let reports: Vec<_> = (0..5).map(|_| sim.step()).collect();
+    assert!(
+        reports.iter().any(|r| !r.converged),
+        "one iteration cannot meet 1e-9: {reports:?}"
+    );
+    assert!(reports.iter().all(|r| r.iterations <= 1));
+}
+
+#[test]
+fn bad_parameters_are_refused_by_name() {
+    let f = bar();
+    for (params, name) in [
+        (
+            SimParams {
+                young: -1.0,
+                ..Default::default()
+            },
+            "young",
+        ),
+        (
+            SimParams {
+                poisson: 0.5,
+                ..Default::default()
+            },
+            "poisson",
+        ),
+        (
+            SimParams {
+                dt: 0.0,
+                ..Default::default()
+            },
+            "dt",
+        ),
+        (
+            SimParams {
+                density: f64::NAN,
+                ..Default::default()
+            },
+            "density",
+        ),
+    ] {
+        let err = ReducedSim::new(f.subspace.clone(), params, Solver::Newton, f.diagonal)
+            .err()
+            .unwrap();
+        assert!(err.to_string().contains(name), "{err}");
+    }
+}
+
+#[test]
+fn subspace_field_and_lifting_agree_with_the_field() {
+    let f = bar();
+    let k = f.subspace.handles();
+    let z = DMatrix::from_fn(3, 4 * k, |d, a| 0.01 * ((7 * d + 3 * a) as f64).sin());
+    let lifter = Lifter::new(
+        f.subspace.field(),
+        f.subspace.normalization(),
+        &f.mesh.vertices,
+    );
+    let mut out = vec![0.0f32; 3 * f.mesh.vertices.len()];
+    lifter.lift(&z, &mut out);
+    let mut w = vec![0.0; k];
+    for v in (0..f.mesh.vertices.len()).step_by(13) {
+        let x = f.mesh.vertices[v];
+        f.subspace.field().evaluate(
+            &[f.subspace.normalization().to_normalized(&x)],
+            &mut w,
+            None,
+        );
+        let phi = physskin::physics::phi_of(&w, &x);
+        let expected = x + &z * phi;
+        let got = Vector3::new(
+            out[3 * v] as f64,
+            out[3 * v + 1] as f64,
+            out[3 * v + 2] as f64,
+        );
+        assert!(
+            (got - expected).norm() < 1e-5,
+            "vertex {v}: {got} vs {expected}"
+        );
+    }
+}

@@ -1,0 +1,255 @@
+//! Geometry in: loaders, normalization, the voxel inside test, sampling, cubature, tet meshes.
+
+use nalgebra::Vector3;
+use physskin::geometry::{
+    box_mesh, bundled, load_geometry, sample_surface, sdf_mesh, write_obj, Cubature, RawGeometry,
+    Shape, SurfaceSampling, TetMesh, VoxelGrid,
+};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+fn sphere(radius: f64) -> Shape {
+    sdf_mesh(&|p: &Vector3<f64>| p.norm() - radius, radius * 1.2, 40)
+}
+
+#[test]
+fn normalization_maps_the_bounding_box_into_the_unit_cube_and_back() {
+    let shape = box_mesh(Vector3::new(4.0, 2.0, 1.0));
+    let shifted = Shape::new(
+        shape
+            .positions
+            .iter()
+            .map(|p| p + Vector3::new(10.0, -3.0, 7.0))
+            .collect(),
+        None,
+        shape.triangles.clone(),
+    )
+    .unwrap();
+    let map = shifted.normalization();
+    assert!((map.scale - 2.0).abs() < 1e-12);
+    let normalized = shifted.normalized(&map);
+    let (lo, hi) = normalized.bounds();
+    assert!((lo.x + 1.0).abs() < 1e-12 && (hi.x - 1.0).abs() < 1e-12);
+    assert!((hi.y - 0.5).abs() < 1e-12 && (hi.z - 0.25).abs() < 1e-12);
+    for (p, q) in shifted.positions.iter().zip(&normalized.positions) {
+        assert!((map.to_world(q) - p).norm() < 1e-12);
+    }
+}
+
+#[test]
+fn closed_mesh_volume_is_exact_and_open_mesh_has_none() {
+    let b = box_mesh(Vector3::new(0.4, 0.3, 0.2));
+    assert!((b.closed_volume().unwrap() - 0.024).abs() < 1e-12);
+    let mut open = b.clone();
+    open.triangles.pop();
+    assert!(open.closed_volume().is_none());
+}
+
+#[test]
+fn voxel_inside_test_fills_closed_and_open_meshes_and_clouds() {
+    let s = sphere(0.5);
+    let exact = 4.0 / 3.0 * std::f64::consts::PI * 0.125;
+    let grid = VoxelGrid::from_shape(&s, 64, None);
+    assert!(grid.contains(&Vector3::zeros()));
+    assert!(grid.contains(&Vector3::new(0.45, 0.0, 0.0)));
+    assert!(!grid.contains(&Vector3::new(0.56, 0.0, 0.0)));
+    assert!(!grid.contains(&Vector3::new(0.4, 0.4, 0.4)));
+    let v = grid.solid_volume();
+    assert!(
+        (v - exact).abs() / exact < 0.03,
+        "voxel volume {v} vs {exact}"
+    );
+
+    // Open: cut a hole of a few triangles near the top.
+    let mut open = s.clone();
+    let before = open.triangles.len();
+    open.triangles.retain(|t| {
+        let c = (open.positions[t[0] as usize]
+            + open.positions[t[1] as usize]
+            + open.positions[t[2] as usize])
+            / 3.0;
+        c.z < 0.499
+    });
+    assert!(open.triangles.len() < before, "the hole removed triangles");
+    assert!(open.closed_volume().is_none());
+    let grid = VoxelGrid::from_shape(&open, 64, Some(2));
+    assert!(
+        grid.contains(&Vector3::zeros()),
+        "a small hole must not empty the inside"
+    );
+    assert!((grid.solid_volume() - exact).abs() / exact < 0.05);
+
+    // Bare cloud: the mesh's vertices alone.
+    let cloud = Shape::new(s.positions.clone(), None, Vec::new()).unwrap();
+    let grid = VoxelGrid::from_shape(&cloud, 64, None);
+    assert!(grid.contains(&Vector3::zeros()));
+    assert!(!grid.contains(&Vector3::new(0.4, 0.4, 0.4)));
+    let v = grid.solid_volume();
+    assert!(
+        (v - exact).abs() / exact < 0.08,
+        "cloud volume {v} vs {exact}"
+    );
+}
+
+#[test]
+fn surface_samples_have_outward_unit_normals_for_meshes_and_clouds() {
+    let s = sphere(0.5);
+    let grid = VoxelGrid::from_shape(&s, 64, None);
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let options = SurfaceSampling {
+        count: 2000,
+        ..Default::default()
+    };
+    let samples = sample_surface(&s, &grid, &options, &mut rng);
+    assert_eq!(samples.points.len(), 2000);
+    for (p, n) in samples.points.iter().zip(&samples.normals) {
+        assert!((n.norm() - 1.0).abs() < 1e-9);
+        assert!(n.dot(&p.normalize()) > 0.9, "normal {n} at {p}");
+        assert!((p.norm() - 0.5).abs() < 0.02);
+    }
+    let area: f64 = samples.areas.iter().sum();
+    let exact_area = 4.0 * std::f64::consts::PI * 0.25;
+    assert!((area - exact_area).abs() / exact_area < 0.03, "area {area}");
+
+    let cloud = Shape::new(s.positions.clone(), None, Vec::new()).unwrap();
+    let grid = VoxelGrid::from_shape(&cloud, 64, None);
+    let samples = sample_surface(&cloud, &grid, &options, &mut rng);
+    let outward = samples
+        .points
+        .iter()
+        .zip(&samples.normals)
+        .filter(|(p, n)| n.dot(&p.normalize()) > 0.8)
+        .count();
+    assert!(
+        outward as f64 > 0.98 * samples.points.len() as f64,
+        "{outward} outward"
+    );
+}
+
+#[test]
+fn sharp_edges_of_a_box_get_samples() {
+    let b = box_mesh(Vector3::new(1.0, 1.0, 1.0));
+    let grid = VoxelGrid::from_shape(&b, 32, None);
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    let samples = sample_surface(
+        &b,
+        &grid,
+        &SurfaceSampling {
+            count: 1000,
+            edge_fraction: 0.2,
+            sharp_angle_deg: 30.0,
+        },
+        &mut rng,
+    );
+    let on_edges = samples
+        .points
+        .iter()
+        .filter(|p| p.iter().filter(|c| (c.abs() - 0.5).abs() < 1e-9).count() >= 2)
+        .count();
+    assert_eq!(on_edges, 200);
+}
+
+#[test]
+fn cubature_volumes_add_up_to_the_object_volume() {
+    let b = box_mesh(Vector3::new(0.4, 0.3, 0.2));
+    let grid = VoxelGrid::from_shape(&b, 64, None);
+    for target in [64, 256, 1000] {
+        let c = Cubature::stratified(&grid, target, b.closed_volume().unwrap());
+        assert!((c.total_volume() - 0.024).abs() < 1e-12);
+        assert!(
+            c.len() >= target / 2 && c.len() <= target * 2,
+            "{} for {target}",
+            c.len()
+        );
+        for p in &c.points {
+            assert!(
+                grid.contains(p),
+                "cubature point {:?} outside; cell {:?} origin {:?} cell {}",
+                p.as_slice(),
+                grid.cell_of(p),
+                grid.origin.as_slice(),
+                grid.cell
+            );
+        }
+    }
+}
+
+#[test]
+fn tet_mesh_covers_the_solid_and_interpolates_linear_functions_exactly() {
+    let grid = VoxelGrid::from_shape(&bundled("creature").unwrap(), 24, None);
+    let mesh = TetMesh::from_grid(&grid);
+    let cell = grid.cell;
+    let tet_volume: f64 = mesh
+        .tets
+        .iter()
+        .map(|t| {
+            let [a, b, c, d] = t.map(|v| mesh.vertices[v as usize]);
+            (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
+        })
+        .sum();
+    assert!(mesh.tets.iter().all(|t| {
+        let [a, b, c, d] = t.map(|v| mesh.vertices[v as usize]);
+        (b - a).dot(&(c - a).cross(&(d - a))) > 0.0
+    }));
+    assert!((tet_volume - grid.solid_count() as f64 * cell.powi(3)).abs() < 1e-9);
+    let lumped: f64 = mesh.lumped_volumes().iter().sum();
+    assert!((lumped - tet_volume).abs() < 1e-9);
+    let linear = |p: &Vector3<f64>| 2.0 * p.x - 3.0 * p.y + 0.5 * p.z + 1.0;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let (lo, hi) = grid.solid_bounds();
+    let mut checked = 0;
+    while checked < 500 {
+        let p = lo
+            + (hi - lo).component_mul(&Vector3::from_fn(|_, _| rand::Rng::random::<f64>(&mut rng)));
+        if !grid.contains(&p) {
+            continue;
+        }
+        let at = mesh.locate(&p);
+        let value: f64 = (0..4)
+            .map(|i| at.barycentric[i] * linear(&mesh.vertices[at.vertices[i] as usize]))
+            .sum();
+        let gradient: Vector3<f64> = (0..4)
+            .map(|i| at.gradients[i] * linear(&mesh.vertices[at.vertices[i] as usize]))
+            .sum();
+        assert!((at.barycentric.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        assert!(at.barycentric.iter().all(|b| *b >= -1e-12));
+        assert!((value - linear(&p)).abs() < 1e-9);
+        assert!((gradient - Vector3::new(2.0, -3.0, 0.5)).norm() < 1e-9);
+        checked += 1;
+    }
+    let boundary_area: f64 = mesh.boundary_areas.iter().sum();
+    assert!(boundary_area > 0.0);
+}
+
+#[test]
+fn loaders_read_back_what_was_written() {
+    let dir = std::env::temp_dir().join(format!("physskin-geometry-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let b = box_mesh(Vector3::new(1.0, 2.0, 3.0));
+    let raw = RawGeometry {
+        positions: b.positions.iter().map(|p| [p.x, p.y, p.z]).collect(),
+        normals: None,
+        triangles: b.triangles.clone(),
+    };
+    let path = dir.join("box.obj");
+    write_obj(&raw, &mut std::fs::File::create(&path).unwrap()).unwrap();
+    let loaded = Shape::from_raw(load_geometry(&path).unwrap()).unwrap();
+    assert_eq!(loaded.triangles, b.triangles);
+    assert!((loaded.closed_volume().unwrap() - 6.0).abs() < 1e-12);
+    let err = load_geometry(&dir.join("missing.ply"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("missing.ply"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn shapes_with_bad_data_are_refused_with_a_reason() {
+    let nan = Shape::new(vec![Vector3::new(f64::NAN, 0.0, 0.0)], None, vec![]).unwrap_err();
+    assert!(nan.to_string().contains("point 0"), "{nan}");
+    let index =
+        Shape::new(vec![Vector3::zeros(), Vector3::x()], None, vec![[0, 1, 5]]).unwrap_err();
+    assert!(index.to_string().contains("triangle 0"), "{index}");
+    let flat = Shape::new(vec![Vector3::zeros(); 3], None, vec![]).unwrap_err();
+    assert!(flat.to_string().contains("zero extent"), "{flat}");
+}
