@@ -4,7 +4,7 @@
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
-use faer::{MatMut, MatRef, Side};
+use faer::{MatMut, Side};
 
 use crate::error::{Error, Result};
 
@@ -194,23 +194,27 @@ impl SparseCholesky {
     }
 }
 
-/// Dense LL^T of a symmetric positive definite matrix (column-major, n x n).
+/// Dense LL^T of a symmetric positive definite matrix (column-major, n x n). nalgebra's
+/// single-threaded factorization: at the reduced sizes (a few hundred) thread hand-offs cost
+/// more than they save.
 pub struct DenseCholesky {
-    llt: faer::linalg::solvers::Llt<f64>,
+    factor: nalgebra::Cholesky<f64, nalgebra::Dyn>,
     n: usize,
 }
 
 impl DenseCholesky {
     pub fn new(matrix: &[f64], n: usize) -> Result<Self> {
-        let llt = MatRef::from_column_major_slice(matrix, n, n)
-            .llt(Side::Lower)
-            .map_err(|e| Error::LinearAlgebra(format!("dense Cholesky: {e:?}")))?;
-        Ok(Self { llt, n })
+        let factor = nalgebra::DMatrix::from_column_slice(n, n, matrix)
+            .cholesky()
+            .ok_or_else(|| {
+                Error::LinearAlgebra("dense Cholesky: the matrix is not positive definite".into())
+            })?;
+        Ok(Self { factor, n })
     }
 
     pub fn solve(&self, rhs: &mut [f64]) {
         let cols = rhs.len() / self.n;
-        self.llt
-            .solve_in_place(MatMut::from_column_major_slice_mut(rhs, self.n, cols));
+        let mut view = nalgebra::DMatrixViewMut::from_slice(rhs, self.n, cols);
+        self.factor.solve_mut(&mut view);
     }
 }

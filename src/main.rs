@@ -152,8 +152,8 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
     );
     println!("cubature         {} points", r.cubature);
     println!(
-        "reduced step     {:.3} ms median, {:.3} ms mean ({}, {:.1} iterations/step, {} steps unconverged)",
-        r.step_ms, r.step_mean_ms, r.solver, r.mean_iterations, r.unconverged_steps
+        "reduced step     {:.3} ms median, {:.3} ms mean ({}, {:.1} iterations/step, {} steps unconverged, {} handed to Newton)",
+        r.step_ms, r.step_mean_ms, r.solver, r.mean_iterations, r.unconverged_steps, r.fallback_steps
     );
     if r.error_pct.is_finite() {
         println!(
@@ -203,7 +203,7 @@ fn write_plot(report: &SimBenchReport, path: &std::path::Path) -> physskin::Resu
 
 fn print_table(report: &SimBenchReport) {
     println!(
-        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>5}",
+        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>6} {:>6}",
         "shape",
         "verts",
         "scenario",
@@ -217,11 +217,12 @@ fn print_table(report: &SimBenchReport) {
         "speedup",
         "err_%",
         "iters",
-        "unconv"
+        "unconv",
+        "fallbk"
     );
     for r in &report.rows {
         println!(
-            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>5}",
+            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>6} {:>6}",
             r.shape,
             r.vertices,
             r.scenario,
@@ -235,7 +236,8 @@ fn print_table(report: &SimBenchReport) {
             r.speedup,
             r.error_pct,
             r.mean_iterations,
-            r.unconverged_steps
+            r.unconverged_steps,
+            r.fallback_steps
         );
     }
     println!("lift 100k points: {:.3} ms (median)", report.lift_100k_ms);

@@ -1,8 +1,8 @@
 //! Cubature: points inside the solid with volumes that add up to the object's volume.
 
-use std::collections::HashMap;
-
 use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 use super::voxel::VoxelGrid;
 
@@ -23,36 +23,57 @@ impl Cubature {
         self.volumes.iter().sum()
     }
 
-    /// About `target` points, stratified: the solid cells of `grid` are grouped into coarser
-    /// blocks, and each block gives one point at the centroid of its cells, weighted by their
-    /// volume. The volumes are then scaled to add up to `total_volume` (the exact volume of a
-    /// closed mesh, or the grid's own estimate). The block size is searched so the count is the
-    /// closest reachable to `target`.
+    /// `target` points (or every sub-cell, if fewer), stratified along a space-filling curve:
+    /// every solid cell of `grid` is split into 2 x 2 x 2 sub-cells, the sub-cells are sorted in
+    /// Morton (Z) order, the order is cut into `target` runs of equal length, and each run gives
+    /// one of its sub-cell centers, drawn at random (seeded), weighted by the run's volume. The
+    /// volumes are then scaled to add up to `total_volume` (the exact volume of a closed mesh,
+    /// or the grid's own estimate).
+    ///
+    /// A random member rather than the run's centroid: on a thin part, centroids of runs
+    /// spanning its thickness all lie on the mid-surface, where bending causes no strain, and the
+    /// subspace would bend for free.
     pub fn stratified(grid: &VoxelGrid, target: usize, total_volume: f64) -> Cubature {
-        let max_blocks = grid.dims.iter().copied().max().unwrap_or(1);
-        let (mut lo, mut hi) = (1usize, max_blocks);
-        let mut best = group(grid, hi);
-        // The count grows with the number of blocks across: bisect on it.
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            let candidate = group(grid, mid);
-            if candidate.len() >= target {
-                hi = mid;
-                best = candidate;
-            } else {
-                lo = mid + 1;
+        let mut subcells: Vec<(u64, [usize; 3])> = Vec::new();
+        for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
+            let c = grid.coords(index);
+            for s in 0..8 {
+                let sub = [
+                    2 * c[0] + (s & 1),
+                    2 * c[1] + ((s >> 1) & 1),
+                    2 * c[2] + (s >> 2),
+                ];
+                subcells.push((morton(sub), sub));
             }
         }
-        if best.len() < target {
-            best = group(grid, max_blocks);
+        subcells.sort_unstable_by_key(|(key, _)| *key);
+        let runs = target.clamp(1, subcells.len().max(1));
+        let sub_volume = grid.cell.powi(3) / 8.0;
+        let mut rng = ChaCha8Rng::seed_from_u64(subcells.len() as u64);
+        let mut cubature = Cubature::default();
+        for r in 0..runs {
+            let run = &subcells[r * subcells.len() / runs..(r + 1) * subcells.len() / runs];
+            if run.is_empty() {
+                continue;
+            }
+            let sub = run[rng.random_range(0..run.len())].1;
+            cubature.points.push(
+                grid.origin
+                    + Vector3::new(
+                        sub[0] as f64 + 0.5,
+                        sub[1] as f64 + 0.5,
+                        sub[2] as f64 + 0.5,
+                    ) * (grid.cell / 2.0),
+            );
+            cubature.volumes.push(run.len() as f64 * sub_volume);
         }
-        let sum = best.total_volume();
+        let sum = cubature.total_volume();
         if sum > 0.0 {
-            for v in &mut best.volumes {
+            for v in &mut cubature.volumes {
                 *v *= total_volume / sum;
             }
         }
-        best
+        cubature
     }
 
     /// One point per solid cell of `grid`, at its center, with the cell's volume.
@@ -67,27 +88,15 @@ impl Cubature {
     }
 }
 
-/// Groups solid cells into blocks of `blocks` across the longest grid side.
-fn group(grid: &VoxelGrid, blocks: usize) -> Cubature {
-    let longest = grid.dims.iter().copied().max().unwrap_or(1);
-    let per_block = longest.div_ceil(blocks.max(1));
-    let cell_volume = grid.cell.powi(3);
-    let mut sums: HashMap<[usize; 3], (Vector3<f64>, usize)> = HashMap::new();
-    for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
-        let c = grid.coords(index);
-        let entry = sums
-            .entry(c.map(|x| x / per_block))
-            .or_insert((Vector3::zeros(), 0));
-        entry.0 += grid.cell_center(c);
-        entry.1 += 1;
-    }
-    let mut blocks: Vec<_> = sums.into_iter().collect();
-    blocks.sort_by_key(|(key, _)| [key[2], key[1], key[0]]);
-    Cubature {
-        points: blocks.iter().map(|(_, (s, n))| s / *n as f64).collect(),
-        volumes: blocks
-            .iter()
-            .map(|(_, (_, n))| *n as f64 * cell_volume)
-            .collect(),
-    }
+/// Interleaves the bits of three coordinates (21 bits each): nearby cells get nearby keys.
+fn morton(c: [usize; 3]) -> u64 {
+    let spread = |v: usize| {
+        let mut x = v as u64 & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f00000000ffff;
+        x = (x | x << 16) & 0x1f0000ff0000ff;
+        x = (x | x << 8) & 0x100f00f00f00f00f;
+        x = (x | x << 4) & 0x10c30c30c30c30c3;
+        (x | x << 2) & 0x1249249249249249
+    };
+    spread(c[0]) | spread(c[1]) << 1 | spread(c[2]) << 2
 }

@@ -52,6 +52,7 @@ impl VoxelGrid {
             }
         }
         grid.solid = grid.fill_inside(radius);
+        grid.keep_largest_component();
         grid
     }
 
@@ -142,8 +143,53 @@ impl VoxelGrid {
         for c in 0..coarse.len() {
             coarse.solid[c] = total[c] > 0 && 2 * solid_hits[c] >= total[c] && solid_hits[c] > 0;
         }
+        coarse.keep_largest_component();
         coarse.surface = coarse.boundary_cells();
         coarse
+    }
+
+    /// Drops every solid island but the largest. Cells count as connected when they share a
+    /// corner, the connectivity of the tetrahedral mesh built on them: a second island would be
+    /// a second free body, with a second null mode in every stiffness matrix.
+    pub fn keep_largest_component(&mut self) {
+        let mut label = vec![u32::MAX; self.len()];
+        let mut sizes = Vec::new();
+        let mut stack = Vec::new();
+        for seed in 0..self.len() {
+            if !self.solid[seed] || label[seed] != u32::MAX {
+                continue;
+            }
+            let id = sizes.len() as u32;
+            let mut size = 0usize;
+            label[seed] = id;
+            stack.push(seed);
+            while let Some(index) = stack.pop() {
+                size += 1;
+                let [i, j, k] = self.coords(index).map(|c| c as isize);
+                for dz in -1..=1isize {
+                    for dy in -1..=1isize {
+                        for dx in -1..=1isize {
+                            let c = [i + dx, j + dy, k + dz];
+                            if (0..3).any(|a| c[a] < 0 || c[a] as usize >= self.dims[a]) {
+                                continue;
+                            }
+                            let n = self.index(c.map(|x| x as usize));
+                            if self.solid[n] && label[n] == u32::MAX {
+                                label[n] = id;
+                                stack.push(n);
+                            }
+                        }
+                    }
+                }
+            }
+            sizes.push(size);
+        }
+        let Some(largest) = (0..sizes.len()).max_by_key(|&i| sizes[i]) else {
+            return;
+        };
+        for (s, l) in self.solid.iter_mut().zip(&label) {
+            *s = *s && *l == largest as u32;
+        }
     }
 
     /// Bounding box of the solid cells (whole cells).

@@ -114,6 +114,13 @@ impl FemSim {
         &self.masses
     }
 
+    /// Starts from these vertex positions (x y z per vertex), at rest velocity.
+    pub fn set_positions(&mut self, positions: &[f64]) {
+        assert_eq!(positions.len(), self.x.len(), "one position per vertex");
+        self.x.copy_from_slice(positions);
+        self.x_prev.copy_from_slice(positions);
+    }
+
     /// Fixes these vertices at their rest positions.
     pub fn pin_vertices(&mut self, vertices: &[usize]) {
         for &v in vertices {

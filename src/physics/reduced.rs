@@ -24,8 +24,9 @@ use crate::linalg::DenseCholesky;
 pub enum Solver {
     /// Full Newton: the projected Hessian assembled and factored every iteration.
     Newton,
-    /// L-BFGS (8 pairs) whose initial Hessian is the rest-state Hessian plus inertia and pins,
-    /// factored once per shape and time step.
+    /// L-BFGS (8 pairs, kept across steps) over a held, factored Hessian: the rest-state one
+    /// at first, refactored at the current state whenever a step has taken 8 iterations; a step
+    /// it cannot finish is handed to full Newton.
     QuasiNewton,
 }
 
@@ -43,6 +44,10 @@ impl Solver {
 pub struct StepReport {
     pub iterations: usize,
     pub converged: bool,
+    /// The quasi-Newton solver ran out of iterations and full Newton finished the step.
+    pub fallback: bool,
+    /// Times the quasi-Newton solver refactored its held Hessian during the step.
+    pub refreshes: usize,
     /// |dz . g| when the solver stopped (J).
     pub decrement: f64,
     pub elastic_energy: f64,
@@ -61,13 +66,24 @@ struct ReducedPoint {
     target: Vector3<f64>,
 }
 
+/// The part of one step's objective that is quadratic or linear in z.
+struct StepObjective {
+    quadratic: DMatrix<f64>,
+    linear: DMatrix<f64>,
+}
+
+/// The step objective at one z. Only its non-quadratic part (elasticity, contact) is kept as a
+/// value: the line search needs energy differences, and the quadratic part's are exact.
 struct Evaluation {
-    energy: f64,
+    nonquadratic: f64,
     elastic: f64,
+    nonquadratic_gradient: DMatrix<f64>,
     gradient: DMatrix<f64>,
 }
 
 const LBFGS_PAIRS: usize = 8;
+/// After this many quasi-Newton iterations in one step, the held Hessian is refreshed.
+const REFRESH_AFTER_ITERATIONS: usize = 8;
 const ARMIJO: f64 = 1e-4;
 
 /// One deformable object simulated in its skinning subspace.
@@ -81,19 +97,18 @@ pub struct ReducedSim {
     time: f64,
     pins: Vec<ReducedPoint>,
     /// The pin energy is quadratic in Z, so it is kept in closed form whatever the number of
-    /// pinned points: (k/2) [tr(Z P Z^T) + 2 <B, Z> + c] with P = sum m phi phi^T (4K x 4K),
-    /// B = sum m (X - T) phi^T (3 x 4K), c = sum m |X - T|^2.
+    /// pinned points: (k/2) [tr(Z P Z^T) + 2 <B, Z>] + const with P = sum m phi phi^T
+    /// (4K x 4K) and B = sum m (X - T) phi^T (3 x 4K).
     pin_phi: DMatrix<f64>,
     pin_offset: DMatrix<f64>,
-    pin_constant: f64,
     contacts: Vec<ReducedPoint>,
     obstacles: Vec<Obstacle>,
     pokes: Vec<(DVector<f64>, Poke)>,
     rest_hessian: Option<DMatrix<f64>>,
+    history: VecDeque<(DVector<f64>, DVector<f64>)>,
     preconditioner: Option<DenseCholesky>,
     /// Convergence threshold on |dz . g| (J), from the tolerance and the object's size.
     decrement_tolerance: f64,
-    deformation: [Vec<f64>; 3],
 }
 
 impl ReducedSim {
@@ -116,13 +131,12 @@ impl ReducedSim {
             pins: Vec::new(),
             pin_phi: DMatrix::zeros(4 * k, 4 * k),
             pin_offset: DMatrix::zeros(3, 4 * k),
-            pin_constant: 0.0,
             contacts: Vec::new(),
             obstacles: Vec::new(),
             pokes: Vec::new(),
             rest_hessian: None,
+            history: VecDeque::new(),
             preconditioner: None,
-            deformation: Default::default(),
             subspace,
             params,
             solver,
@@ -183,11 +197,9 @@ impl ReducedSim {
 
     fn update_pin_offsets(&mut self) {
         self.pin_offset.fill(0.0);
-        self.pin_constant = 0.0;
         for pin in &self.pins {
             let r = pin.rest - pin.target;
             self.pin_offset += (r * pin.weight) * pin.phi.transpose();
-            self.pin_constant += pin.weight * r.norm_squared();
         }
     }
 
@@ -232,6 +244,15 @@ impl ReducedSim {
         self.pokes.push((phi, poke));
     }
 
+    /// Does the one-off work of the configured solver now (the rest Hessian and its
+    /// factorization for quasi-Newton) instead of in the first step: call it off the real-time
+    /// loop after adding pins.
+    pub fn prepare(&mut self) {
+        if self.solver == Solver::QuasiNewton && self.preconditioner.is_none() {
+            self.preconditioner = Some(self.build_preconditioner());
+        }
+    }
+
     /// Advances one time step.
     pub fn step(&mut self) -> StepReport {
         let started = Instant::now();
@@ -239,19 +260,32 @@ impl ReducedSim {
         let previous = self.z.clone();
         let mut z = predicted.clone();
         let mut report = StepReport::default();
-        if self.solver == Solver::QuasiNewton && self.preconditioner.is_none() {
-            self.preconditioner = Some(self.build_preconditioner());
-        }
-        let mut current = self.evaluate(&z, &predicted, &previous);
-        let mut history: VecDeque<(DVector<f64>, DVector<f64>)> = VecDeque::new();
-        for iteration in 0..=self.params.max_iterations {
+        self.prepare();
+        let objective = self.step_objective(&predicted, &previous);
+        let mut current = self.evaluate(&z, &objective);
+        // Curvature pairs carry over from the previous steps: the Hessian changes little between
+        // steps, so they make a better start than the rest Hessian alone.
+        let mut history = std::mem::take(&mut self.history);
+        let mut mode = self.solver;
+        let mut budget = self.params.max_iterations;
+        let mut since_refresh = 0;
+        loop {
+            if mode == Solver::QuasiNewton && since_refresh == REFRESH_AFTER_ITERATIONS {
+                // Slow progress: the held Hessian no longer describes the state. Refactor it
+                // here and hold it from now on; pairs measured against the old one would pull
+                // the new one back toward it.
+                self.preconditioner = Some(self.factor_hessian(self.hessian_at(&z)));
+                history.clear();
+                since_refresh = 0;
+                report.refreshes += 1;
+            }
             let gradient = flat(&current.gradient);
-            let mut direction = match self.solver {
+            let mut direction = match mode {
                 Solver::Newton => self.newton_direction(&z, &gradient),
                 Solver::QuasiNewton => self.lbfgs_direction(&gradient, &history),
             };
             let mut slope = direction.dot(&gradient);
-            if !(slope < 0.0) && self.solver == Solver::QuasiNewton && !history.is_empty() {
+            if !(slope < 0.0) && mode == Solver::QuasiNewton && !history.is_empty() {
                 history.clear();
                 direction = self.lbfgs_direction(&gradient, &history);
                 slope = direction.dot(&gradient);
@@ -261,26 +295,44 @@ impl ReducedSim {
                 report.converged = slope.is_finite();
                 break;
             }
-            if iteration == self.params.max_iterations || !(slope < 0.0) {
-                break;
-            }
-            let Some((step, next)) =
-                self.line_search(&z, &direction, slope, &current, &predicted, &previous)
-            else {
+            let searched = if budget > 0 && slope < 0.0 {
+                self.line_search(&z, &direction, slope, &current, &objective)
+            } else {
+                None
+            };
+            let Some((step, next)) = searched else {
+                // Out of iterations or no descent: quasi-Newton hands the step to full Newton
+                // once; Newton itself stops and reports the step as unconverged.
+                if mode == Solver::QuasiNewton {
+                    mode = Solver::Newton;
+                    budget = self.params.max_iterations;
+                    report.fallback = true;
+                    continue;
+                }
                 break;
             };
+            budget -= 1;
+            since_refresh += 1;
             report.iterations += 1;
-            let new_gradient = flat(&next.gradient);
-            let s = &direction * step;
-            let y = &new_gradient - &gradient;
-            if s.dot(&y) > 1e-12 * s.norm() * y.norm() {
-                history.push_back((s, y));
-                if history.len() > LBFGS_PAIRS {
-                    history.pop_front();
+            if mode == Solver::QuasiNewton {
+                let s = &direction * step;
+                let y = flat(&next.gradient) - &gradient;
+                if s.dot(&y) > 1e-12 * s.norm() * y.norm() {
+                    history.push_back((s, y));
+                    if history.len() > LBFGS_PAIRS {
+                        history.pop_front();
+                    }
                 }
             }
             z += unflat(&(&direction * step), self.subspace.handles());
             current = next;
+        }
+        self.history = history;
+        // A hard step (many iterations, or the Newton fallback) means the held Hessian no longer
+        // describes the state: refresh it before the next step.
+        if self.solver == Solver::QuasiNewton && report.fallback {
+            self.preconditioner = None;
+            self.history.clear();
         }
         self.z_prev = std::mem::replace(&mut self.z, z);
         self.time += self.params.dt;
@@ -298,15 +350,23 @@ impl ReducedSim {
         direction: &DVector<f64>,
         slope: f64,
         current: &Evaluation,
-        predicted: &DMatrix<f64>,
-        previous: &DMatrix<f64>,
+        objective: &StepObjective,
     ) -> Option<(f64, Evaluation)> {
         let step_matrix = unflat(direction, self.subspace.handles());
+        // The quadratic part's change along the step is exact: alpha <g_q, D> + alpha^2/2 <D Q, D>.
+        // Differencing its absolute values instead would cancel terms of the size of the pin
+        // springs (1e8 J and more) and drown the last Newton decrements in round-off.
+        let quadratic_gradient = &current.gradient - &current.nonquadratic_gradient;
+        let linear_change = quadratic_gradient.dot(&step_matrix);
+        let curvature = times_symmetric(&step_matrix, &objective.quadratic).dot(&step_matrix);
         let mut step = 1.0;
         for _ in 0..40 {
             let trial = z + &step_matrix * step;
-            let next = self.evaluate(&trial, predicted, previous);
-            if next.energy.is_finite() && next.energy <= current.energy + ARMIJO * step * slope {
+            let next = self.evaluate(&trial, objective);
+            let change = next.nonquadratic - current.nonquadratic
+                + step * linear_change
+                + 0.5 * step * step * curvature;
+            if change.is_finite() && change <= ARMIJO * step * slope {
                 return Some((step, next));
             }
             step *= 0.5;
@@ -315,39 +375,11 @@ impl ReducedSim {
     }
 
     /// The step objective, its elastic part and its gradient at `z`.
-    fn evaluate(
-        &mut self,
-        z: &DMatrix<f64>,
-        predicted: &DMatrix<f64>,
-        previous: &DMatrix<f64>,
-    ) -> Evaluation {
-        let h = self.params.dt;
-        let mass = self.subspace.mass_phi();
-        let inertial = z - predicted;
-        let damped = z - previous;
-        let damping = self.params.damping;
-        let mut energy = quadratic(&inertial, mass) / (2.0 * h * h)
-            + damping * quadratic(&damped, mass) / (2.0 * h);
-        let mut gradient = (&inertial * mass) / (h * h) + (&damped * mass) * (damping / h);
-
-        let g = self.params.gravity;
-        let moment = self.subspace.mass_moment();
-        energy -= (z * moment).dot(&g);
-        gradient -= g * moment.transpose();
-
-        let elastic = self.add_elastic(z, &mut gradient);
-        energy += elastic;
-
-        if !self.pins.is_empty() {
-            let k = self.params.pin_stiffness;
-            let zp = z * &self.pin_phi;
-            energy += 0.5
-                * k
-                * (zp.component_mul(z).sum()
-                    + 2.0 * self.pin_offset.component_mul(z).sum()
-                    + self.pin_constant);
-            gradient += (zp + &self.pin_offset) * k;
-        }
+    fn evaluate(&mut self, z: &DMatrix<f64>, objective: &StepObjective) -> Evaluation {
+        // Inertia, damping, pins, gravity and pokes are quadratic or linear in z:
+        // 0.5 <Z Q, Z> - <L, Z> + c, one small product per evaluation.
+        let (elastic, mut gradient) = self.subspace.elastic_forces(z, &self.material);
+        let mut energy = elastic;
         let kc = self.params.contact_stiffness;
         for contact in &self.contacts {
             let x = contact.rest + z * &contact.phi;
@@ -359,55 +391,41 @@ impl ReducedSim {
                 }
             }
         }
-        for (phi, poke) in &self.pokes {
-            if poke.start <= self.time && self.time < poke.end {
-                energy -= poke.force.dot(&(z * phi));
-                gradient -= poke.force * phi.transpose();
-            }
-        }
+        let total = &gradient + times_symmetric(z, &objective.quadratic) - &objective.linear;
         Evaluation {
-            energy,
+            nonquadratic: energy,
             elastic,
-            gradient,
+            nonquadratic_gradient: gradient,
+            gradient: total,
         }
     }
 
-    /// Adds the elastic force to `gradient`, returns the elastic energy.
-    fn add_elastic(&mut self, z: &DMatrix<f64>, gradient: &mut DMatrix<f64>) -> f64 {
-        let mut f = std::mem::take(&mut self.deformation);
-        self.subspace.deformation_gradients(z, &mut f);
-        let volumes = self.subspace.volumes();
-        let material = self.material;
-        let np = volumes.len();
-        let mut stress: [Vec<f64>; 3] = [vec![0.0; 3 * np], vec![0.0; 3 * np], vec![0.0; 3 * np]];
-        let chunk = 64;
-        let energy: f64 = {
-            let [s0, s1, s2] = &mut stress;
-            s0.par_chunks_mut(3 * chunk)
-                .zip(s1.par_chunks_mut(3 * chunk))
-                .zip(s2.par_chunks_mut(3 * chunk))
-                .enumerate()
-                .map(|(c, ((s0, s1), s2))| {
-                    let mut energy = 0.0;
-                    for local in 0..s0.len() / 3 {
-                        let p = c * chunk + local;
-                        let fp = Matrix3::from_fn(|d, e| f[d][3 * p + e]);
-                        let (psi, piola) = material.energy_and_first_piola(&fp);
-                        let v = volumes[p];
-                        energy += v * psi;
-                        for e in 0..3 {
-                            s0[3 * local + e] = v * piola[(0, e)];
-                            s1[3 * local + e] = v * piola[(1, e)];
-                            s2[3 * local + e] = v * piola[(2, e)];
-                        }
+    /// The quadratic and linear terms of this step's objective.
+    fn step_objective(&self, predicted: &DMatrix<f64>, previous: &DMatrix<f64>) -> StepObjective {
+        let h = self.params.dt;
+        let c = self.params.damping;
+        let k = self.params.pin_stiffness;
+        let mass = self.subspace.mass_phi();
+        let gravity: DMatrix<f64> = DMatrix::from_fn(3, mass.ncols(), |d, a| {
+            self.params.gravity[d] * self.subspace.mass_moment()[a]
+        });
+        let mut linear = times_symmetric(predicted, mass) / (h * h)
+            + times_symmetric(previous, mass) * (c / h)
+            - &self.pin_offset * k
+            + gravity;
+        for (phi, poke) in &self.pokes {
+            if poke.start <= self.time && self.time < poke.end {
+                for (a, p) in phi.iter().enumerate() {
+                    for d in 0..3 {
+                        linear[(d, a)] += poke.force[d] * p;
                     }
-                    energy
-                })
-                .sum()
-        };
-        *gradient += self.subspace.pull_back(&stress);
-        self.deformation = f;
-        energy
+                }
+            }
+        }
+        StepObjective {
+            quadratic: self.quadratic_part(),
+            linear,
+        }
     }
 
     /// Inertia, damping and pins: the quadratic part, (4K x 4K) to be taken (x) I_3.
@@ -418,14 +436,19 @@ impl ReducedSim {
     }
 
     fn newton_direction(&mut self, z: &DMatrix<f64>, gradient: &DVector<f64>) -> DVector<f64> {
-        let mut f = std::mem::take(&mut self.deformation);
-        self.subspace.deformation_gradients(z, &mut f);
+        let hessian = self.hessian_at(z);
+        self.solve_or_descend(&hessian, gradient)
+    }
+
+    /// The PSD-projected Hessian of the step objective at `z`.
+    fn hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let material = self.material;
-        let hessians: Vec<Matrix9> = (0..self.subspace.cubature_len())
-            .into_par_iter()
-            .map(|p| material.stress_derivative(&Matrix3::from_fn(|d, e| f[d][3 * p + e]), true))
+        let hessians: Vec<Matrix9> = self
+            .subspace
+            .deformation_gradients(z)
+            .par_iter()
+            .map(|f| material.stress_derivative(f, true))
             .collect();
-        self.deformation = f;
         let mut hessian = self.subspace.elastic_hessian(&hessians);
         add_kron_identity(&mut hessian, &self.quadratic_part());
         let kc = self.params.contact_stiffness;
@@ -438,7 +461,7 @@ impl ReducedSim {
                 }
             }
         }
-        self.solve_or_descend(&hessian, gradient)
+        hessian
     }
 
     /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive
@@ -463,20 +486,31 @@ impl ReducedSim {
         direction
     }
 
+    /// The quasi-Newton initial Hessian, factored: at rest the rest-state Hessian plus inertia
+    /// and pins; after a hard step, the full Hessian at the current state, held for the steps
+    /// that follow until another hard step.
     fn build_preconditioner(&mut self) -> DenseCholesky {
-        let k = self.subspace.handles();
-        let rest = self.rest_hessian.get_or_insert_with(|| {
-            let h = self.material.stress_derivative(&Matrix3::identity(), true);
-            self.subspace
-                .elastic_hessian(&vec![h; self.subspace.cubature_len()])
-        });
-        let mut matrix = rest.clone();
-        add_kron_identity(&mut matrix, &self.quadratic_part());
+        let matrix = if self.z.amax() == 0.0 {
+            let rest = self.rest_hessian.get_or_insert_with(|| {
+                let h = self.material.stress_derivative(&Matrix3::identity(), true);
+                self.subspace
+                    .elastic_hessian(&vec![h; self.subspace.cubature_len()])
+            });
+            let mut matrix = rest.clone();
+            add_kron_identity(&mut matrix, &self.quadratic_part());
+            matrix
+        } else {
+            self.hessian_at(&self.z)
+        };
+        self.factor_hessian(matrix)
+    }
+
+    fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {
         // Inertia makes it positive definite; the tiny ridge only guards round-off.
-        for i in 0..12 * k {
+        for i in 0..matrix.nrows() {
             matrix[(i, i)] += 1e-12 * matrix[(i, i)].abs().max(1e-300);
         }
-        DenseCholesky::new(matrix.as_slice(), 12 * k)
+        DenseCholesky::new(matrix.as_slice(), matrix.nrows())
             .expect("inertia plus a PSD Hessian is positive definite")
     }
 
@@ -522,7 +556,13 @@ impl ReducedSim {
 
 /// x^T M x summed over the three rows of a 3 x 4K matrix: tr(X M X^T).
 fn quadratic(x: &DMatrix<f64>, m: &DMatrix<f64>) -> f64 {
-    (x * m).component_mul(x).sum()
+    times_symmetric(x, m).dot(x)
+}
+
+/// X M for a 3 x n matrix X and a symmetric M, computed as (M X^T)^T: nalgebra's product walks
+/// the columns of its left factor, which are 3 long for X but n long for M.
+fn times_symmetric(x: &DMatrix<f64>, m: &DMatrix<f64>) -> DMatrix<f64> {
+    (m * x.transpose()).transpose()
 }
 
 /// Flat z (column-major) of a 3 x 4K matrix.

@@ -25,14 +25,15 @@ pub struct SimParams {
     /// Mass-proportional damping rate, 1/s (velocity decays as exp(-rate t)). Default 0.
     pub damping: f64,
     /// Pin penalty, 1/s^2 per unit mass (pinned points act like springs of this squared
-    /// angular frequency). Default 1e6.
+    /// angular frequency). Default 1e8.
     pub pin_stiffness: f64,
     /// Floor penalty, N/m^3 (pressure per metre of penetration). Default 1e7.
     pub contact_stiffness: f64,
     /// Newton stops when the step's mass-weighted RMS length is below this fraction of the
     /// bounding-box diagonal. Default 1e-5.
     pub tolerance: f64,
-    /// Newton iterations per step before the step is reported as not converged. Default 8.
+    /// Iterations per step before the solver gives up (quasi-Newton then hands the step to
+    /// full Newton, which gets as many again). Default 20.
     pub max_iterations: usize,
 }
 
@@ -46,10 +47,10 @@ impl Default for SimParams {
             dt: 1.0 / 60.0,
             gravity: Vector3::new(0.0, 0.0, -9.81),
             damping: 0.0,
-            pin_stiffness: 1e6,
+            pin_stiffness: 1e8,
             contact_stiffness: 1e7,
             tolerance: 1e-5,
-            max_iterations: 8,
+            max_iterations: 20,
         }
     }
 }

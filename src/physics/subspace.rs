@@ -12,7 +12,9 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, DVector, Vector3};
 use rayon::prelude::*;
 
-use super::material::Matrix9;
+use nalgebra::Matrix3;
+
+use super::material::{Material, Matrix9};
 
 use crate::geometry::{Cubature, Normalization};
 use crate::skinning::SkinningField;
@@ -92,6 +94,20 @@ impl Subspace {
         phis(self.field.as_ref(), &self.normalization, points)
     }
 
+    /// The state that moves the object rigidly, x = R X + t: handle 0 (the constant one)
+    /// carries [R - I | t], every other handle is still.
+    pub fn rigid_state(&self, rotation: &Matrix3<f64>, translation: &Vector3<f64>) -> DMatrix<f64> {
+        let mut z = DMatrix::zeros(3, 4 * self.handles);
+        let a = rotation - Matrix3::identity();
+        for c in 0..3 {
+            for d in 0..3 {
+                z[(d, c)] = a[(d, c)];
+            }
+            z[(c, 3)] = translation[c];
+        }
+        z
+    }
+
     /// Handles, the constant one included.
     pub fn handles(&self) -> usize {
         self.handles
@@ -129,98 +145,157 @@ impl Subspace {
         })
     }
 
-    /// Deformation gradients at every cubature point for the handle matrix `z` (3 x 4K):
-    /// `out[d][3p + e] = F_p[d, e]`.
-    pub fn deformation_gradients(&self, z: &DMatrix<f64>, out: &mut [Vec<f64>; 3]) {
-        let columns = 3 * self.cubature_len();
-        for row in out.iter_mut() {
-            row.clear();
-            row.resize(columns, 0.0);
-        }
-        let [r0, r1, r2] = out;
-        let chunk = columns
-            .div_ceil(rayon::current_num_threads().max(1))
-            .div_ceil(3)
-            * 3;
-        r0.par_chunks_mut(chunk)
-            .zip(r1.par_chunks_mut(chunk))
-            .zip(r2.par_chunks_mut(chunk))
-            .enumerate()
-            .for_each(|(c, ((f0, f1), f2))| {
-                let start = c * chunk;
-                let len = f0.len();
-                for a in 0..4 * self.handles {
-                    let g = &self.g_all[a * columns + start..a * columns + start + len];
-                    let (z0, z1, z2) = (z[(0, a)], z[(1, a)], z[(2, a)]);
-                    for j in 0..len {
-                        f0[j] += z0 * g[j];
-                        f1[j] += z1 * g[j];
-                        f2[j] += z2 * g[j];
-                    }
-                }
-                for j in 0..len {
-                    // Add the identity: F[d, e] with e = j % 3.
-                    match (start + j) % 3 {
-                        0 => f0[j] += 1.0,
-                        1 => f1[j] += 1.0,
-                        _ => f2[j] += 1.0,
-                    }
-                }
-            });
+    /// Deformation gradients at every cubature point for the handle matrix `z` (3 x 4K), as
+    /// 3 x 3 matrices.
+    pub fn deformation_gradients(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
+        let np = self.cubature_len();
+        let mut rows = [vec![0.0; 3 * np], vec![0.0; 3 * np], vec![0.0; 3 * np]];
+        self.gradient_rows(z, 0..np, &mut rows);
+        (0..np)
+            .map(|p| Matrix3::from_fn(|d, e| rows[d][3 * p + e]))
+            .collect()
     }
 
-    /// Reduced elastic force pullback: returns sum_p P_p G_p^T (3 x 4K), where
-    /// `stress[d][3p + e]` holds v_p P_p[d, e] (volume already folded in).
-    pub fn pull_back(&self, stress: &[Vec<f64>; 3]) -> DMatrix<f64> {
-        let columns = 3 * self.cubature_len();
-        let rows: Vec<[f64; 3]> = (0..4 * self.handles)
+    /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).
+    /// One parallel pass: each thread takes a run of cubature points, forms their F, their
+    /// stresses, and its share of the gradient; the shares are summed.
+    pub fn elastic_forces(&self, z: &DMatrix<f64>, material: &Material) -> (f64, DMatrix<f64>) {
+        let np = self.cubature_len();
+        let runs = rayon::current_num_threads().max(1);
+        let per_run = np.div_ceil(runs).max(1);
+        (0..np.div_ceil(per_run))
             .into_par_iter()
-            .map(|a| {
-                let g = &self.g_all[a * columns..(a + 1) * columns];
-                let mut acc = [0.0; 3];
-                for (d, s) in stress.iter().enumerate() {
-                    acc[d] = s.iter().zip(g).map(|(x, y)| x * y).sum();
+            .map(|run| {
+                let points = run * per_run..((run + 1) * per_run).min(np);
+                let len = 3 * points.len();
+                let mut rows = [vec![0.0; len], vec![0.0; len], vec![0.0; len]];
+                self.gradient_rows(z, points.clone(), &mut rows);
+                // Overwrite each F with v P (volume folded in).
+                let mut energy = 0.0;
+                for (local, p) in points.clone().enumerate() {
+                    let f = Matrix3::from_fn(|d, e| rows[d][3 * local + e]);
+                    let (psi, piola) = material.energy_and_first_piola(&f);
+                    let v = self.volumes[p];
+                    energy += v * psi;
+                    for d in 0..3 {
+                        for e in 0..3 {
+                            rows[d][3 * local + e] = v * piola[(d, e)];
+                        }
+                    }
                 }
-                acc
+                let columns = 3 * np;
+                let offset = 3 * points.start;
+                let gradient = DMatrix::from_fn(3, 4 * self.handles, |d, a| {
+                    let g = &self.g_all[a * columns + offset..a * columns + offset + len];
+                    dot(&rows[d], g)
+                });
+                (energy, gradient)
             })
-            .collect();
-        DMatrix::from_fn(3, 4 * self.handles, |d, a| rows[a][d])
+            .reduce(
+                || (0.0, DMatrix::zeros(3, 4 * self.handles)),
+                |(ea, ga), (eb, gb)| (ea + eb, ga + gb),
+            )
+    }
+
+    /// F = I + Z G for the cubature points `points`: `rows[d][3 l + e] = F_(start + l)[d, e]`.
+    fn gradient_rows(
+        &self,
+        z: &DMatrix<f64>,
+        points: std::ops::Range<usize>,
+        rows: &mut [Vec<f64>; 3],
+    ) {
+        let columns = 3 * self.cubature_len();
+        let (start, len) = (3 * points.start, 3 * points.len());
+        let [f0, f1, f2] = rows;
+        for (j, (a, (b, c))) in f0
+            .iter_mut()
+            .zip(f1.iter_mut().zip(f2.iter_mut()))
+            .enumerate()
+        {
+            // The identity: F[d, e] with e = j % 3.
+            *a = f64::from(j % 3 == 0);
+            *b = f64::from(j % 3 == 1);
+            *c = f64::from(j % 3 == 2);
+        }
+        for a in 0..4 * self.handles {
+            let g = &self.g_all[a * columns + start..a * columns + start + len];
+            let (z0, z1, z2) = (z[(0, a)], z[(1, a)], z[(2, a)]);
+            for j in 0..len {
+                f0[j] += z0 * g[j];
+                f1[j] += z1 * g[j];
+                f2[j] += z2 * g[j];
+            }
+        }
     }
 }
 
 impl Subspace {
     /// The elastic Hessian sum_p v_p J_p^T H_p J_p (12K x 12K, flat z order), where
     /// J_p = G_p^T (x) I_3 maps z to vec(F_p) and `hessians[p]` is dP/dF at point p.
-    /// Assembled as dense products over blocks of points, in parallel.
+    ///
+    /// The Kronecker structure splits it into 3 x 3 blocks over output rows (d, f):
+    /// H[(a, d), (b, f)] = sum_p G_p C_p^{df} G_p^T with C_p^{df}[e, g] = v_p dP/dF[d + 3e, f + 3g],
+    /// one (4K x 3Np) (3Np x 4K) product per block, and only six blocks thanks to symmetry:
+    /// a sixth of the work of multiplying out J_p, whose entries are two-thirds zeros.
     pub fn elastic_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
-        let n = self.dofs();
+        let n4 = 4 * self.handles;
         let np = self.cubature_len();
-        let block = 32;
-        (0..np.div_ceil(block))
-            .into_par_iter()
-            .map(|b| {
-                let points = (b * block)..((b + 1) * block).min(np);
-                let rows = 9 * points.len();
-                let mut jacobian = DMatrix::<f64>::zeros(rows, n);
-                let mut weighted = DMatrix::<f64>::zeros(rows, n);
-                for (local, p) in points.clone().enumerate() {
-                    let g = self.g_of(p);
-                    for e in 0..3 {
-                        for d in 0..3 {
-                            let r = 9 * local + d + 3 * e;
-                            for a in 0..4 * self.handles {
-                                jacobian[(r, 3 * a + d)] = g[(a, e)];
+        let columns = 3 * np;
+        // G_all^T as a column-major (3Np x 4K) matrix is exactly g_all's row-major storage.
+        let gt = nalgebra::DMatrixView::from_slice(&self.g_all, columns, n4);
+        let pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+        let blocks: Vec<DMatrix<f64>> = pairs
+            .par_iter()
+            .map(|&(d, f)| {
+                let mut weighted = DMatrix::<f64>::zeros(columns, n4);
+                for a in 0..n4 {
+                    let source = gt.column(a);
+                    let mut target = weighted.column_mut(a);
+                    for p in 0..np {
+                        let h = &hessians[p];
+                        let v = self.volumes[p];
+                        for e in 0..3 {
+                            let mut acc = 0.0;
+                            for g in 0..3 {
+                                acc += h[(d + 3 * e, f + 3 * g)] * source[3 * p + g];
                             }
+                            target[3 * p + e] = v * acc;
                         }
                     }
-                    let j = jacobian.rows(9 * local, 9);
-                    let h = hessians[p] * self.volumes[p];
-                    weighted.rows_mut(9 * local, 9).copy_from(&(h * j));
                 }
-                jacobian.transpose() * weighted
+                gt.transpose() * weighted
             })
-            .reduce(|| DMatrix::zeros(n, n), |a, b| a + b)
+            .collect();
+        let mut hessian = DMatrix::zeros(3 * n4, 3 * n4);
+        for (&(d, f), block) in pairs.iter().zip(&blocks) {
+            for b in 0..n4 {
+                for a in 0..n4 {
+                    hessian[(3 * a + d, 3 * b + f)] = block[(a, b)];
+                    hessian[(3 * b + f, 3 * a + d)] = block[(a, b)];
+                }
+            }
+        }
+        hessian
     }
+}
+
+/// A dot product in eight independent lanes: a plain iterator sum is one serial dependency
+/// chain (floating-point addition is not reassociated), several times slower.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut lanes = [0.0; 8];
+    let (a8, b8) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = a8
+        .remainder()
+        .iter()
+        .zip(b8.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in a8.zip(b8) {
+        for l in 0..8 {
+            lanes[l] += x[l] * y[l];
+        }
+    }
+    lanes.iter().sum::<f64>() + tail
 }
 
 /// phi = w (x) [X; 1] for one point.

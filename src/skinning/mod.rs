@@ -10,6 +10,9 @@ use nalgebra::Vector3;
 /// Continuous skinning weights W(X) (one column per handle, the constant rigid column included)
 /// and their spatial gradients, evaluated at any points of the shape's normalized frame
 /// ([-1, 1]^3, see [`crate::geometry::Normalization`]).
+///
+/// Contract: column 0 is the rigid handle, equal to 1 everywhere, so any rigid motion of the
+/// object is exactly the state that moves handle 0 alone.
 pub trait SkinningField: Send + Sync {
     /// Number of handles, the constant one included.
     fn handle_count(&self) -> usize;
