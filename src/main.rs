@@ -166,8 +166,8 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
         );
     }
     println!(
-        "max displacement {:.4} m at the last step",
-        summary.max_displacement_m
+        "max displacement {:.4} m at the last step (FEM: {:.4} m)",
+        summary.max_displacement_m, summary.fem_max_displacement_m
     );
     Ok(())
 }

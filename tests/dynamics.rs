@@ -534,3 +534,51 @@ fn subspace_field_and_lifting_agree_with_the_field() {
         );
     }
 }
+
+#[test]
+fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
+    use nalgebra::DVector;
+    use physskin::physics::{Material, Matrix9};
+    let f = bar();
+    let k = f.subspace.handles();
+    // A large, non-symmetric deformation, so every term of J_F matters.
+    let z = DMatrix::from_fn(3, 4 * k, |d, a| 0.08 * ((5 * d + 3 * a) as f64).sin());
+    for model in [
+        MaterialModel::Linear,
+        MaterialModel::NeoHookean,
+        MaterialModel::StableNeoHookean,
+    ] {
+        let material = Material::from_young_poisson(model, 1e5, 0.45);
+        let (_, gradient) = f.subspace.elastic_forces(&z, &material);
+        let hessians: Vec<Matrix9> = f
+            .subspace
+            .deformation_gradients(&z)
+            .iter()
+            .map(|fp| material.stress_derivative(fp, false))
+            .collect();
+        let hessian = f.subspace.elastic_hessian(&hessians);
+        for trial in 0..4 {
+            let direction = DMatrix::from_fn(3, 4 * k, |d, a| {
+                ((7 * d + 11 * a + 13 * trial) as f64).cos()
+            });
+            let eps = 1e-6;
+            let (e_plus, g_plus) = f
+                .subspace
+                .elastic_forces(&(&z + &direction * eps), &material);
+            let (e_minus, g_minus) = f
+                .subspace
+                .elastic_forces(&(&z - &direction * eps), &material);
+            let fd = (e_plus - e_minus) / (2.0 * eps);
+            let analytic = gradient.dot(&direction);
+            assert!(
+                (fd - analytic).abs() <= 1e-6 * analytic.abs().max(1.0),
+                "{model:?} gradient: {fd} vs {analytic}"
+            );
+            let fd_hessian =
+                DVector::from_column_slice(((g_plus - g_minus) / (2.0 * eps)).as_slice());
+            let analytic_hessian = &hessian * DVector::from_column_slice(direction.as_slice());
+            let error = (&fd_hessian - &analytic_hessian).norm() / analytic_hessian.norm();
+            assert!(error < 1e-6, "{model:?} Hessian: relative error {error}");
+        }
+    }
+}

@@ -249,3 +249,19 @@ fn shapes_with_bad_data_are_refused_with_a_reason() {
     let flat = Shape::new(vec![Vector3::zeros(); 3], None, vec![]).unwrap_err();
     assert!(flat.to_string().contains("zero extent"), "{flat}");
 }
+
+#[test]
+fn bundled_shapes_are_closed_and_their_voxel_volume_matches() {
+    for name in physskin::geometry::BUNDLED {
+        let shape = bundled(name).unwrap();
+        let exact = shape
+            .closed_volume()
+            .unwrap_or_else(|| panic!("{name} is not closed"));
+        let grid = VoxelGrid::from_shape(&shape, 128, None);
+        let voxels = grid.solid_volume();
+        assert!(
+            (voxels - exact).abs() / exact < 0.1,
+            "{name}: voxel volume {voxels} vs {exact}"
+        );
+    }
+}

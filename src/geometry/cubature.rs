@@ -34,46 +34,25 @@ impl Cubature {
     /// spanning its thickness all lie on the mid-surface, where bending causes no strain, and the
     /// subspace would bend for free.
     pub fn stratified(grid: &VoxelGrid, target: usize, total_volume: f64) -> Cubature {
-        let mut subcells: Vec<(u64, [usize; 3])> = Vec::new();
+        let half = grid.cell / 2.0;
+        let mut centers = Vec::new();
         for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
-            let c = grid.coords(index);
+            let corner = grid.cell_corner(grid.coords(index));
             for s in 0..8 {
-                let sub = [
-                    2 * c[0] + (s & 1),
-                    2 * c[1] + ((s >> 1) & 1),
-                    2 * c[2] + (s >> 2),
-                ];
-                subcells.push((morton(sub), sub));
+                let offset = Vector3::new((s & 1) as f64, ((s >> 1) & 1) as f64, (s >> 2) as f64);
+                centers.push(corner + (offset + Vector3::repeat(0.5)) * half);
             }
         }
-        subcells.sort_unstable_by_key(|(key, _)| *key);
-        let runs = target.clamp(1, subcells.len().max(1));
-        let sub_volume = grid.cell.powi(3) / 8.0;
-        let mut rng = ChaCha8Rng::seed_from_u64(subcells.len() as u64);
-        let mut cubature = Cubature::default();
-        for r in 0..runs {
-            let run = &subcells[r * subcells.len() / runs..(r + 1) * subcells.len() / runs];
-            if run.is_empty() {
-                continue;
-            }
-            let sub = run[rng.random_range(0..run.len())].1;
-            cubature.points.push(
-                grid.origin
-                    + Vector3::new(
-                        sub[0] as f64 + 0.5,
-                        sub[1] as f64 + 0.5,
-                        sub[2] as f64 + 0.5,
-                    ) * (grid.cell / 2.0),
-            );
-            cubature.volumes.push(run.len() as f64 * sub_volume);
-        }
-        let sum = cubature.total_volume();
+        let weights = vec![half.powi(3); centers.len()];
+        let (chosen, mut volumes) = stratified_subset(&centers, &weights, half, target);
+        let sum: f64 = volumes.iter().sum();
         if sum > 0.0 {
-            for v in &mut cubature.volumes {
-                *v *= total_volume / sum;
-            }
+            volumes.iter_mut().for_each(|v| *v *= total_volume / sum);
         }
-        cubature
+        Cubature {
+            points: chosen.iter().map(|&i| centers[i]).collect(),
+            volumes,
+        }
     }
 
     /// One point per solid cell of `grid`, at its center, with the cell's volume.
@@ -86,6 +65,41 @@ impl Cubature {
         let volumes = vec![volume; points.len()];
         Cubature { points, volumes }
     }
+}
+
+/// `count` of `points` (all of them, if fewer), spread evenly: the points are sorted in Morton
+/// (Z) order of their positions quantized to `cell`, the order is cut into `count` runs of
+/// equal length, and each run gives one member drawn at random (seeded) that carries the
+/// run's summed weight. Returns the chosen indices and their weights.
+pub fn stratified_subset(
+    points: &[Vector3<f64>],
+    weights: &[f64],
+    cell: f64,
+    count: usize,
+) -> (Vec<usize>, Vec<f64>) {
+    let Some(lo) = points.iter().copied().reduce(|a, b| a.inf(&b)) else {
+        return (Vec::new(), Vec::new());
+    };
+    let mut order: Vec<(u64, usize)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            (
+                morton(((p - lo) / cell).map(|x| x.max(0.0) as usize).into()),
+                i,
+            )
+        })
+        .collect();
+    order.sort_unstable();
+    let runs = count.clamp(1, points.len());
+    let mut rng = ChaCha8Rng::seed_from_u64(points.len() as u64);
+    (0..runs)
+        .map(|r| {
+            let run = &order[r * points.len() / runs..(r + 1) * points.len() / runs];
+            let chosen = run[rng.random_range(0..run.len())].1;
+            (chosen, run.iter().map(|&(_, i)| weights[i]).sum::<f64>())
+        })
+        .unzip()
 }
 
 /// Interleaves the bits of three coordinates (21 bits each): nearby cells get nearby keys.

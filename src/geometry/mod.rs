@@ -10,7 +10,7 @@ mod shape;
 mod tetmesh;
 mod voxel;
 
-pub use cubature::Cubature;
+pub use cubature::{stratified_subset, Cubature};
 pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
 pub use primitives::{box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
 pub use sampling::{median_spacing, sample_surface, SurfaceSamples, SurfaceSampling};

@@ -61,7 +61,7 @@ pub fn capsule_mesh(length: f64, radius: f64) -> Shape {
 
 /// A four-legged animal of capsules and ellipsoids, about 1 m long.
 pub fn creature() -> Shape {
-    sdf_mesh(&creature_sdf, 0.75, 72)
+    sdf_mesh(&creature_sdf, 0.85, 80)
 }
 
 fn creature_sdf(p: &Vector3<f64>) -> f64 {

@@ -142,25 +142,26 @@ impl Shape {
         self.triangles[t].map(|v| self.positions[v as usize])
     }
 
-    /// Enclosed volume by the divergence theorem, when the mesh is closed and consistently wound
-    /// (every directed edge appears once and its reverse once); `None` otherwise.
+    /// Enclosed volume by the divergence theorem, when the triangles form a closed, consistently
+    /// wound surface: every directed edge is matched by as many reversed ones (non-manifold
+    /// edges shared by four faces included); `None` otherwise.
     pub fn closed_volume(&self) -> Option<f64> {
         if self.triangles.is_empty() {
             return None;
         }
-        let mut directed = std::collections::HashMap::with_capacity(self.triangles.len() * 3);
+        let mut balance: std::collections::HashMap<(u32, u32), i64> =
+            std::collections::HashMap::with_capacity(self.triangles.len() * 3);
         for tri in &self.triangles {
             for k in 0..3 {
-                let edge = (tri[k], tri[(k + 1) % 3]);
-                if edge.0 == edge.1 || directed.insert(edge, ()).is_some() {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                if a == b {
                     return None;
                 }
+                let (key, sign) = if a < b { ((a, b), 1) } else { ((b, a), -1) };
+                *balance.entry(key).or_insert(0) += sign;
             }
         }
-        if directed
-            .keys()
-            .any(|&(a, b)| !directed.contains_key(&(b, a)))
-        {
+        if balance.values().any(|&b| b != 0) {
             return None;
         }
         let volume: f64 = (0..self.triangles.len())
