@@ -2,8 +2,52 @@
 //!
 //! Geometry comes in (a mesh or a point cloud), a skinning weight field gives it a small set of
 //! affine handles, and an implicit elastic simulation runs over the 12 numbers per handle. Every
-//! stage is a plain library type without I/O; the CLI, the ROS 2 node and the recorders are thin
-//! shells around them.
+//! stage is a plain library type without I/O; the CLI (and later the ROS 2 node and the
+//! recorders) are thin shells around them.
+//!
+//! ```
+//! use std::sync::Arc;
+//! use nalgebra::Vector3;
+//! use physskin::geometry::{box_mesh, Cubature, TetMesh, VoxelGrid};
+//! use physskin::physics::{Lifter, ReducedSim, SimParams, Solver, Subspace};
+//! use physskin::skinning::{EigenmodeField, EigenmodeOptions};
+//!
+//! # fn main() -> physskin::Result<()> {
+//! // A 1 m bar, its interior voxelized, tetrahedralized, and its 8 lowest skinning eigenmodes.
+//! let shape = box_mesh(Vector3::new(1.0, 0.2, 0.2));
+//! let grid = VoxelGrid::from_shape(&shape, 128, None).resample(20);
+//! let mesh = TetMesh::from_grid(&grid);
+//! let field = EigenmodeField::compute(
+//!     mesh.clone(),
+//!     shape.normalization(),
+//!     &EigenmodeOptions { modes: 8, ..Default::default() },
+//! )?;
+//! let field = Arc::new(field);
+//!
+//! // The subspace sampled at 256 cubature points, and the simulator over it.
+//! let params = SimParams { young: 1e6, ..Default::default() };
+//! let cubature = Cubature::stratified(&grid, 256, mesh.volume());
+//! let subspace = Arc::new(Subspace::build(field.clone(), shape.normalization(), &cubature, params.density));
+//! let mut sim = ReducedSim::new(subspace, params.clone(), Solver::QuasiNewton, 1.04)?;
+//!
+//! // Hold the left end, let gravity act for half a second.
+//! let left: Vec<_> = mesh.vertices.iter().copied().filter(|v| v.x < -0.45).collect();
+//! let masses = vec![params.density * mesh.volume() / mesh.vertices.len() as f64; left.len()];
+//! sim.add_pins(&left, &masses);
+//! for _ in 0..30 {
+//!     let report = sim.step();
+//!     assert!(report.converged);
+//! }
+//!
+//! // Deformed positions of any point set: here the input mesh's corners.
+//! let lifter = Lifter::new(field.as_ref(), &shape.normalization(), &shape.positions);
+//! let mut deformed = vec![0.0f32; 3 * lifter.len()];
+//! lifter.lift(sim.state(), &mut deformed);
+//! let tip_z = deformed[3 * 7 + 2]; // corner (+x, +y, +z)
+//! assert!(tip_z < 0.1, "the free end sags below its rest height of 0.1 m");
+//! # Ok(())
+//! # }
+//! ```
 
 pub mod bench;
 pub mod error;
