@@ -98,9 +98,9 @@ pub fn scatter_svg(title: &str, x_label: &str, y_label: &str, series: &[Series])
         let _ = writeln!(
             svg,
             r#"<circle cx="{}" cy="{ly}" r="5" fill="{}"/><text x="{}" y="{}">{}</text>"#,
-            width - margin - 150.0,
+            width - margin - 230.0,
             s.color,
-            width - margin - 140.0,
+            width - margin - 220.0,
             ly + 4.0,
             s.label
         );

@@ -609,7 +609,7 @@ pub fn sim_plot(report: &SimBenchReport) -> String {
             series("newton", "full Newton", "#d62728"),
             series(
                 "quasi_newton",
-                "quasi-Newton (L-BFGS, rest Hessian)",
+                "quasi-Newton (L-BFGS, held Hessian)",
                 "#1f77b4",
             ),
         ],

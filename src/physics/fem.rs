@@ -9,8 +9,8 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 use rayon::prelude::*;
 
 use super::material::Material;
-use super::obstacle::Obstacle;
-use super::reduced::StepReport;
+use super::obstacle::{Obstacle, Penetration};
+use super::reduced::{is_descent, StepReport};
 use super::scene::{Poke, SimParams};
 use crate::error::Result;
 use crate::geometry::TetMesh;
@@ -178,7 +178,7 @@ impl FemSim {
                 report.converged = true;
                 break;
             }
-            if iteration == self.params.max_iterations || !(slope < 0.0) {
+            if iteration == self.params.max_iterations || !is_descent(slope) {
                 break;
             }
             let mut step = 1.0;
@@ -269,21 +269,10 @@ impl FemSim {
                 m * inertial / (h * h) + self.params.damping * m * damped / h - m * g[i % 3];
         }
         let kc = self.params.contact_stiffness;
-        for (&v, &area) in self
-            .mesh
-            .boundary_vertices
-            .iter()
-            .zip(&self.mesh.boundary_areas)
-        {
-            let v = v as usize;
-            let p = Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
-            for obstacle in &self.obstacles {
-                if let Some(pen) = obstacle.penetration(&p) {
-                    energy += 0.5 * kc * area * pen.depth * pen.depth;
-                    for d in 0..3 {
-                        gradient[3 * v + d] -= kc * area * pen.depth * pen.normal[d];
-                    }
-                }
+        for (v, area, pen) in self.contacts(x) {
+            energy += 0.5 * kc * area * pen.depth * pen.depth;
+            for d in 0..3 {
+                gradient[3 * v + d] -= kc * area * pen.depth * pen.normal[d];
             }
         }
         for (v, poke) in &self.pokes {
@@ -304,6 +293,26 @@ impl FemSim {
             elastic,
             gradient,
         }
+    }
+
+    /// Boundary vertices inside an obstacle at positions `x`: (vertex, area, penetration).
+    fn contacts<'a>(
+        &'a self,
+        x: &'a [f64],
+    ) -> impl Iterator<Item = (usize, f64, Penetration)> + 'a {
+        let boundary = self
+            .mesh
+            .boundary_vertices
+            .iter()
+            .zip(&self.mesh.boundary_areas);
+        boundary.flat_map(move |(&v, &area)| {
+            let v = v as usize;
+            let p = Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+            self.obstacles
+                .iter()
+                .filter_map(move |o| o.penetration(&p))
+                .map(move |pen| (v, area, pen))
+        })
     }
 
     /// The projected Hessian of the step objective (upper triangle values of the pattern).
@@ -335,23 +344,12 @@ impl FemSim {
                 .add_diagonal(&mut values, i, m / (h * h) + self.params.damping * m / h);
         }
         let kc = self.params.contact_stiffness;
-        for (&v, &area) in self
-            .mesh
-            .boundary_vertices
-            .iter()
-            .zip(&self.mesh.boundary_areas)
-        {
-            let v = v as usize;
-            let p = Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
-            for obstacle in &self.obstacles {
-                if let Some(pen) = obstacle.penetration(&p) {
-                    for d in 0..3 {
-                        for f in d..3 {
-                            let value = kc * area * pen.normal[d] * pen.normal[f];
-                            self.pattern
-                                .add_at(&mut values, 3 * v + d, 3 * v + f, value);
-                        }
-                    }
+        for (v, area, pen) in self.contacts(x) {
+            for d in 0..3 {
+                for f in d..3 {
+                    let value = kc * area * pen.normal[d] * pen.normal[f];
+                    self.pattern
+                        .add_at(&mut values, 3 * v + d, 3 * v + f, value);
                 }
             }
         }

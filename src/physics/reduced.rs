@@ -285,7 +285,7 @@ impl ReducedSim {
                 Solver::QuasiNewton => self.lbfgs_direction(&gradient, &history),
             };
             let mut slope = direction.dot(&gradient);
-            if !(slope < 0.0) && mode == Solver::QuasiNewton && !history.is_empty() {
+            if !is_descent(slope) && mode == Solver::QuasiNewton && !history.is_empty() {
                 history.clear();
                 direction = self.lbfgs_direction(&gradient, &history);
                 slope = direction.dot(&gradient);
@@ -588,4 +588,9 @@ fn add_kron_identity(h: &mut DMatrix<f64>, q: &DMatrix<f64>) {
 /// d(n . x)/dz for x = X + Z phi: the flat vector phi (x) n.
 fn point_jacobian(phi: &DVector<f64>, n: &Vector3<f64>) -> DVector<f64> {
     DVector::from_fn(3 * phi.len(), |i, _| phi[i / 3] * n[i % 3])
+}
+
+/// Whether a search direction with this slope (d . g) goes downhill; NaN does not.
+pub(crate) fn is_descent(slope: f64) -> bool {
+    slope < 0.0
 }
