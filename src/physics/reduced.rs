@@ -295,7 +295,7 @@ impl ReducedSim {
                 report.converged = slope.is_finite();
                 break;
             }
-            let searched = if budget > 0 && slope < 0.0 {
+            let searched = if budget > 0 && is_descent(slope) {
                 self.line_search(&z, &direction, slope, &current, &objective)
             } else {
                 None
@@ -328,8 +328,8 @@ impl ReducedSim {
             current = next;
         }
         self.history = history;
-        // A hard step (many iterations, or the Newton fallback) means the held Hessian no longer
-        // describes the state: refresh it before the next step.
+        // A step that needed the Newton fallback means the held Hessian no longer describes the
+        // state: refactor it at the new state before the next step.
         if self.solver == Solver::QuasiNewton && report.fallback {
             self.preconditioner = None;
             self.history.clear();
