@@ -54,17 +54,6 @@ impl Cubature {
             volumes,
         }
     }
-
-    /// One point per solid cell of `grid`, at its center, with the cell's volume.
-    pub fn every_cell(grid: &VoxelGrid) -> Cubature {
-        let volume = grid.cell.powi(3);
-        let points: Vec<_> = (0..grid.len())
-            .filter(|&i| grid.solid[i])
-            .map(|i| grid.cell_center(grid.coords(i)))
-            .collect();
-        let volumes = vec![volume; points.len()];
-        Cubature { points, volumes }
-    }
 }
 
 /// `count` of `points` (all of them, if fewer), spread evenly: the points are sorted in Morton

@@ -14,5 +14,5 @@ pub use lift::Lifter;
 pub use material::{Material, MaterialModel, Matrix9};
 pub use obstacle::{Obstacle, Penetration};
 pub use reduced::{ReducedSim, Solver, StepReport};
-pub use scene::{Floor, Poke, SimParams};
+pub use scene::{Poke, SimParams};
 pub use subspace::{phi_of, sample, Subspace};

@@ -118,9 +118,3 @@ pub struct Poke {
     pub start: f64,
     pub end: f64,
 }
-
-/// The horizontal floor `z = height` (normal +z); `None` means no floor.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
-pub struct Floor {
-    pub height: f64,
-}
