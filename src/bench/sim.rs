@@ -229,22 +229,28 @@ fn scenario_params(shape: &BenchShape) -> SimParams {
     }
 }
 
+/// Whether `x` lies in the 10% slab of the x extent at the min end (`side` -1) or the max
+/// end (`side` +1).
+fn in_end_slab(mesh: &TetMesh, side: f64, x: f64) -> bool {
+    let (lo, hi) = mesh.grid().solid_bounds();
+    let slab = 0.1 * (hi.x - lo.x);
+    if side < 0.0 {
+        x <= lo.x + slab + 1e-9
+    } else {
+        x >= hi.x - slab - 1e-9
+    }
+}
+
 /// Which end of the x extent the object hangs from: the one whose 10% slab holds more
 /// vertices (the creature hangs by its head, not by the tip of its tail); -1 for min x.
 fn pinned_side(mesh: &TetMesh) -> f64 {
-    let (lo, hi) = mesh.grid().solid_bounds();
-    let slab = 0.1 * (hi.x - lo.x);
-    let low = mesh
-        .vertices
-        .iter()
-        .filter(|v| v.x <= lo.x + slab + 1e-9)
-        .count();
-    let high = mesh
-        .vertices
-        .iter()
-        .filter(|v| v.x >= hi.x - slab - 1e-9)
-        .count();
-    if high > low {
+    let count = |side| {
+        mesh.vertices
+            .iter()
+            .filter(|v| in_end_slab(mesh, side, v.x))
+            .count()
+    };
+    if count(1.0) > count(-1.0) {
         1.0
     } else {
         -1.0
@@ -253,18 +259,9 @@ fn pinned_side(mesh: &TetMesh) -> f64 {
 
 /// Vertices within 10% of the x extent from the pinned end.
 fn pinned_vertices(mesh: &TetMesh) -> Vec<usize> {
-    let (lo, hi) = mesh.grid().solid_bounds();
-    let slab = 0.1 * (hi.x - lo.x);
     let side = pinned_side(mesh);
     (0..mesh.vertices.len())
-        .filter(|&v| {
-            let x = mesh.vertices[v].x;
-            if side < 0.0 {
-                x <= lo.x + slab + 1e-9
-            } else {
-                x >= hi.x - slab - 1e-9
-            }
-        })
+        .filter(|&v| in_end_slab(mesh, side, mesh.vertices[v].x))
         .collect()
 }
 

@@ -345,7 +345,7 @@ impl ReducedSim {
     }
 
     fn line_search(
-        &mut self,
+        &self,
         z: &DMatrix<f64>,
         direction: &DVector<f64>,
         slope: f64,
@@ -374,10 +374,10 @@ impl ReducedSim {
         None
     }
 
-    /// The step objective, its elastic part and its gradient at `z`.
-    fn evaluate(&mut self, z: &DMatrix<f64>, objective: &StepObjective) -> Evaluation {
-        // Inertia, damping, pins, gravity and pokes are quadratic or linear in z:
-        // 0.5 <Z Q, Z> - <L, Z> + c, one small product per evaluation.
+    /// The step objective's non-quadratic value (elasticity, contact), the elastic part, and
+    /// the gradients at `z`. Inertia, damping, pins, gravity and pokes are quadratic or linear
+    /// in z: their gradient Z Q - L costs one small product.
+    fn evaluate(&self, z: &DMatrix<f64>, objective: &StepObjective) -> Evaluation {
         let (elastic, mut gradient) = self.subspace.elastic_forces(z, &self.material);
         let mut energy = elastic;
         let kc = self.params.contact_stiffness;

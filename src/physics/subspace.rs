@@ -9,10 +9,8 @@
 
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
-
-use nalgebra::Matrix3;
 
 use super::material::{Material, Matrix9};
 
@@ -136,13 +134,6 @@ impl Subspace {
     }
     pub fn mass_moment(&self) -> &DVector<f64> {
         &self.mass_moment
-    }
-    /// G of cubature point `p` as (4K x 3), copied out (for tests and assembly).
-    pub fn g_of(&self, p: usize) -> DMatrix<f64> {
-        let columns = 3 * self.cubature_len();
-        DMatrix::from_fn(4 * self.handles, 3, |r, e| {
-            self.g_all[r * columns + 3 * p + e]
-        })
     }
 
     /// Deformation gradients at every cubature point for the handle matrix `z` (3 x 4K), as
