@@ -20,6 +20,11 @@ pub enum Error {
         iterations: usize,
         residual: f64,
     },
+    #[error("model {what}: {reason}")]
+    Model { what: String, reason: String },
+    /// Candle fails only on shape bugs or allocation failure; its message is kept.
+    #[error("network computation: {0}")]
+    Network(#[from] candle_core::Error),
     #[error("i/o on {path}: {source}")]
     Io {
         path: PathBuf,

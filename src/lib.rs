@@ -55,5 +55,6 @@ pub mod geometry;
 mod linalg;
 pub mod physics;
 pub mod skinning;
+pub mod training;
 
 pub use error::{Error, Result};

@@ -5,6 +5,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+mod cli;
 use physskin::bench::{run_sim_bench, simulate, SimBenchOptions, SimBenchReport, SimulateOptions};
 use physskin::physics::Solver;
 
@@ -50,6 +52,10 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Train the neural skinning field on generated shapes (self-supervised).
+    Train(cli::train::TrainArgs),
+    /// Evaluate the learned fields on unseen shapes: metrics, inference time, simulation error.
+    Eval(cli::eval::EvalArgs),
     /// Benchmarks; with no name, all of them.
     Bench {
         #[command(subcommand)]
@@ -110,6 +116,8 @@ fn main() -> ExitCode {
             },
             json,
         ),
+        Command::Train(args) => cli::train::run(args),
+        Command::Eval(args) => cli::eval::run(args),
         Command::Bench { which } => match which.unwrap_or(BenchCommand::Sim {
             quick: false,
             json: false,

@@ -1,9 +1,14 @@
 //! Benchmarks that print tables (and JSON): speed next to error against the full-space reference.
 
+mod fields;
 mod plot;
 mod sim;
 mod stats;
 
+pub use fields::{
+    evaluate_fields, interior_points, prepare_input, EvalMean, EvalOptions, EvalReport,
+    PreparedInput, ShapeEval,
+};
 pub use sim::{
     run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimRow, SimulateOptions,
     SimulateSummary,

@@ -12,7 +12,8 @@ use serde::Serialize;
 use super::stats::median;
 use crate::error::{Error, Result};
 use crate::geometry::{
-    bundled, sample_surface, stratified_subset, Cubature, SurfaceSampling, TetMesh, VoxelGrid,
+    bundled, sample_surface, stratified_subset, Cubature, Shape, SurfaceSampling, TetMesh,
+    VoxelGrid,
 };
 use crate::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
 use crate::skinning::{EigenmodeField, EigenmodeOptions, SkinningField};
@@ -59,24 +60,28 @@ pub struct SimBenchReport {
     pub lift_100k_ms: f64,
 }
 
-struct BenchShape {
-    name: &'static str,
-    mesh: Arc<TetMesh>,
-    grid: VoxelGrid,
-    eigen: EigenmodeField,
-    diagonal: f64,
-    young: f64,
+/// A shape ready for the scenarios: its FEM mesh, voxel grid and eigenmode baseline.
+pub(crate) struct BenchShape {
+    pub name: String,
+    pub source: Shape,
+    pub mesh: Arc<TetMesh>,
+    pub grid: VoxelGrid,
+    pub eigen: EigenmodeField,
+    pub diagonal: f64,
+    pub young: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Scenario {
+pub(crate) enum Scenario {
     Hanging,
     Drop,
     Poke,
 }
 
 impl Scenario {
-    fn name(self) -> &'static str {
+    pub(crate) const ALL: [Scenario; 3] = [Scenario::Hanging, Scenario::Drop, Scenario::Poke];
+
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Scenario::Hanging => "hanging",
             Scenario::Drop => "drop",
@@ -112,7 +117,8 @@ pub fn run_sim_bench(
     let mut rows = Vec::new();
     let mut lift_field = None;
     for (name, young, resolution) in shapes {
-        let shape = prepare_shape(name, young, resolution, min_big_vertices, max_modes)?;
+        let source = bundled(name).expect("a bundled shape");
+        let shape = prepare_shape(name, source, young, resolution, min_big_vertices, max_modes)?;
         progress(&format!(
             "{name}: {} FEM vertices, {} tets, eigenmodes in {} iterations",
             shape.mesh.vertices.len(),
@@ -174,19 +180,21 @@ pub fn run_sim_bench(
 }
 
 impl BenchShape {
-    fn eigen_normalization(&self) -> &crate::geometry::Normalization {
+    pub(crate) fn eigen_normalization(&self) -> &crate::geometry::Normalization {
         self.eigen.normalization()
     }
 }
 
-fn prepare_shape(
-    name: &'static str,
+/// Voxelizes and tetrahedralizes `shape` (at `resolution` cells across, or with 0, the
+/// smallest resolution giving `min_vertices` vertices) and computes its `modes` eigenmodes.
+pub(crate) fn prepare_shape(
+    name: &str,
+    shape: Shape,
     young: f64,
     resolution: usize,
     min_vertices: usize,
     modes: usize,
 ) -> Result<BenchShape> {
-    let shape = bundled(name).ok_or_else(|| Error::Geometry(format!("no bundled shape {name}")))?;
     let fine = VoxelGrid::from_shape(&shape, 128, None);
     // Resolution 0: the smallest that gives the mesh at least `min_vertices` vertices.
     let grid = if resolution > 0 {
@@ -213,7 +221,8 @@ fn prepare_shape(
         },
     )?;
     Ok(BenchShape {
-        name,
+        name: name.to_string(),
+        source: shape,
         mesh: Arc::new(mesh),
         grid,
         eigen,
@@ -222,7 +231,7 @@ fn prepare_shape(
     })
 }
 
-fn scenario_params(shape: &BenchShape) -> SimParams {
+pub(crate) fn scenario_params(shape: &BenchShape) -> SimParams {
     SimParams {
         young: shape.young,
         ..SimParams::default()
@@ -299,7 +308,7 @@ fn poke(shape: &BenchShape, params: &SimParams) -> Poke {
     }
 }
 
-fn run_fem(
+pub(crate) fn run_fem(
     shape: &BenchShape,
     scenario: Scenario,
     params: &SimParams,
@@ -334,7 +343,7 @@ fn run_fem(
     Ok((trajectory, times))
 }
 
-fn run_reduced(
+pub(crate) fn run_reduced(
     shape: &BenchShape,
     scenario: Scenario,
     params: &SimParams,
@@ -424,11 +433,11 @@ fn contact_points(mesh: &TetMesh, count: usize) -> (Vec<Vector3<f64>>, Vec<f64>)
 
 /// Median time to lift 100k surface points of `shape` with `field`.
 fn time_lift(field: &EigenmodeField, shape: &BenchShape) -> Result<f64> {
-    let source = bundled(shape.name).expect("bundled");
-    let grid = VoxelGrid::from_shape(&source, 64, None);
+    let source = &shape.source;
+    let grid = VoxelGrid::from_shape(source, 64, None);
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let samples = sample_surface(
-        &source,
+        source,
         &grid,
         &SurfaceSampling {
             count: 100_000,
@@ -517,7 +526,15 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
                 crate::geometry::BUNDLED
             ),
         })?;
-    let shape = prepare_shape(name, options.young, options.resolution, 0, options.modes)?;
+    let source = bundled(name).expect("a bundled shape");
+    let shape = prepare_shape(
+        name,
+        source,
+        options.young,
+        options.resolution,
+        0,
+        options.modes,
+    )?;
     let params = scenario_params(&shape);
     let (reference, fem_times) = if options.reference {
         run_fem(&shape, scenario, &params, options.steps)?

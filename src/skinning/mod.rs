@@ -1,9 +1,16 @@
 //! Skinning weight fields: the `SkinningField` trait and its implementations.
 
 mod eigenmodes;
+mod metrics;
+mod neural;
 
 pub(crate) use eigenmodes::linear_gradients;
 pub use eigenmodes::{EigenmodeField, EigenmodeOptions};
+pub use metrics::FieldMetrics;
+pub(crate) use neural::{load_tensors, points_tensor, save_tensors, to_result};
+pub use neural::{
+    ColumnNormalization, Network, NetworkConfig, NeuralField, NeuralModel, ShapeCode,
+};
 
 use nalgebra::Vector3;
 

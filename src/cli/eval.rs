@@ -1,0 +1,146 @@
+//! `physskin eval`: the learned fields on shapes the model never saw.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use physskin::bench::{evaluate_fields, EvalOptions, EvalReport};
+use physskin::geometry::{load_geometry, Shape};
+use physskin::skinning::NeuralModel;
+use physskin::training::{dataset, TrainingConfig};
+use physskin::{Error, Result};
+
+#[derive(clap::Args)]
+pub struct EvalArgs {
+    /// A directory of meshes or clouds (OBJ, STL, PLY). Without it, the held-out split of the
+    /// generated training shapes.
+    dir: Option<PathBuf>,
+    /// How many held-out shapes (without DIR).
+    #[arg(long, default_value_t = 12)]
+    held_out: usize,
+    /// A model file instead of the bundled one.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Metrics and timing only, no simulation against the FEM.
+    #[arg(long)]
+    no_sim: bool,
+    /// FEM grid cells across the longest side.
+    #[arg(long, default_value_t = 24)]
+    resolution: usize,
+    #[arg(long, default_value_t = 40)]
+    steps: usize,
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: EvalArgs) -> Result<()> {
+    let model = match &args.model {
+        Some(path) => Arc::new(NeuralModel::load(path)?),
+        None => NeuralModel::bundled()?,
+    };
+    let shapes = match &args.dir {
+        Some(dir) => shapes_in(dir)?,
+        None => {
+            let (_, held_out) = dataset(&TrainingConfig::shipped().dataset());
+            held_out
+                .iter()
+                .take(args.held_out)
+                .map(|s| (s.name.clone(), s.mesh(96)))
+                .collect()
+        }
+    };
+    let options = EvalOptions {
+        simulate: !args.no_sim,
+        resolution: args.resolution,
+        steps: args.steps,
+        ..Default::default()
+    };
+    let report = evaluate_fields(&model, &shapes, &options, |line| eprintln!("{line}"))?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("serializable")
+        );
+    } else {
+        print_table(&report);
+    }
+    Ok(())
+}
+
+fn shapes_in(dir: &PathBuf) -> Result<Vec<(String, Shape)>> {
+    let entries = std::fs::read_dir(dir).map_err(|source| Error::Io {
+        path: dir.clone(),
+        source,
+    })?;
+    let mut paths: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "obj" | "stl" | "ply"))
+        })
+        .collect();
+    paths.sort();
+    if paths.is_empty() {
+        return Err(Error::Geometry(format!(
+            "no .obj, .stl or .ply files in {}",
+            dir.display()
+        )));
+    }
+    paths
+        .iter()
+        .map(|path| {
+            let name = path
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("shape")
+                .to_string();
+            Ok((name, Shape::from_raw(load_geometry(path)?)?))
+        })
+        .collect()
+}
+
+fn print_table(report: &EvalReport) {
+    println!(
+        "{:<16} {:>6} {:>12} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9}",
+        "shape",
+        "points",
+        "omega_x100",
+        "kappa_log",
+        "h_spec",
+        "infer_ms",
+        "100k_ms",
+        "learn_%",
+        "eigen_%"
+    );
+    for r in &report.shapes {
+        println!(
+            "{:<16} {:>6} {:>12.5} {:>9.4} {:>9.5} {:>9.1} {:>10.1} {:>9.3} {:>9.3}",
+            r.name,
+            r.points,
+            r.omega_orth * 100.0,
+            r.kappa_log,
+            r.h_spec,
+            r.infer_ms,
+            r.decode_100k_ms,
+            r.sim_error_pct,
+            r.eigen_error_pct
+        );
+    }
+    let m = &report.mean;
+    println!(
+        "{:<16} {:>6} {:>12.5} {:>9.4} {:>9.5} {:>9.1} {:>10.1} {:>9.3} {:>9.3}",
+        "mean",
+        "",
+        m.omega_orth * 100.0,
+        m.kappa_log,
+        m.h_spec,
+        m.infer_ms,
+        m.decode_100k_ms,
+        m.sim_error_pct,
+        m.eigen_error_pct
+    );
+    println!(
+        "learned / eigenmode error, mean ratio: {:.3}",
+        m.error_ratio
+    );
+}

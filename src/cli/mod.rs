@@ -1,0 +1,4 @@
+//! The subcommands that are more than a call into the library.
+
+pub mod eval;
+pub mod train;

@@ -1,0 +1,172 @@
+//! The learned skinning field of one shape, behind the same trait as the eigenmode baseline.
+
+use std::sync::Arc;
+
+use candle_core::{Device, Tensor};
+use nalgebra::Vector3;
+
+use super::layers::to_result;
+use super::model::{decode_normalized, NeuralModel};
+use super::network::{ColumnNormalization, ShapeCode};
+use crate::geometry::{Normalization, SurfaceSamples};
+use crate::skinning::SkinningField;
+use crate::{Error, Result};
+
+/// Query points decoded per batch: bounds the attention scratch (heads x batch x latents floats).
+const BATCH: usize = 8192;
+
+/// Skinning weights from one forward pass of the network: the shape is encoded once, then any
+/// point is decoded on demand. Column 0 is the constant rigid handle, the learned columns follow.
+#[derive(Clone, Debug)]
+pub struct NeuralField {
+    model: Arc<NeuralModel>,
+    code: ShapeCode,
+    head_weight: Tensor,
+    columns: ColumnNormalization,
+    normalization: Normalization,
+}
+
+impl NeuralField {
+    pub(crate) fn new(
+        model: Arc<NeuralModel>,
+        surface: &SurfaceSamples,
+        reference: &[Vector3<f64>],
+        normalization: Normalization,
+    ) -> Result<Self> {
+        if surface.points.is_empty() || surface.points.len() != surface.normals.len() {
+            return Err(Error::Geometry(format!(
+                "the network needs surface points with normals (got {} points, {} normals)",
+                surface.points.len(),
+                surface.normals.len()
+            )));
+        }
+        if reference.len() < 2 * model.config().handles {
+            return Err(Error::Geometry(format!(
+                "{} reference points cannot normalize {} weight columns",
+                reference.len(),
+                model.config().handles
+            )));
+        }
+        let network = model.network();
+        let code = to_result(network.encode(
+            &points_tensor(&surface.points)?,
+            &points_tensor(&surface.normals)?,
+        ))?;
+        let head_weight = to_result(network.head_weight())?;
+        let raw = to_result(network.decode_raw(&code, &points_tensor(reference)?, &head_weight))?;
+        let columns = to_result(ColumnNormalization::from_reference(&raw))?;
+        Ok(Self {
+            model,
+            code,
+            head_weight,
+            columns,
+            normalization,
+        })
+    }
+
+    pub fn normalization(&self) -> &Normalization {
+        &self.normalization
+    }
+
+    /// Learned weights (without the constant column) of `points`, row-major points x learned.
+    fn learned(&self, points: &[Vector3<f64>]) -> Result<Vec<f32>> {
+        let tensor = points_tensor(points)?;
+        let weights = to_result(decode_normalized(
+            self.model.network(),
+            &self.code,
+            &self.head_weight,
+            &self.columns,
+            &tensor,
+        ))?;
+        Ok(weights.flatten_all()?.to_vec1::<f32>()?)
+    }
+
+    fn evaluate_batch(
+        &self,
+        points: &[Vector3<f64>],
+        weights: &mut [f64],
+        gradients: Option<&mut [Vector3<f64>]>,
+    ) -> Result<()> {
+        let learned = self.model.config().handles;
+        let handles = learned + 1;
+        let n = points.len();
+        let step = self.model.config().gradient_step;
+        // Centers, then the six central-difference neighbours, decoded in one batch.
+        let mut all = points.to_vec();
+        if gradients.is_some() {
+            for axis in 0..3 {
+                for sign in [1.0, -1.0] {
+                    all.extend(points.iter().map(|p| {
+                        let mut q = *p;
+                        q[axis] += sign * step;
+                        q
+                    }));
+                }
+            }
+        }
+        let values = self.learned(&all)?;
+        for (i, row) in weights.chunks_exact_mut(handles).enumerate() {
+            row[0] = 1.0;
+            for (w, v) in row[1..]
+                .iter_mut()
+                .zip(&values[i * learned..(i + 1) * learned])
+            {
+                *w = *v as f64;
+            }
+        }
+        if let Some(gradients) = gradients {
+            for (i, row) in gradients.chunks_exact_mut(handles).enumerate() {
+                row[0] = Vector3::zeros();
+                for h in 0..learned {
+                    let mut g = Vector3::zeros();
+                    for axis in 0..3 {
+                        let plus = values[((1 + 2 * axis) * n + i) * learned + h] as f64;
+                        let minus = values[((2 + 2 * axis) * n + i) * learned + h] as f64;
+                        g[axis] = (plus - minus) / (2.0 * step);
+                    }
+                    row[1 + h] = g;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl SkinningField for NeuralField {
+    fn handle_count(&self) -> usize {
+        self.model.config().handles + 1
+    }
+
+    fn evaluate(
+        &self,
+        points: &[Vector3<f64>],
+        weights: &mut [f64],
+        mut gradients: Option<&mut [Vector3<f64>]>,
+    ) {
+        let handles = self.handle_count();
+        // Neighbour evaluations multiply the batch by 7; keep the scratch bounded.
+        let batch = if gradients.is_some() {
+            BATCH / 7
+        } else {
+            BATCH
+        };
+        for (start, chunk) in (0..points.len()).step_by(batch).zip(points.chunks(batch)) {
+            let rows = start * handles..(start + chunk.len()) * handles;
+            let grads = gradients.as_deref_mut().map(|g| &mut g[rows.clone()]);
+            self.evaluate_batch(chunk, &mut weights[rows], grads)
+                .expect("decoding a shape that encoded cannot fail but for allocation");
+        }
+    }
+
+    fn kind(&self) -> &'static str {
+        "learned"
+    }
+}
+
+pub(crate) fn points_tensor(points: &[Vector3<f64>]) -> Result<Tensor> {
+    let flat: Vec<f32> = points
+        .iter()
+        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    to_result(Tensor::from_vec(flat, (points.len(), 3), &Device::Cpu))
+}

@@ -1,0 +1,232 @@
+//! The network's building blocks, written from candle's basic ops so every one has a backward
+//! pass (candle 0.11's fused softmax and LayerNorm have none: their gradients are silently zero).
+
+use candle_core::{DType, Module, Tensor, D};
+use candle_nn::Linear;
+
+use super::params::{candle_error, Init, ParamBuilder};
+use crate::Result;
+
+type CResult<T> = candle_core::Result<T>;
+
+/// gamma(p) = (p, sin(2^k pi p), cos(2^k pi p)) for k < frequencies: 3 + 6 * frequencies values.
+pub(crate) fn positional_encoding(points: &Tensor, frequencies: usize) -> CResult<Tensor> {
+    let mut parts = vec![points.clone()];
+    for k in 0..frequencies {
+        let scaled = (points * (std::f64::consts::PI * (1u64 << k) as f64))?;
+        parts.push(scaled.sin()?);
+        parts.push(scaled.cos()?);
+    }
+    Tensor::cat(&parts, D::Minus1)
+}
+
+pub(crate) fn encoding_width(frequencies: usize) -> usize {
+    3 + 6 * frequencies
+}
+
+pub(crate) fn linear(b: &ParamBuilder, name: &str, input: usize, output: usize) -> Result<Linear> {
+    let weight = b.get(
+        &format!("{name}.weight"),
+        &[output, input],
+        Init::FanIn(input),
+    )?;
+    let bias = b.get(&format!("{name}.bias"), &[output], Init::FanIn(input))?;
+    Ok(Linear::new(weight, Some(bias)))
+}
+
+/// Layer normalization over the last dimension, from basic ops.
+#[derive(Clone, Debug)]
+pub(crate) struct LayerNorm {
+    scale: Tensor,
+    shift: Tensor,
+}
+
+impl LayerNorm {
+    pub(crate) fn new(b: &ParamBuilder, name: &str, width: usize) -> Result<Self> {
+        Ok(Self {
+            scale: b.get(&format!("{name}.scale"), &[width], Init::Constant(1.0))?,
+            shift: b.get(&format!("{name}.shift"), &[width], Init::Constant(0.0))?,
+        })
+    }
+}
+
+impl Module for LayerNorm {
+    fn forward(&self, x: &Tensor) -> CResult<Tensor> {
+        let centered = x.broadcast_sub(&x.mean_keepdim(D::Minus1)?)?;
+        let variance = centered.sqr()?.mean_keepdim(D::Minus1)?;
+        let normalized = centered.broadcast_div(&(variance + 1e-5)?.sqrt()?)?;
+        normalized
+            .broadcast_mul(&self.scale)?
+            .broadcast_add(&self.shift)
+    }
+}
+
+/// Keys and values of an attention layer, computed once for a fixed context (a shape's latents
+/// or handle tokens) and reused for any number of queries.
+#[derive(Clone, Debug)]
+pub(crate) struct KeyValues {
+    /// heads x context x head_width, keys pre-transposed: heads x head_width x context.
+    keys_t: Tensor,
+    values: Tensor,
+}
+
+/// Multi-head attention with pre-normalized queries and context.
+#[derive(Clone, Debug)]
+pub(crate) struct Attention {
+    query_norm: LayerNorm,
+    context_norm: LayerNorm,
+    query: Linear,
+    key: Linear,
+    value: Linear,
+    out: Linear,
+    heads: usize,
+}
+
+impl Attention {
+    pub(crate) fn new(b: &ParamBuilder, name: &str, width: usize, heads: usize) -> Result<Self> {
+        Ok(Self {
+            query_norm: LayerNorm::new(b, &format!("{name}.query_norm"), width)?,
+            context_norm: LayerNorm::new(b, &format!("{name}.context_norm"), width)?,
+            query: linear(b, &format!("{name}.query"), width, width)?,
+            key: linear(b, &format!("{name}.key"), width, width)?,
+            value: linear(b, &format!("{name}.value"), width, width)?,
+            out: linear(b, &format!("{name}.out"), width, width)?,
+            heads,
+        })
+    }
+
+    pub(crate) fn key_values(&self, context: &Tensor) -> CResult<KeyValues> {
+        let (count, width) = context.dims2()?;
+        let head_width = width / self.heads;
+        let context = self.context_norm.forward(context)?;
+        let split = |t: Tensor| t.reshape((count, self.heads, head_width))?.transpose(0, 1);
+        let keys = split(self.key.forward(&context)?)?;
+        let values = split(self.value.forward(&context)?)?.contiguous()?;
+        let keys_t = (keys.transpose(1, 2)?.contiguous()? / (head_width as f64).sqrt())?;
+        Ok(KeyValues { keys_t, values })
+    }
+
+    /// queries + attention(queries, context): the residual is included.
+    pub(crate) fn forward(&self, queries: &Tensor, kv: &KeyValues) -> CResult<Tensor> {
+        let (count, width) = queries.dims2()?;
+        let head_width = width / self.heads;
+        let q = self
+            .query
+            .forward(&self.query_norm.forward(queries)?)?
+            .reshape((count, self.heads, head_width))?
+            .transpose(0, 1)?
+            .contiguous()?;
+        let scores = q.matmul(&kv.keys_t)?;
+        let attention = candle_nn::ops::softmax(&scores, D::Minus1)?;
+        let mixed = attention
+            .matmul(&kv.values)?
+            .transpose(0, 1)?
+            .reshape((count, width))?;
+        queries + self.out.forward(&mixed)?
+    }
+}
+
+/// x + MLP(LayerNorm(x)), GELU inside, 4x wide.
+#[derive(Clone, Debug)]
+pub(crate) struct FeedForward {
+    norm: LayerNorm,
+    up: Linear,
+    down: Linear,
+}
+
+impl FeedForward {
+    pub(crate) fn new(b: &ParamBuilder, name: &str, width: usize) -> Result<Self> {
+        Ok(Self {
+            norm: LayerNorm::new(b, &format!("{name}.norm"), width)?,
+            up: linear(b, &format!("{name}.up"), width, 2 * width)?,
+            down: linear(b, &format!("{name}.down"), 2 * width, width)?,
+        })
+    }
+}
+
+impl Module for FeedForward {
+    fn forward(&self, x: &Tensor) -> CResult<Tensor> {
+        let hidden = self.up.forward(&self.norm.forward(x)?)?.gelu()?;
+        x + self.down.forward(&hidden)?
+    }
+}
+
+/// x + Linear(ELU(Linear(ELU(x)))): the residual block of the weight head.
+#[derive(Clone, Debug)]
+pub(crate) struct EluBlock {
+    first: Linear,
+    second: Linear,
+}
+
+impl EluBlock {
+    pub(crate) fn new(b: &ParamBuilder, name: &str, width: usize) -> Result<Self> {
+        Ok(Self {
+            first: linear(b, &format!("{name}.first"), width, width)?,
+            second: linear(b, &format!("{name}.second"), width, width)?,
+        })
+    }
+}
+
+impl Module for EluBlock {
+    fn forward(&self, x: &Tensor) -> CResult<Tensor> {
+        let hidden = self.first.forward(&x.elu(1.0)?)?.elu(1.0)?;
+        x + self.second.forward(&hidden)?
+    }
+}
+
+/// The last layer: a linear map whose weight rows are made orthonormal by orthogonalization by
+/// Newton iterations (ONI, Huang et al. 2020), or a plain linear map when ONI is off.
+#[derive(Clone, Debug)]
+pub(crate) struct OniLinear {
+    raw: Tensor,
+    bias: Tensor,
+    iterations: Option<usize>,
+}
+
+impl OniLinear {
+    pub(crate) fn new(
+        b: &ParamBuilder,
+        name: &str,
+        input: usize,
+        output: usize,
+        iterations: Option<usize>,
+    ) -> Result<Self> {
+        Ok(Self {
+            raw: b.get(
+                &format!("{name}.weight"),
+                &[output, input],
+                Init::FanIn(input),
+            )?,
+            bias: b.get(&format!("{name}.bias"), &[output], Init::Constant(0.0))?,
+            iterations,
+        })
+    }
+
+    /// The effective weight: B_T V / sqrt(||S||_F) with V the row-centered raw weight,
+    /// S = V V^T + 1e-5 I normalized by its Frobenius norm, B_0 = I, B <- 1.5 B - 0.5 B^3 S.
+    pub(crate) fn weight(&self) -> CResult<Tensor> {
+        let Some(iterations) = self.iterations else {
+            return Ok(self.raw.clone());
+        };
+        let rows = self.raw.dim(0)?;
+        let v = self.raw.broadcast_sub(&self.raw.mean_keepdim(1)?)?;
+        let eye = Tensor::eye(rows, DType::F32, v.device())?;
+        let s = (v.matmul(&v.t()?)? + (&eye * 1e-5)?)?;
+        let norm = s.sqr()?.sum_all()?.sqrt()?;
+        let s = s.broadcast_div(&norm)?;
+        let mut b = eye;
+        for _ in 0..iterations {
+            let b3 = b.matmul(&b)?.matmul(&b)?;
+            b = ((&b * 1.5)? - (b3.matmul(&s)? * 0.5)?)?;
+        }
+        b.matmul(&v)?.broadcast_div(&norm.sqrt()?)
+    }
+
+    pub(crate) fn forward_with(&self, weight: &Tensor, x: &Tensor) -> CResult<Tensor> {
+        x.matmul(&weight.t()?)?.broadcast_add(&self.bias)
+    }
+}
+
+pub(crate) fn to_result<T>(value: CResult<T>) -> Result<T> {
+    value.map_err(candle_error)
+}

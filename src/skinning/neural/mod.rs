@@ -1,0 +1,16 @@
+//! The neural skinning field: a small perceiver autoencoder in candle that predicts a shape's
+//! skinning weights in one forward pass (PhysSkin, section 3).
+
+mod field;
+mod layers;
+mod model;
+mod network;
+mod params;
+
+pub use field::NeuralField;
+pub use model::NeuralModel;
+pub use network::{ColumnNormalization, Network, NetworkConfig, ShapeCode};
+
+pub(crate) use field::points_tensor;
+pub(crate) use layers::to_result;
+pub(crate) use model::{load_tensors, save_tensors};
