@@ -52,6 +52,7 @@
 pub mod bench;
 pub mod error;
 pub mod geometry;
+pub mod io;
 mod linalg;
 pub mod physics;
 pub mod skinning;

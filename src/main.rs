@@ -54,6 +54,8 @@ enum Command {
     },
     /// Train the neural skinning field on generated shapes (self-supervised).
     Train(cli::train::TrainArgs),
+    /// Skinning weights of a mesh or cloud file in one forward pass, and a picture of them.
+    Infer(cli::infer::InferArgs),
     /// Evaluate the learned fields on unseen shapes: metrics, inference time, simulation error.
     Eval(cli::eval::EvalArgs),
     /// Benchmarks; with no name, all of them.
@@ -118,6 +120,7 @@ fn main() -> ExitCode {
         ),
         Command::Train(args) => cli::train::run(args),
         Command::Eval(args) => cli::eval::run(args),
+        Command::Infer(args) => cli::infer::run(args),
         Command::Bench { which } => match which.unwrap_or(BenchCommand::Sim {
             quick: false,
             json: false,

@@ -61,6 +61,9 @@ pub struct ShapeEval {
     pub omega_orth: f64,
     pub kappa_log: f64,
     pub h_spec: f64,
+    /// The same metrics of the product's weights, whitened over the reference points (the
+    /// network's output above is only centered and scaled).
+    pub whitened: FieldMetrics,
     /// Encoding the surface points, normalizing on the reference points, decoding the query
     /// points, ms.
     pub infer_ms: f64,
@@ -82,6 +85,9 @@ pub struct EvalMean {
     pub omega_orth: f64,
     pub kappa_log: f64,
     pub h_spec: f64,
+    pub whitened_omega_orth: f64,
+    pub whitened_kappa_log: f64,
+    pub whitened_h_spec: f64,
     pub infer_ms: f64,
     pub decode_100k_ms: f64,
     pub sim_error_pct: f64,
@@ -118,6 +124,9 @@ pub fn evaluate_fields(
         omega_orth: mean_of(&|r| r.omega_orth),
         kappa_log: mean_of(&|r| r.kappa_log),
         h_spec: mean_of(&|r| r.h_spec),
+        whitened_omega_orth: mean_of(&|r| r.whitened.omega_orth),
+        whitened_kappa_log: mean_of(&|r| r.whitened.kappa_log),
+        whitened_h_spec: mean_of(&|r| r.whitened.h_spec),
         infer_ms: mean_of(&|r| r.infer_ms),
         decode_100k_ms: mean_of(&|r| r.decode_100k_ms),
         sim_error_pct: mean_of(&|r| r.sim_error_pct),
@@ -216,7 +225,8 @@ fn evaluate_shape(
         field = Some(f);
     }
     let field: NeuralField = field.expect("evaluated");
-    let metrics = FieldMetrics::of(&weights, handles);
+    let whitened = FieldMetrics::of(&weights, handles);
+    let metrics = FieldMetrics::of(&field.network_output(&queries)?, handles);
 
     let many = interior_points(&input.grid, shape, 100_000, 5);
     let mut many_weights = vec![0.0; many.len() * handles];
@@ -231,6 +241,7 @@ fn evaluate_shape(
         omega_orth: metrics.omega_orth,
         kappa_log: metrics.kappa_log,
         h_spec: metrics.h_spec,
+        whitened,
         infer_ms,
         decode_100k_ms,
         sim_error_pct: f64::NAN,

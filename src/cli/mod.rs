@@ -1,4 +1,5 @@
 //! The subcommands that are more than a call into the library.
 
 pub mod eval;
+pub mod infer;
 pub mod train;

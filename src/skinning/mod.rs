@@ -7,7 +7,7 @@ mod neural;
 pub(crate) use eigenmodes::linear_gradients;
 pub use eigenmodes::{EigenmodeField, EigenmodeOptions};
 pub use metrics::FieldMetrics;
-pub(crate) use neural::{load_tensors, points_tensor, save_tensors, to_result};
+pub(crate) use neural::{inverse_sqrt, load_tensors, save_tensors};
 pub use neural::{
     ColumnNormalization, Network, NetworkConfig, NeuralField, NeuralModel, ShapeCode,
 };

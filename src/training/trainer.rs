@@ -407,17 +407,14 @@ fn batch_of(shape: &ShapeSample, count: usize, rng: &mut impl Rng) -> Result<Bat
     })
 }
 
-/// Mean metrics of the learned columns on held-out shapes: normalized over the first half of
+/// Mean metrics of the network's output (before the product's whitening) on held-out shapes: normalized over the first half of
 /// the interior points, measured on the second half (points the normalization never saw).
 fn held_out_metrics(model: &NeuralModel, shapes: &[ShapeSample]) -> Result<FieldMetrics> {
     let model = Arc::new(model.clone());
     let mut sum = [0.0; 3];
     for shape in shapes {
         let (field, points) = field_of_sample(&model, shape)?;
-        let handles = field.handle_count();
-        let mut weights = vec![0.0; points.len() * handles];
-        field.evaluate(&points, &mut weights, None);
-        let m = FieldMetrics::of(&weights, handles);
+        let m = FieldMetrics::of(&field.network_output(&points)?, field.handle_count());
         sum[0] += m.omega_orth;
         sum[1] += m.kappa_log;
         sum[2] += m.h_spec;

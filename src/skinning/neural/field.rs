@@ -54,7 +54,7 @@ impl NeuralField {
         ))?;
         let head_weight = to_result(network.head_weight())?;
         let raw = to_result(network.decode_raw(&code, &points_tensor(reference)?, &head_weight))?;
-        let columns = to_result(ColumnNormalization::from_reference(&raw))?;
+        let columns = to_result(ColumnNormalization::from_reference(&raw, model.config().whiten))?;
         Ok(Self {
             model,
             code,
@@ -79,6 +79,22 @@ impl NeuralField {
             &tensor,
         ))?;
         Ok(weights.flatten_all()?.to_vec1::<f32>()?)
+    }
+
+    /// The network's own output at `points` with the column centering and scaling but without
+    /// the product's whitening, constant column first (points x handles, row-major): what the
+    /// paper's metrics judge.
+    pub fn network_output(&self, points: &[Vector3<f64>]) -> Result<Vec<f64>> {
+        let raw = self
+            .model
+            .network()
+            .decode_raw(&self.code, &points_tensor(points)?, &self.head_weight)?;
+        let scaled: Vec<f32> = self.columns.apply_scaling(&raw)?.flatten_all()?.to_vec1()?;
+        let learned = self.model.config().handles;
+        Ok(scaled
+            .chunks_exact(learned)
+            .flat_map(|row| std::iter::once(1.0).chain(row.iter().map(|v| *v as f64)))
+            .collect())
     }
 
     fn evaluate_batch(

@@ -11,6 +11,5 @@ pub use field::NeuralField;
 pub use model::NeuralModel;
 pub use network::{ColumnNormalization, Network, NetworkConfig, ShapeCode};
 
-pub(crate) use field::points_tensor;
-pub(crate) use layers::to_result;
+pub(crate) use layers::inverse_sqrt;
 pub(crate) use model::{load_tensors, save_tensors};

@@ -1,0 +1,101 @@
+//! `physskin infer`: skinning weights of a mesh or cloud file in one forward pass.
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use physskin::bench::prepare_input;
+use physskin::geometry::{load_geometry, write_ply, RawGeometry, Shape};
+use physskin::io::{render_field_png, write_npy_f32};
+use physskin::skinning::{NeuralModel, SkinningField};
+use physskin::{Error, Result};
+
+#[derive(clap::Args)]
+pub struct InferArgs {
+    /// A mesh or point cloud: OBJ, STL or PLY.
+    input: PathBuf,
+    /// Weights at the input's points: .ply (positions plus one float property per handle,
+    /// weight_0 .. weight_K) or .npy (points x handles, float32).
+    #[arg(long, default_value = "weights.ply")]
+    out: PathBuf,
+    /// A picture of the blended field (three views).
+    #[arg(long, default_value = "weights.png")]
+    png: PathBuf,
+    /// A model file instead of the bundled one.
+    #[arg(long)]
+    model: Option<PathBuf>,
+}
+
+pub fn run(args: InferArgs) -> Result<()> {
+    let model = match &args.model {
+        Some(path) => Arc::new(NeuralModel::load(path)?),
+        None => NeuralModel::bundled()?,
+    };
+    let raw = load_geometry(&args.input)?;
+    let shape = Shape::from_raw(raw.clone())?;
+    let map = shape.normalization();
+    let prepare_started = Instant::now();
+    let input = prepare_input(&shape, 4096, 4096);
+    let prepare_ms = prepare_started.elapsed().as_secs_f64() * 1e3;
+
+    let started = Instant::now();
+    let field = model.field(&input.surface, &input.reference, map)?;
+    let points: Vec<_> = shape.positions.iter().map(|p| map.to_normalized(p)).collect();
+    let handles = field.handle_count();
+    let mut weights = vec![0.0; points.len() * handles];
+    field.evaluate(&points, &mut weights, None);
+    let infer_ms = started.elapsed().as_secs_f64() * 1e3;
+
+    write_weights(&args.out, &raw, &weights, handles)?;
+    let mut surface_weights = vec![0.0; input.surface.points.len() * handles];
+    field.evaluate(&input.surface.points, &mut surface_weights, None);
+    let file = create(&args.png)?;
+    render_field_png(
+        &input.surface.points,
+        Some(&input.surface.normals),
+        &surface_weights,
+        handles,
+        360,
+        &mut BufWriter::new(file),
+    )
+    .map_err(|e| Error::Geometry(e.to_string()))?;
+    println!(
+        "{}: {} points, {} handles (constant + {} learned); sampling {:.1} ms, inference {:.1} ms",
+        args.input.display(),
+        points.len(),
+        handles,
+        handles - 1,
+        prepare_ms,
+        infer_ms
+    );
+    println!("weights: {}\npicture: {}", args.out.display(), args.png.display());
+    Ok(())
+}
+
+fn create(path: &Path) -> Result<File> {
+    File::create(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn write_weights(path: &Path, raw: &RawGeometry, weights: &[f64], handles: usize) -> Result<()> {
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut out = BufWriter::new(create(path)?);
+    let is_npy = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    if is_npy {
+        let flat: Vec<f32> = weights.iter().map(|w| *w as f32).collect();
+        return write_npy_f32(&mut out, &[weights.len() / handles, handles], &flat).map_err(io);
+    }
+    let columns: Vec<Vec<f32>> = (0..handles)
+        .map(|h| weights.chunks_exact(handles).map(|row| row[h] as f32).collect())
+        .collect();
+    let names: Vec<String> = (0..handles).map(|h| format!("weight_{h}")).collect();
+    let extra: Vec<(&str, &[f32])> = names.iter().map(String::as_str).zip(columns.iter().map(Vec::as_slice)).collect();
+    write_ply(raw, &extra, &mut out).map_err(io)
+}
