@@ -268,7 +268,6 @@ fn simulate_both(
     let modes = row.handles - 1;
     let started = Instant::now();
     let bench = prepare_shape(
-        &row.name,
         shape.clone(),
         young,
         options.resolution,

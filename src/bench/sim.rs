@@ -62,7 +62,6 @@ pub struct SimBenchReport {
 
 /// A shape ready for the scenarios: its FEM mesh, voxel grid and eigenmode baseline.
 pub(crate) struct BenchShape {
-    pub name: String,
     pub source: Shape,
     pub mesh: Arc<TetMesh>,
     pub grid: VoxelGrid,
@@ -118,7 +117,7 @@ pub fn run_sim_bench(
     let mut lift_field = None;
     for (name, young, resolution) in shapes {
         let source = bundled(name).expect("a bundled shape");
-        let shape = prepare_shape(name, source, young, resolution, min_big_vertices, max_modes)?;
+        let shape = prepare_shape(source, young, resolution, min_big_vertices, max_modes)?;
         progress(&format!(
             "{name}: {} FEM vertices, {} tets, eigenmodes in {} iterations",
             shape.mesh.vertices.len(),
@@ -188,7 +187,6 @@ impl BenchShape {
 /// Voxelizes and tetrahedralizes `shape` (at `resolution` cells across, or with 0, the
 /// smallest resolution giving `min_vertices` vertices) and computes its `modes` eigenmodes.
 pub(crate) fn prepare_shape(
-    name: &str,
     shape: Shape,
     young: f64,
     resolution: usize,
@@ -221,7 +219,6 @@ pub(crate) fn prepare_shape(
         },
     )?;
     Ok(BenchShape {
-        name: name.to_string(),
         source: shape,
         mesh: Arc::new(mesh),
         grid,
@@ -473,6 +470,9 @@ pub struct SimulateOptions {
     pub resolution: usize,
     pub young: f64,
     pub reference: bool,
+    /// The skinning field: the learned one (bundled model, one forward pass) or the
+    /// eigenmodes (an eigen-solve on the FEM mesh).
+    pub learned: bool,
 }
 
 impl Default for SimulateOptions {
@@ -487,6 +487,7 @@ impl Default for SimulateOptions {
             resolution: 48,
             young: 5e6,
             reference: true,
+            learned: true,
         }
     }
 }
@@ -528,7 +529,6 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
         })?;
     let source = bundled(name).expect("a bundled shape");
     let shape = prepare_shape(
-        name,
         source,
         options.young,
         options.resolution,
@@ -541,7 +541,27 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
     } else {
         (Vec::new(), Vec::new())
     };
-    let field: Arc<dyn SkinningField> = Arc::new(shape.eigen.truncated(options.modes));
+    let field: Arc<dyn SkinningField> = if options.learned {
+        let model = crate::skinning::NeuralModel::bundled()?;
+        if model.config().handles != options.modes {
+            return Err(Error::InvalidParameter {
+                name: "modes",
+                reason: format!(
+                    "the bundled model has {} learned handles; use --modes {} or the eigenmodes",
+                    model.config().handles,
+                    model.config().handles
+                ),
+            });
+        }
+        let input = super::fields::prepare_input(&shape.source, 4096, 4096);
+        Arc::new(model.field(
+            &input.surface,
+            &input.reference,
+            shape.source.normalization(),
+        )?)
+    } else {
+        Arc::new(shape.eigen.truncated(options.modes))
+    };
     let cubature = Cubature::stratified(&shape.grid, options.cubature, shape.mesh.volume());
     let subspace = Arc::new(Subspace::build(
         field.clone(),

@@ -42,7 +42,11 @@ pub fn run(args: InferArgs) -> Result<()> {
 
     let started = Instant::now();
     let field = model.field(&input.surface, &input.reference, map)?;
-    let points: Vec<_> = shape.positions.iter().map(|p| map.to_normalized(p)).collect();
+    let points: Vec<_> = shape
+        .positions
+        .iter()
+        .map(|p| map.to_normalized(p))
+        .collect();
     let handles = field.handle_count();
     let mut weights = vec![0.0; points.len() * handles];
     field.evaluate(&points, &mut weights, None);
@@ -70,7 +74,11 @@ pub fn run(args: InferArgs) -> Result<()> {
         prepare_ms,
         infer_ms
     );
-    println!("weights: {}\npicture: {}", args.out.display(), args.png.display());
+    println!(
+        "weights: {}\npicture: {}",
+        args.out.display(),
+        args.png.display()
+    );
     Ok(())
 }
 
@@ -87,15 +95,27 @@ fn write_weights(path: &Path, raw: &RawGeometry, weights: &[f64], handles: usize
         source,
     };
     let mut out = BufWriter::new(create(path)?);
-    let is_npy = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    let is_npy = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
     if is_npy {
         let flat: Vec<f32> = weights.iter().map(|w| *w as f32).collect();
         return write_npy_f32(&mut out, &[weights.len() / handles, handles], &flat).map_err(io);
     }
     let columns: Vec<Vec<f32>> = (0..handles)
-        .map(|h| weights.chunks_exact(handles).map(|row| row[h] as f32).collect())
+        .map(|h| {
+            weights
+                .chunks_exact(handles)
+                .map(|row| row[h] as f32)
+                .collect()
+        })
         .collect();
     let names: Vec<String> = (0..handles).map(|h| format!("weight_{h}")).collect();
-    let extra: Vec<(&str, &[f32])> = names.iter().map(String::as_str).zip(columns.iter().map(Vec::as_slice)).collect();
+    let extra: Vec<(&str, &[f32])> = names
+        .iter()
+        .map(String::as_str)
+        .zip(columns.iter().map(Vec::as_slice))
+        .collect();
     write_ply(raw, &extra, &mut out).map_err(io)
 }

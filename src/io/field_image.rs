@@ -34,7 +34,11 @@ pub fn render_field_png(
     }
     if let Some(n) = normals {
         if n.len() != points.len() {
-            return Err(RenderError::Input(format!("{} normals for {} points", n.len(), points.len())));
+            return Err(RenderError::Input(format!(
+                "{} normals for {} points",
+                n.len(),
+                points.len()
+            )));
         }
     }
     if let Some(bad) = weights.iter().position(|w| !w.is_finite()) {
@@ -73,7 +77,8 @@ pub fn render_field_png(
                     if z < depth[at] {
                         depth[at] = z;
                         for c in 0..3 {
-                            image[3 * at + c] = (colors[i][c] * shade * 255.0).clamp(0.0, 255.0) as u8;
+                            image[3 * at + c] =
+                                (colors[i][c] * shade * 255.0).clamp(0.0, 255.0) as u8;
                         }
                     }
                 }
@@ -148,7 +153,11 @@ mod tests {
         assert_eq!((info.width, info.height), (192, 64));
         assert_eq!(&buffer[..3], &[255, 255, 255], "background at the corner");
         let center = 3 * (32 * 192 + 32);
-        assert_ne!(&buffer[center..center + 3], &[255, 255, 255], "the sphere covers the middle");
+        assert_ne!(
+            &buffer[center..center + 3],
+            &[255, 255, 255],
+            "the sphere covers the middle"
+        );
         assert!(render_field_png(&points, None, &weights[1..], 4, 64, &mut Vec::new()).is_err());
         let mut nan = weights.clone();
         nan[5] = f64::NAN;

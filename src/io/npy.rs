@@ -8,12 +8,22 @@ pub fn write_npy_f32(out: &mut impl Write, shape: &[usize], data: &[f32]) -> io:
     if count != data.len() {
         return Err(io::Error::new(
             io::ErrorKind::InvalidInput,
-            format!("npy: shape {shape:?} holds {count} values, got {}", data.len()),
+            format!(
+                "npy: shape {shape:?} holds {count} values, got {}",
+                data.len()
+            ),
         ));
     }
     let dims = match shape {
         [one] => format!("({one},)"),
-        _ => format!("({})", shape.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     };
     let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {dims}, }}");
     // Magic (6) + version (2) + length (2) + header + newline is a multiple of 64.
@@ -43,7 +53,10 @@ mod tests {
         let header = std::str::from_utf8(&out[10..10 + header_len]).unwrap();
         assert!(header.contains("'shape': (2, 3)"));
         assert_eq!(out.len(), 10 + header_len + 24);
-        assert_eq!(f32::from_le_bytes(out[out.len() - 4..].try_into().unwrap()), 6.0);
+        assert_eq!(
+            f32::from_le_bytes(out[out.len() - 4..].try_into().unwrap()),
+            6.0
+        );
         assert!(write_npy_f32(&mut Vec::new(), &[2, 2], &[1.0]).is_err());
     }
 }

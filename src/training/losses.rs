@@ -118,7 +118,8 @@ pub(crate) fn stencil(points: &Tensor, h: f64) -> Result<Tensor> {
 /// Central differences of values decoded on [`stencil`] points: count x columns x 3.
 pub(crate) fn stencil_gradient(values: &Tensor, count: usize, h: f64) -> Result<Tensor> {
     let at = |k: usize| values.narrow(0, k * count, count);
-    let axis = |k: usize| -> Result<Tensor> { Ok(((at(2 * k + 1)? - at(2 * k + 2)?)? / (2.0 * h))?) };
+    let axis =
+        |k: usize| -> Result<Tensor> { Ok(((at(2 * k + 1)? - at(2 * k + 2)?)? / (2.0 * h))?) };
     Ok(Tensor::stack(&[axis(0)?, axis(1)?, axis(2)?], D::Minus1)?)
 }
 
@@ -251,7 +252,10 @@ mod tests {
         let d = [0.25, -0.5];
         let points = [[0.1f32, -0.4, 0.3], [-0.6, 0.2, 0.8], [0.5, 0.5, -0.2]];
         let h = 5e-4;
-        let stencil_points = stencil(&tensor(&points), h).unwrap().to_vec2::<f32>().unwrap();
+        let stencil_points = stencil(&tensor(&points), h)
+            .unwrap()
+            .to_vec2::<f32>()
+            .unwrap();
         let values: Vec<f32> = stencil_points
             .iter()
             .flat_map(|p| {
@@ -275,7 +279,12 @@ mod tests {
             let x = Vector3::new(point[0] as f64, point[1] as f64, point[2] as f64);
             let mut expected = Matrix3::identity();
             for i in 0..2 {
-                let a_i = Matrix3::from_row_slice(&a[9 * i..9 * i + 9].iter().map(|v| *v as f64).collect::<Vec<_>>());
+                let a_i = Matrix3::from_row_slice(
+                    &a[9 * i..9 * i + 9]
+                        .iter()
+                        .map(|v| *v as f64)
+                        .collect::<Vec<_>>(),
+                );
                 let t_i = Vector3::new(t[3 * i] as f64, t[3 * i + 1] as f64, t[3 * i + 2] as f64);
                 let w_i = c[i].dot(&x) + d[i];
                 expected += a_i * w_i + (a_i * x + t_i) * c[i].transpose();
@@ -283,7 +292,10 @@ mod tests {
             for k in 0..9 {
                 let got = f[9 * p + k] as f64;
                 let want = expected[(k / 3, k % 3)];
-                assert!((got - want).abs() < 2e-3, "point {p} entry {k}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 2e-3,
+                    "point {p} entry {k}: {got} vs {want}"
+                );
             }
         }
     }
@@ -324,9 +336,20 @@ mod tests {
         let total = ((l.potential + l.smooth).unwrap() + l.orth).unwrap();
         let grads = total.backward().unwrap();
         for (name, var) in &vars {
-            let g = grads.get(var.as_tensor()).unwrap_or_else(|| panic!("{name} has no gradient"));
-            let norm = g.sqr().unwrap().sum_all().unwrap().to_scalar::<f32>().unwrap();
-            assert!(norm > 0.0 && norm.is_finite(), "{name}: gradient norm {norm}");
+            let g = grads
+                .get(var.as_tensor())
+                .unwrap_or_else(|| panic!("{name} has no gradient"));
+            let norm = g
+                .sqr()
+                .unwrap()
+                .sum_all()
+                .unwrap()
+                .to_scalar::<f32>()
+                .unwrap();
+            assert!(
+                norm > 0.0 && norm.is_finite(),
+                "{name}: gradient norm {norm}"
+            );
         }
     }
 }

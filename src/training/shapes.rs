@@ -53,21 +53,50 @@ impl ShapeFamily {
 /// combinations, which is all the mesher and the inside test need.
 #[derive(Clone, Debug)]
 enum Sdf {
-    Ellipsoid { radii: Vector3<f64> },
-    Box { half: Vector3<f64>, round: f64 },
-    Capsule { a: Vector3<f64>, b: Vector3<f64>, radius: f64 },
+    Ellipsoid {
+        radii: Vector3<f64>,
+    },
+    Box {
+        half: Vector3<f64>,
+        round: f64,
+    },
+    Capsule {
+        a: Vector3<f64>,
+        b: Vector3<f64>,
+        radius: f64,
+    },
     /// Along z, capped.
-    Cylinder { radius: f64, half_height: f64 },
+    Cylinder {
+        radius: f64,
+        half_height: f64,
+    },
     /// Around z.
-    Torus { major: f64, minor: f64 },
+    Torus {
+        major: f64,
+        minor: f64,
+    },
     /// A frustum along z, radii at -h and +h.
-    Cone { bottom: f64, top: f64, half_height: f64 },
-    Moved { rotation: Matrix3<f64>, offset: Vector3<f64>, inner: Box<Sdf> },
-    Union { parts: Vec<Sdf>, smooth: f64 },
+    Cone {
+        bottom: f64,
+        top: f64,
+        half_height: f64,
+    },
+    Moved {
+        rotation: Matrix3<f64>,
+        offset: Vector3<f64>,
+        inner: Box<Sdf>,
+    },
+    Union {
+        parts: Vec<Sdf>,
+        smooth: f64,
+    },
     Intersection(Box<Sdf>, Box<Sdf>),
     Difference(Box<Sdf>, Box<Sdf>),
     /// The wall of thickness `thickness` around the inner solid's surface, half of it inside.
-    Shell { inner: Box<Sdf>, thickness: f64 },
+    Shell {
+        inner: Box<Sdf>,
+        thickness: f64,
+    },
 }
 
 impl Sdf {
@@ -91,7 +120,10 @@ impl Sdf {
                 let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
                 (p - (a + ab * t)).norm() - radius
             }
-            Sdf::Cylinder { radius, half_height } => {
+            Sdf::Cylinder {
+                radius,
+                half_height,
+            } => {
                 let d = [p.xy().norm() - radius, p.z.abs() - half_height];
                 d[0].max(d[1]).min(0.0) + (d[0].max(0.0).powi(2) + d[1].max(0.0).powi(2)).sqrt()
             }
@@ -99,13 +131,21 @@ impl Sdf {
                 let q = nalgebra::Vector2::new(p.xy().norm() - major, p.z);
                 q.norm() - minor
             }
-            Sdf::Cone { bottom, top, half_height } => {
+            Sdf::Cone {
+                bottom,
+                top,
+                half_height,
+            } => {
                 let t = ((p.z + half_height) / (2.0 * half_height)).clamp(0.0, 1.0);
                 let radius = bottom + (top - bottom) * t;
                 let slope = ((top - bottom) / (2.0 * half_height)).atan().cos();
                 ((p.xy().norm() - radius) * slope).max(p.z.abs() - half_height)
             }
-            Sdf::Moved { rotation, offset, inner } => inner.at(&(rotation.transpose() * (p - offset))),
+            Sdf::Moved {
+                rotation,
+                offset,
+                inner,
+            } => inner.at(&(rotation.transpose() * (p - offset))),
             Sdf::Union { parts, smooth } => parts
                 .iter()
                 .map(|s| s.at(p))
@@ -202,7 +242,12 @@ impl GeneratedShape {
         sdf_mesh(&|p| self.sdf.at(p), HALF, resolution)
     }
 
-    pub fn sample(&self, surface_count: usize, interior_count: usize, rng: &mut impl Rng) -> ShapeSample {
+    pub fn sample(
+        &self,
+        surface_count: usize,
+        interior_count: usize,
+        rng: &mut impl Rng,
+    ) -> ShapeSample {
         let mesh = self.mesh(MESH_RESOLUTION);
         let map = mesh.normalization();
         // The grid only orients normals of bare clouds; a mesh's winding already does.
@@ -230,7 +275,11 @@ impl GeneratedShape {
         let volume = box_volume * interior.len() as f64 / draws.max(1) as f64 / map.scale.powi(3);
         ShapeSample {
             name: self.name.clone(),
-            surface_points: surface.points.iter().map(|p| map.to_normalized(p).cast::<f32>()).collect(),
+            surface_points: surface
+                .points
+                .iter()
+                .map(|p| map.to_normalized(p).cast::<f32>())
+                .collect(),
             surface_normals: surface.normals.iter().map(|n| n.cast::<f32>()).collect(),
             interior_points: interior,
             volume,
@@ -259,7 +308,12 @@ pub fn dataset(spec: &DatasetSpec) -> (Vec<GeneratedShape>, Vec<GeneratedShape>)
         use rayon::prelude::*;
         (0..spec.count)
             .into_par_iter()
-            .map(|i| GeneratedShape::generate(ShapeFamily::ALL[i % families], spec.seed * 100_000 + i as u64))
+            .map(|i| {
+                GeneratedShape::generate(
+                    ShapeFamily::ALL[i % families],
+                    spec.seed * 100_000 + i as u64,
+                )
+            })
             .collect()
     };
     for (i, shape) in shapes.into_iter().enumerate() {
@@ -274,7 +328,11 @@ pub fn dataset(spec: &DatasetSpec) -> (Vec<GeneratedShape>, Vec<GeneratedShape>)
 
 fn random_rotation(rng: &mut impl Rng) -> Matrix3<f64> {
     let axis = random_direction(rng);
-    *Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), rng.random_range(0.0..std::f64::consts::TAU)).matrix()
+    *Rotation3::from_axis_angle(
+        &nalgebra::Unit::new_normalize(axis),
+        rng.random_range(0.0..std::f64::consts::TAU),
+    )
+    .matrix()
 }
 
 fn random_direction(rng: &mut impl Rng) -> Vector3<f64> {
@@ -295,10 +353,18 @@ fn primitive(rng: &mut impl Rng, size: f64) -> Sdf {
     let thick = |x: f64| x.max(THINNEST);
     match rng.random_range(0..6) {
         0 => Sdf::Ellipsoid {
-            radii: Vector3::new(r, thick(r * aspect(&mut local)), thick(r * aspect(&mut local) * 0.8)),
+            radii: Vector3::new(
+                r,
+                thick(r * aspect(&mut local)),
+                thick(r * aspect(&mut local) * 0.8),
+            ),
         },
         1 => {
-            let half = Vector3::new(r, thick(r * aspect(&mut local)), thick(r * aspect(&mut local)));
+            let half = Vector3::new(
+                r,
+                thick(r * aspect(&mut local)),
+                thick(r * aspect(&mut local)),
+            );
             Sdf::Box {
                 round: rng.random_range(0.0..0.5) * half.min(),
                 half,
@@ -402,7 +468,11 @@ fn draw(family: ShapeFamily, rng: &mut ChaCha8Rng) -> Sdf {
         ShapeFamily::Shell => {
             let inner = match rng.random_range(0..3) {
                 0 => Sdf::Ellipsoid {
-                    radii: Vector3::new(0.9, rng.random_range(0.5..0.9), rng.random_range(0.4..0.9)),
+                    radii: Vector3::new(
+                        0.9,
+                        rng.random_range(0.5..0.9),
+                        rng.random_range(0.4..0.9),
+                    ),
                 },
                 1 => Sdf::Box {
                     half: Vector3::new(0.9, rng.random_range(0.4..0.9), rng.random_range(0.3..0.9)),
@@ -434,7 +504,11 @@ fn draw(family: ShapeFamily, rng: &mut ChaCha8Rng) -> Sdf {
             let holes = rng.random_range(1..=3);
             let mut cut = Vec::new();
             for _ in 0..holes {
-                let center = Vector3::new(rng.random_range(-0.55..0.55), rng.random_range(-0.25..0.25), 0.0);
+                let center = Vector3::new(
+                    rng.random_range(-0.55..0.55),
+                    rng.random_range(-0.25..0.25),
+                    0.0,
+                );
                 cut.push(
                     Sdf::Cylinder {
                         radius: rng.random_range(0.1..0.25),
@@ -443,7 +517,13 @@ fn draw(family: ShapeFamily, rng: &mut ChaCha8Rng) -> Sdf {
                     .moved(Matrix3::identity(), center),
                 );
             }
-            Sdf::Difference(Box::new(base), Box::new(Sdf::Union { parts: cut, smooth: 0.0 }))
+            Sdf::Difference(
+                Box::new(base),
+                Box::new(Sdf::Union {
+                    parts: cut,
+                    smooth: 0.0,
+                }),
+            )
         }
         ShapeFamily::Csg => {
             let depth = 2 + usize::from(rng.random_bool(0.5));
@@ -453,13 +533,21 @@ fn draw(family: ShapeFamily, rng: &mut ChaCha8Rng) -> Sdf {
 }
 
 fn animal(rng: &mut ChaCha8Rng) -> Sdf {
-    let body = Vector3::new(rng.random_range(0.45..0.7), rng.random_range(0.18..0.3), rng.random_range(0.16..0.28));
+    let body = Vector3::new(
+        rng.random_range(0.45..0.7),
+        rng.random_range(0.18..0.3),
+        rng.random_range(0.16..0.28),
+    );
     let mut parts = vec![Sdf::Ellipsoid { radii: body }];
     let legs = 2 * rng.random_range(1..=3);
     let leg_length = rng.random_range(0.3..0.6);
     let leg_radius = rng.random_range(0.05..0.09);
     for i in 0..legs / 2 {
-        let x = if legs == 2 { 0.0 } else { -0.7 * body.x + 1.4 * body.x * i as f64 / (legs / 2 - 1) as f64 };
+        let x = if legs == 2 {
+            0.0
+        } else {
+            -0.7 * body.x + 1.4 * body.x * i as f64 / (legs / 2 - 1) as f64
+        };
         for side in [-1.0, 1.0] {
             let top = Vector3::new(x, side * 0.6 * body.y, -0.3 * body.z);
             let foot = top + Vector3::new(rng.random_range(-0.1..0.1), side * 0.05, -leg_length);
@@ -471,25 +559,44 @@ fn animal(rng: &mut ChaCha8Rng) -> Sdf {
         }
     }
     let neck_base = Vector3::new(0.8 * body.x, 0.0, 0.3 * body.z);
-    let head_at = neck_base + Vector3::new(rng.random_range(0.1..0.35), 0.0, rng.random_range(0.15..0.5));
+    let head_at = neck_base
+        + Vector3::new(
+            rng.random_range(0.1..0.35),
+            0.0,
+            rng.random_range(0.15..0.5),
+        );
     parts.push(Sdf::Capsule {
         a: neck_base,
         b: head_at,
         radius: rng.random_range(0.06..0.1),
     });
-    parts.push(Sdf::Ellipsoid {
-        radii: Vector3::new(rng.random_range(0.12..0.22), rng.random_range(0.09..0.14), rng.random_range(0.09..0.14)),
-    }
-    .moved(Matrix3::identity(), head_at));
+    parts.push(
+        Sdf::Ellipsoid {
+            radii: Vector3::new(
+                rng.random_range(0.12..0.22),
+                rng.random_range(0.09..0.14),
+                rng.random_range(0.09..0.14),
+            ),
+        }
+        .moved(Matrix3::identity(), head_at),
+    );
     if rng.random_bool(0.7) {
         let base = Vector3::new(-0.95 * body.x, 0.0, 0.2 * body.z);
         parts.push(Sdf::Capsule {
             a: base,
-            b: base + Vector3::new(-rng.random_range(0.2..0.5), 0.0, rng.random_range(-0.1..0.4)),
+            b: base
+                + Vector3::new(
+                    -rng.random_range(0.2..0.5),
+                    0.0,
+                    rng.random_range(-0.1..0.4),
+                ),
             radius: rng.random_range(0.04..0.07),
         });
     }
-    Sdf::Union { parts, smooth: 0.05 }
+    Sdf::Union {
+        parts,
+        smooth: 0.05,
+    }
 }
 
 fn csg(rng: &mut ChaCha8Rng, depth: usize) -> Sdf {
@@ -520,7 +627,8 @@ fn is_one_solid(sdf: &Sdf) -> bool {
     for k in 0..N {
         for j in 0..N {
             for i in 0..N {
-                let p = Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * step - Vector3::repeat(HALF);
+                let p = Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * step
+                    - Vector3::repeat(HALF);
                 inside[index(i, j, k)] = sdf.at(&p) < 0.0;
             }
         }
@@ -580,7 +688,12 @@ mod tests {
                 let mut rng = ChaCha8Rng::seed_from_u64(seed);
                 let sample = shape.sample(512, 256, &mut rng);
                 assert_eq!(sample.interior_points.len(), 256, "{}", shape.name);
-                assert!(sample.volume > 0.05, "{}: volume {}", shape.name, sample.volume);
+                assert!(
+                    sample.volume > 0.05,
+                    "{}: volume {}",
+                    shape.name,
+                    sample.volume
+                );
                 let outward = sample
                     .surface_points
                     .iter()
@@ -591,12 +704,20 @@ mod tests {
                         shape.sdf(&(world + n * 0.01)) > shape.sdf(&(world - n * 0.01))
                     })
                     .count();
-                assert!(outward * 100 >= 97 * sample.surface_points.len(), "{}: {outward} outward", shape.name);
+                assert!(
+                    outward * 100 >= 97 * sample.surface_points.len(),
+                    "{}: {outward} outward",
+                    shape.name
+                );
                 let extent = sample
                     .surface_points
                     .iter()
                     .fold(0.0f32, |m, p| m.max(p.abs().max()));
-                assert!((extent - 1.0).abs() < 0.05, "{}: extent {extent}", shape.name);
+                assert!(
+                    (extent - 1.0).abs() < 0.05,
+                    "{}: extent {extent}",
+                    shape.name
+                );
             }
         }
     }
@@ -615,7 +736,9 @@ mod tests {
             assert!(train.iter().any(|s| s.family == family));
             assert!(held_out.iter().any(|s| s.family == family));
         }
-        assert!(train.iter().all(|s| held_out.iter().all(|h| h.name != s.name)));
+        assert!(train
+            .iter()
+            .all(|s| held_out.iter().all(|h| h.name != s.name)));
         let mut a = ChaCha8Rng::seed_from_u64(4);
         let mut b = ChaCha8Rng::seed_from_u64(4);
         assert_eq!(

@@ -539,3 +539,88 @@ fn restore(
     }
     number("physskin.step")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::skinning::NetworkConfig;
+
+    /// The three losses of `model` on fixed held-out batches, linear elasticity only (so the
+    /// training's blend towards Neo-Hookean does not move the goalposts).
+    fn fixed_losses(model: &NeuralModel, shapes: &[ShapeSample]) -> [f64; 3] {
+        let mut sums = [0.0; 3];
+        for (i, shape) in shapes.iter().enumerate() {
+            let mut rng = ChaCha8Rng::seed_from_u64(100 + i as u64);
+            let batch = batch_of(shape, 256, &mut rng).unwrap();
+            let options = LossOptions {
+                young: 1.0,
+                poisson: 0.45,
+                z_std: 0.2,
+                z_samples: 1,
+                blend: 0.0,
+                normalize: true,
+            };
+            let l = losses::compute(model.network(), &batch, &options, &mut rng).unwrap();
+            for (s, t) in sums.iter_mut().zip([&l.potential, &l.smooth, &l.orth]) {
+                *s += t.to_scalar::<f32>().unwrap() as f64;
+            }
+        }
+        sums
+    }
+
+    #[test]
+    fn a_short_run_lowers_every_loss_and_resumes() {
+        let config = TrainingConfig {
+            network: NetworkConfig {
+                width: 32,
+                latents: 16,
+                self_blocks: 1,
+                handles: 6,
+                head_width: 32,
+                head_blocks: 2,
+                ..Default::default()
+            },
+            steps: 90,
+            shapes: 16,
+            held_out_every: 2,
+            surface_points: 512,
+            cubature_points: 256,
+            checkpoint_every: 45,
+            log_every: 15,
+            ..Default::default()
+        };
+        let dir = std::env::temp_dir().join(format!("physskin-train-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let (_, held) = dataset(&config.dataset());
+        let held: Vec<ShapeSample> = held
+            .iter()
+            .take(4)
+            .map(|s| s.sample(512, 1024, &mut ChaCha8Rng::seed_from_u64(1)))
+            .collect();
+        let (fresh, _) = NeuralModel::fresh(&config.network, config.seed).unwrap();
+        let before = fixed_losses(&fresh, &held);
+
+        // Stopped after the first checkpoint, then resumed to the end.
+        let first = train(
+            &TrainingConfig {
+                steps: 45,
+                ..config.clone()
+            },
+            &dir,
+            None,
+        )
+        .unwrap();
+        assert_eq!(first.steps_done, 45);
+        let done = train(&config, &dir, None).unwrap();
+        assert_eq!(done.steps_done, 90);
+        let trained = NeuralModel::load(&done.model_path).unwrap();
+        let after = fixed_losses(&trained, &held);
+        for (name, (b, a)) in ["potential", "smooth", "orth"]
+            .iter()
+            .zip(before.iter().zip(&after))
+        {
+            assert!(a < b, "{name}: {b} before, {a} after training");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

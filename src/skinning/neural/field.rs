@@ -54,7 +54,10 @@ impl NeuralField {
         ))?;
         let head_weight = to_result(network.head_weight())?;
         let raw = to_result(network.decode_raw(&code, &points_tensor(reference)?, &head_weight))?;
-        let columns = to_result(ColumnNormalization::from_reference(&raw, model.config().whiten))?;
+        let columns = to_result(ColumnNormalization::from_reference(
+            &raw,
+            model.config().whiten,
+        ))?;
         Ok(Self {
             model,
             code,
@@ -85,10 +88,11 @@ impl NeuralField {
     /// the product's whitening, constant column first (points x handles, row-major): what the
     /// paper's metrics judge.
     pub fn network_output(&self, points: &[Vector3<f64>]) -> Result<Vec<f64>> {
-        let raw = self
-            .model
-            .network()
-            .decode_raw(&self.code, &points_tensor(points)?, &self.head_weight)?;
+        let raw = self.model.network().decode_raw(
+            &self.code,
+            &points_tensor(points)?,
+            &self.head_weight,
+        )?;
         let scaled: Vec<f32> = self.columns.apply_scaling(&raw)?.flatten_all()?.to_vec1()?;
         let learned = self.model.config().handles;
         Ok(scaled

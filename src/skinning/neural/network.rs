@@ -264,7 +264,8 @@ impl ColumnNormalization {
 
     /// Centered and scaled only: the network's own output as the metrics judge it.
     pub fn apply_scaling(&self, raw: &Tensor) -> CResult<Tensor> {
-        raw.broadcast_sub(&self.mean)?.broadcast_mul(&self.inverse_rms)
+        raw.broadcast_sub(&self.mean)?
+            .broadcast_mul(&self.inverse_rms)
     }
 }
 
@@ -272,14 +273,19 @@ impl ColumnNormalization {
 /// clamped at 1e-8 of the largest, so near-dependent columns cannot blow up).
 fn exact_whitening(scaled: &Tensor) -> CResult<Tensor> {
     let rows = scaled.dim(0)? as f64;
-    let gram = scaled.t()?.matmul(scaled)?.to_dtype(candle_core::DType::F64)?;
+    let gram = scaled
+        .t()?
+        .matmul(scaled)?
+        .to_dtype(candle_core::DType::F64)?;
     let m = gram.dim(0)?;
     let values: Vec<f64> = gram.flatten_all()?.to_vec1()?;
     let c = nalgebra::DMatrix::from_row_slice(m, m, &values) / rows;
     let eigen = c.symmetric_eigen();
     let floor = eigen.eigenvalues.max() * 1e-8;
     let inv_sqrt = eigen.eigenvalues.map(|l| 1.0 / l.max(floor).sqrt());
-    let w = &eigen.eigenvectors * nalgebra::DMatrix::from_diagonal(&inv_sqrt) * eigen.eigenvectors.transpose();
+    let w = &eigen.eigenvectors
+        * nalgebra::DMatrix::from_diagonal(&inv_sqrt)
+        * eigen.eigenvectors.transpose();
     let flat: Vec<f32> = w.transpose().iter().map(|v| *v as f32).collect();
     Tensor::from_vec(flat, (m, m), scaled.device())
 }
