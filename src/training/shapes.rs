@@ -92,6 +92,12 @@ enum Sdf {
     },
     Intersection(Box<Sdf>, Box<Sdf>),
     Difference(Box<Sdf>, Box<Sdf>),
+    /// The inner solid moved so `center` is at the origin, then scaled by `scale`.
+    Scaled {
+        scale: f64,
+        center: Vector3<f64>,
+        inner: Box<Sdf>,
+    },
     /// The wall of thickness `thickness` around the inner solid's surface, half of it inside.
     Shell {
         inner: Box<Sdf>,
@@ -154,6 +160,7 @@ impl Sdf {
             Sdf::Intersection(a, b) => a.at(p).max(b.at(p)),
             Sdf::Difference(a, b) => a.at(p).max(-b.at(p)),
             Sdf::Shell { inner, thickness } => inner.at(p).abs() - thickness / 2.0,
+            Sdf::Scaled { scale, center, inner } => inner.at(&(p / *scale + center)) * scale,
         }
     }
 
@@ -210,7 +217,8 @@ impl GeneratedShape {
     pub fn generate(family: ShapeFamily, seed: u64) -> GeneratedShape {
         for attempt in 0..64u64 {
             let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(1_000_003) ^ (attempt << 48));
-            let sdf = draw(family, &mut rng).moved(random_rotation(&mut rng), Vector3::zeros());
+            let drawn = draw(family, &mut rng).moved(random_rotation(&mut rng), Vector3::zeros());
+            let Some(sdf) = fitted(drawn) else { continue };
             if is_one_solid(&sdf) {
                 return GeneratedShape {
                     name: format!("{}-{seed:04}", family.name()),
@@ -618,7 +626,40 @@ fn csg(rng: &mut ChaCha8Rng, depth: usize) -> Sdf {
     }
 }
 
-/// Whether the solid fills at least 2% of its cube and is one 26-connected piece on a 40^3 grid.
+/// The solid moved and scaled so its bounding box is centered with a longest side of 2.2 (the
+/// mesher's cube is 2.6): drawn shapes vary in size, and only their proportions matter once
+/// normalized. None when nothing is inside.
+fn fitted(sdf: Sdf) -> Option<Sdf> {
+    const N: usize = 48;
+    const REACH: f64 = 3.5;
+    let step = 2.0 * REACH / N as f64;
+    let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+    for k in 0..=N {
+        for j in 0..=N {
+            for i in 0..=N {
+                let p = Vector3::new(i as f64, j as f64, k as f64) * step - Vector3::repeat(REACH);
+                if sdf.at(&p) < 0.0 {
+                    lo = lo.inf(&p);
+                    hi = hi.sup(&p);
+                }
+            }
+        }
+    }
+    if lo.x > hi.x {
+        return None;
+    }
+    // The lattice sees the solid up to a cell short on each side.
+    let (lo, hi) = (lo - Vector3::repeat(step / 2.0), hi + Vector3::repeat(step / 2.0));
+    let scale = 2.2 / (hi - lo).max();
+    Some(Sdf::Scaled {
+        scale,
+        center: (lo + hi) / 2.0,
+        inner: Box::new(sdf),
+    })
+}
+
+/// Whether the solid fills at least 0.3% of its cube, stays inside it, and is one 26-connected
+/// piece on a 40^3 grid.
 fn is_one_solid(sdf: &Sdf) -> bool {
     const N: usize = 40;
     let step = 2.0 * HALF / N as f64;
@@ -645,7 +686,7 @@ fn is_one_solid(sdf: &Sdf) -> bool {
                 || inside[index(a, b, N - 1)]
         })
     });
-    if total < N * N * N / 50 || touches_border {
+    if total < N * N * N * 3 / 1000 || touches_border {
         return false;
     }
     let start = inside.iter().position(|v| *v).expect("counted");
@@ -685,6 +726,7 @@ mod tests {
             for seed in 0..3 {
                 let shape = GeneratedShape::generate(family, seed);
                 assert!(is_one_solid(&shape.sdf), "{}", shape.name);
+                assert!(matches!(shape.sdf, Sdf::Scaled { .. }), "{} fell back to the capsule", shape.name);
                 let mut rng = ChaCha8Rng::seed_from_u64(seed);
                 let sample = shape.sample(512, 256, &mut rng);
                 assert_eq!(sample.interior_points.len(), 256, "{}", shape.name);
