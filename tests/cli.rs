@@ -160,7 +160,7 @@ fn eval_reports_the_papers_metrics_per_shape_and_on_average() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let shapes = report["shapes"].as_array().unwrap();
-    assert_eq!(shapes.len(), 2);
+    assert_eq!(shapes.len(), 2 + 3, "two held-out shapes and the bundled plate, rod, creature");
     for key in ["name", "points", "omega_orth", "kappa_log", "h_spec", "infer_ms", "sim_error_pct", "eigen_error_pct"] {
         assert!(!shapes[0][key].is_null() || key.ends_with("error_pct"), "missing {key}");
     }

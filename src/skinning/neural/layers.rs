@@ -4,7 +4,7 @@
 use candle_core::{DType, Module, Tensor, D};
 use candle_nn::Linear;
 
-use super::params::{candle_error, Init, ParamBuilder};
+use super::params::{Init, ParamBuilder};
 use crate::Result;
 
 type CResult<T> = candle_core::Result<T>;
@@ -235,10 +235,6 @@ pub(crate) fn inverse_sqrt(s: &Tensor, iterations: usize) -> CResult<Tensor> {
         z = t.matmul(&z)?;
     }
     z.broadcast_div(&norm.sqrt()?)
-}
-
-pub(crate) fn to_result<T>(value: CResult<T>) -> Result<T> {
-    value.map_err(candle_error)
 }
 
 #[cfg(test)]

@@ -8,8 +8,8 @@ use candle_core::{Device, Tensor, Var};
 use nalgebra::Vector3;
 
 use super::field::NeuralField;
-use super::network::{ColumnNormalization, Network, NetworkConfig};
-use super::params::{candle_error, ParamBuilder};
+use super::network::{Network, NetworkConfig};
+use super::params::ParamBuilder;
 use crate::geometry::{Normalization, SurfaceSamples};
 use crate::{Error, Result};
 
@@ -158,17 +158,6 @@ pub(crate) fn load_tensors(
             reason: e.to_string(),
         })?;
     let tensors =
-        candle_core::safetensors::load_buffer(&bytes, &Device::Cpu).map_err(candle_error)?;
+        candle_core::safetensors::load_buffer(&bytes, &Device::Cpu)?;
     Ok((tensors, metadata.metadata().clone().unwrap_or_default()))
-}
-
-/// Decodes the normalized learned weights of `points` with `model` for an encoded shape.
-pub(crate) fn decode_normalized(
-    network: &Network,
-    code: &super::network::ShapeCode,
-    head_weight: &Tensor,
-    columns: &ColumnNormalization,
-    points: &Tensor,
-) -> candle_core::Result<Tensor> {
-    columns.apply(&network.decode_raw(code, points, head_weight)?)
 }

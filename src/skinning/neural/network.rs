@@ -241,6 +241,12 @@ impl ColumnNormalization {
         let mean = raw.mean_keepdim(0)?;
         let centered = raw.broadcast_sub(&mean)?;
         let rms = (centered.sqr()?.mean_keepdim(0)? + 1e-12)?.sqrt()?;
+        // A column the network left (nearly) constant would be scaled up into float noise;
+        // its scale is floored at 1e-3 of the median column's, so it stays a weak handle.
+        let mut sorted: Vec<f32> = rms.flatten_all()?.to_vec1()?;
+        sorted.sort_by(f32::total_cmp);
+        let floor = 1e-3 * sorted[sorted.len() / 2] as f64;
+        let rms = rms.maximum(floor.max(1e-12))?;
         let mut normalization = Self {
             mean,
             inverse_rms: rms.recip()?,
@@ -269,8 +275,9 @@ impl ColumnNormalization {
     }
 }
 
-/// C^{-1/2} for C = W^T W / rows, in f64 by a symmetric eigen-decomposition (eigenvalues
-/// clamped at 1e-8 of the largest, so near-dependent columns cannot blow up).
+/// (C + 1e-3 I)^{-1/2} for C = W^T W / rows (unit diagonal), in f64 by a symmetric
+/// eigen-decomposition. The ridge is the training's: a near-dependent direction is amplified
+/// at most 31x, not into float noise.
 fn exact_whitening(scaled: &Tensor) -> CResult<Tensor> {
     let rows = scaled.dim(0)? as f64;
     let gram = scaled
@@ -281,8 +288,7 @@ fn exact_whitening(scaled: &Tensor) -> CResult<Tensor> {
     let values: Vec<f64> = gram.flatten_all()?.to_vec1()?;
     let c = nalgebra::DMatrix::from_row_slice(m, m, &values) / rows;
     let eigen = c.symmetric_eigen();
-    let floor = eigen.eigenvalues.max() * 1e-8;
-    let inv_sqrt = eigen.eigenvalues.map(|l| 1.0 / l.max(floor).sqrt());
+    let inv_sqrt = eigen.eigenvalues.map(|l| 1.0 / (l.max(0.0) + 1e-3).sqrt());
     let w = &eigen.eigenvectors
         * nalgebra::DMatrix::from_diagonal(&inv_sqrt)
         * eigen.eigenvectors.transpose();

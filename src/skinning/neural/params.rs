@@ -77,8 +77,8 @@ impl<'a> ParamBuilder<'a> {
                         Init::Constant(value) => value as f32,
                     })
                     .collect();
-                let tensor = Tensor::from_vec(values, shape, &self.device).map_err(candle_error)?;
-                let var = Var::from_tensor(&tensor).map_err(candle_error)?;
+                let tensor = Tensor::from_vec(values, shape, &self.device)?;
+                let var = Var::from_tensor(&tensor)?;
                 let out = var.as_tensor().clone();
                 vars.push((name.to_string(), var));
                 Ok(out)
@@ -97,7 +97,7 @@ impl<'a> ParamBuilder<'a> {
                         ),
                     });
                 }
-                tensor.to_dtype(DType::F32).map_err(candle_error)
+                Ok(tensor.to_dtype(DType::F32)?)
             }
         }
     }
@@ -109,8 +109,4 @@ impl<'a> ParamBuilder<'a> {
             Source::Stored(_) => Vec::new(),
         }
     }
-}
-
-pub(crate) fn candle_error(error: candle_core::Error) -> Error {
-    Error::Network(error)
 }
