@@ -108,7 +108,11 @@ fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
     // A closed box, 2 x 1 x 0.5, as an OBJ.
     let mut obj = String::new();
     for c in 0..8 {
-        let (x, y, z) = ((c & 1) as f64 * 2.0, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64 * 0.5);
+        let (x, y, z) = (
+            (c & 1) as f64 * 2.0,
+            ((c >> 1) & 1) as f64,
+            ((c >> 2) & 1) as f64 * 0.5,
+        );
         obj += &format!("v {x} {y} {z}\n");
     }
     for f in [
@@ -119,11 +123,17 @@ fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
         [1, 5, 7, 3],
         [2, 4, 8, 6],
     ] {
-        obj += &format!("f {} {} {}\nf {} {} {}\n", f[0], f[1], f[2], f[0], f[2], f[3]);
+        obj += &format!(
+            "f {} {} {}\nf {} {} {}\n",
+            f[0], f[1], f[2], f[0], f[2], f[3]
+        );
     }
     let input = dir.join("box.obj");
     std::fs::write(&input, obj).unwrap();
-    for (out_name, header) in [("w.ply", b"ply\n".as_slice()), ("w.npy", b"\x93NUMPY".as_slice())] {
+    for (out_name, header) in [
+        ("w.ply", b"ply\n".as_slice()),
+        ("w.npy", b"\x93NUMPY".as_slice()),
+    ] {
         let out = physskin()
             .arg("infer")
             .arg(&input)
@@ -133,7 +143,11 @@ fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
             .arg(dir.join("w.png"))
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let bytes = std::fs::read(dir.join(out_name)).unwrap();
         assert!(bytes.starts_with(header), "{out_name}");
         if out_name.ends_with("ply") {
@@ -143,9 +157,14 @@ fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
             let text = String::from_utf8_lossy(&bytes[..128]).to_string();
             assert!(text.contains("'shape': (8, 17)"), "{text}");
         }
-        assert!(std::fs::read(dir.join("w.png")).unwrap().starts_with(b"\x89PNG"));
+        assert!(std::fs::read(dir.join("w.png"))
+            .unwrap()
+            .starts_with(b"\x89PNG"));
     }
-    let missing = physskin().args(["infer", "/nonexistent/x.obj"]).output().unwrap();
+    let missing = physskin()
+        .args(["infer", "/nonexistent/x.obj"])
+        .output()
+        .unwrap();
     assert!(!missing.status.success());
     assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/x.obj"));
     std::fs::remove_dir_all(&dir).unwrap();
@@ -157,12 +176,32 @@ fn eval_reports_the_papers_metrics_per_shape_and_on_average() {
         .args(["eval", "--held-out", "2", "--no-sim", "--json"])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let shapes = report["shapes"].as_array().unwrap();
-    assert_eq!(shapes.len(), 2 + 3, "two held-out shapes and the bundled plate, rod, creature");
-    for key in ["name", "points", "omega_orth", "kappa_log", "h_spec", "infer_ms", "sim_error_pct", "eigen_error_pct"] {
-        assert!(!shapes[0][key].is_null() || key.ends_with("error_pct"), "missing {key}");
+    assert_eq!(
+        shapes.len(),
+        2 + 3,
+        "two held-out shapes and the bundled plate, rod, creature"
+    );
+    for key in [
+        "name",
+        "points",
+        "omega_orth",
+        "kappa_log",
+        "h_spec",
+        "infer_ms",
+        "sim_error_pct",
+        "eigen_error_pct",
+    ] {
+        assert!(
+            !shapes[0][key].is_null() || key.ends_with("error_pct"),
+            "missing {key}"
+        );
     }
     let kappa = report["mean"]["kappa_log"].as_f64().unwrap();
     assert!(kappa >= 1.0, "kappa_log is at least 1, got {kappa}");

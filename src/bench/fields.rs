@@ -267,13 +267,7 @@ fn simulate_both(
     let young = 500.0 * 1000.0 * 9.81 * diagonal;
     let modes = row.handles - 1;
     let started = Instant::now();
-    let bench = prepare_shape(
-        shape.clone(),
-        young,
-        options.resolution,
-        0,
-        modes,
-    )?;
+    let bench = prepare_shape(shape.clone(), young, options.resolution, 0, modes)?;
     row.eigen_solve_ms = started.elapsed().as_secs_f64() * 1e3;
     let params = scenario_params(&bench);
     let cubature = Cubature::stratified(&bench.grid, options.cubature, bench.mesh.volume());

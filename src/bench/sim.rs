@@ -528,13 +528,7 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
             ),
         })?;
     let source = bundled(name).expect("a bundled shape");
-    let shape = prepare_shape(
-        source,
-        options.young,
-        options.resolution,
-        0,
-        options.modes,
-    )?;
+    let shape = prepare_shape(source, options.young, options.resolution, 0, options.modes)?;
     let params = scenario_params(&shape);
     let (reference, fem_times) = if options.reference {
         run_fem(&shape, scenario, &params, options.steps)?

@@ -106,7 +106,17 @@ fn shapes_in(dir: &PathBuf) -> Result<Vec<(String, Shape)>> {
 fn print_table(report: &EvalReport) {
     println!(
         "{:<16} {:>6} {:>11} {:>9} {:>8} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8}",
-        "shape", "points", "omega_x100", "kappa_log", "h_spec", "whitened_x100", "infer_ms", "100k_ms", "learn_%", "eigen_%", "ratio"
+        "shape",
+        "points",
+        "omega_x100",
+        "kappa_log",
+        "h_spec",
+        "whitened_x100",
+        "infer_ms",
+        "100k_ms",
+        "learn_%",
+        "eigen_%",
+        "ratio"
     );
     for r in &report.shapes {
         println!(

@@ -160,7 +160,11 @@ impl Sdf {
             Sdf::Intersection(a, b) => a.at(p).max(b.at(p)),
             Sdf::Difference(a, b) => a.at(p).max(-b.at(p)),
             Sdf::Shell { inner, thickness } => inner.at(p).abs() - thickness / 2.0,
-            Sdf::Scaled { scale, center, inner } => inner.at(&(p / *scale + center)) * scale,
+            Sdf::Scaled {
+                scale,
+                center,
+                inner,
+            } => inner.at(&(p / *scale + center)) * scale,
         }
     }
 
@@ -633,7 +637,10 @@ fn fitted(sdf: Sdf) -> Option<Sdf> {
     const N: usize = 48;
     const REACH: f64 = 3.5;
     let step = 2.0 * REACH / N as f64;
-    let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
     for k in 0..=N {
         for j in 0..=N {
             for i in 0..=N {
@@ -649,7 +656,10 @@ fn fitted(sdf: Sdf) -> Option<Sdf> {
         return None;
     }
     // The lattice sees the solid up to a cell short on each side.
-    let (lo, hi) = (lo - Vector3::repeat(step / 2.0), hi + Vector3::repeat(step / 2.0));
+    let (lo, hi) = (
+        lo - Vector3::repeat(step / 2.0),
+        hi + Vector3::repeat(step / 2.0),
+    );
     let scale = 2.2 / (hi - lo).max();
     Some(Sdf::Scaled {
         scale,
@@ -726,7 +736,11 @@ mod tests {
             for seed in 0..3 {
                 let shape = GeneratedShape::generate(family, seed);
                 assert!(is_one_solid(&shape.sdf), "{}", shape.name);
-                assert!(matches!(shape.sdf, Sdf::Scaled { .. }), "{} fell back to the capsule", shape.name);
+                assert!(
+                    matches!(shape.sdf, Sdf::Scaled { .. }),
+                    "{} fell back to the capsule",
+                    shape.name
+                );
                 let mut rng = ChaCha8Rng::seed_from_u64(seed);
                 let sample = shape.sample(512, 256, &mut rng);
                 assert_eq!(sample.interior_points.len(), 256, "{}", shape.name);

@@ -56,10 +56,7 @@ impl NeuralField {
         )?;
         let head_weight = network.head_weight()?;
         let raw = network.decode_raw(&code, &points_tensor(reference)?, &head_weight)?;
-        let columns = ColumnNormalization::from_reference(
-            &raw,
-            model.config().whiten,
-        )?;
+        let columns = ColumnNormalization::from_reference(&raw, model.config().whiten)?;
         Ok(Self {
             model,
             code,

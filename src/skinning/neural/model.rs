@@ -157,7 +157,6 @@ pub(crate) fn load_tensors(
             what: path.display().to_string(),
             reason: e.to_string(),
         })?;
-    let tensors =
-        candle_core::safetensors::load_buffer(&bytes, &Device::Cpu)?;
+    let tensors = candle_core::safetensors::load_buffer(&bytes, &Device::Cpu)?;
     Ok((tensors, metadata.metadata().clone().unwrap_or_default()))
 }
