@@ -211,7 +211,7 @@ pub(crate) fn deformation_gradients(
         .reshape((samples * learned * 3, 3))?
         .matmul(&points.t()?)?
         .reshape((samples, learned, 3, count))?
-        .broadcast_add(&t)?;
+        .broadcast_add(t)?;
     // sum_i a_i grad w_i^T per point: count x (samples*3) x learned @ count x learned x 3
     let ax = ax
         .permute((3, 0, 2, 1))?

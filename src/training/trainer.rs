@@ -441,7 +441,7 @@ pub(crate) fn field_of_sample(
     let half = shape.interior_points.len() / 2;
     let reference: Vec<Vector3<f64>> = shape.interior_points[..half].iter().map(to64).collect();
     let points: Vec<Vector3<f64>> = shape.interior_points[half..].iter().map(to64).collect();
-    let field = model.field(&surface, &reference, shape.normalization.clone())?;
+    let field = model.field(&surface, &reference, shape.normalization)?;
     Ok((field, points))
 }
 

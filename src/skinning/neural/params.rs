@@ -25,13 +25,13 @@ pub(crate) enum Init {
 
 enum Source<'a> {
     Fresh {
-        rng: ChaCha8Rng,
+        rng: Box<ChaCha8Rng>,
         vars: Vec<(String, Var)>,
     },
     Stored(&'a HashMap<String, Tensor>),
 }
 
-/// Hands out named parameter tensors; names are `prefix.name`, the safetensors keys.
+/// Hands out named parameter tensors, named as the safetensors keys.
 pub(crate) struct ParamBuilder<'a> {
     source: RefCell<Source<'a>>,
     device: Device,
@@ -42,7 +42,7 @@ impl<'a> ParamBuilder<'a> {
     pub(crate) fn fresh(seed: u64) -> Self {
         Self {
             source: RefCell::new(Source::Fresh {
-                rng: ChaCha8Rng::seed_from_u64(seed),
+                rng: Box::new(ChaCha8Rng::seed_from_u64(seed)),
                 vars: Vec::new(),
             }),
             device: Device::Cpu,
