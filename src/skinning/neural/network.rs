@@ -21,7 +21,7 @@ type CResult<T> = candle_core::Result<T>;
 pub struct NetworkConfig {
     /// Positional-encoding octaves (sin and cos of 2^k pi p for k below this). Default 4: the
     /// paper's 8 let a small network meet the orthogonality loss with high-frequency noise
-    /// (measured: mean squared weight gradient 50x higher after 300 steps).
+    /// (measured: mean squared weight gradient 46x higher after about 300 steps).
     pub frequencies: usize,
     /// Token width of the encoder and the decoder's attention. Default 64.
     pub width: usize,
