@@ -271,7 +271,7 @@ fn simulate_both(
     row.eigen_solve_ms = started.elapsed().as_secs_f64() * 1e3;
     let params = scenario_params(&bench);
     let cubature = Cubature::stratified(&bench.grid, options.cubature, bench.mesh.volume());
-    let eigen: Arc<dyn SkinningField> = Arc::new(bench.eigen.truncated(modes));
+    let eigen: Arc<dyn SkinningField> = Arc::new(bench.eigen().truncated(modes));
     let learned: Arc<dyn SkinningField> = learned;
     let (mut sum_learned, mut sum_eigen) = (0.0, 0.0);
     for scenario in Scenario::ALL {
@@ -280,7 +280,7 @@ fn simulate_both(
         for (i, field) in [&learned, &eigen].into_iter().enumerate() {
             let subspace = Arc::new(Subspace::build(
                 field.clone(),
-                *bench.eigen_normalization(),
+                bench.eigen_normalization(),
                 &cubature,
                 params.density,
             ));

@@ -65,7 +65,9 @@ pub(crate) struct BenchShape {
     pub source: Shape,
     pub mesh: Arc<TetMesh>,
     pub grid: VoxelGrid,
-    pub eigen: EigenmodeField,
+    /// The eigenmode baseline; None when the shape was prepared without it (the learned field
+    /// needs no eigen-solve).
+    pub eigen: Option<EigenmodeField>,
     pub diagonal: f64,
     pub young: f64,
 }
@@ -122,7 +124,7 @@ pub fn run_sim_bench(
             "{name}: {} FEM vertices, {} tets, eigenmodes in {} iterations",
             shape.mesh.vertices.len(),
             shape.mesh.tets.len(),
-            shape.eigen.iterations
+            shape.eigen().iterations
         ));
         for &scenario in scenarios {
             let params = scenario_params(&shape);
@@ -135,13 +137,13 @@ pub fn run_sim_bench(
                 started.elapsed().as_secs_f64()
             ));
             for &m in handle_counts {
-                let field: Arc<dyn SkinningField> = Arc::new(shape.eigen.truncated(m));
+                let field: Arc<dyn SkinningField> = Arc::new(shape.eigen().truncated(m));
                 for &cubature_size in cubatures {
                     let cubature =
                         Cubature::stratified(&shape.grid, cubature_size, shape.mesh.volume());
                     let subspace = Arc::new(Subspace::build(
                         field.clone(),
-                        *shape.eigen_normalization(),
+                        shape.eigen_normalization(),
                         &cubature,
                         params.density,
                     ));
@@ -170,7 +172,7 @@ pub fn run_sim_bench(
             }
         }
         if name == "creature" {
-            lift_field = Some((shape.eigen.truncated(16), shape));
+            lift_field = Some((shape.eigen().truncated(16), shape));
         }
     }
     let (field, shape) = lift_field.expect("the creature is benched");
@@ -179,13 +181,20 @@ pub fn run_sim_bench(
 }
 
 impl BenchShape {
-    pub(crate) fn eigen_normalization(&self) -> &crate::geometry::Normalization {
-        self.eigen.normalization()
+    pub(crate) fn eigen_normalization(&self) -> crate::geometry::Normalization {
+        self.source.normalization()
+    }
+
+    /// The eigenmode baseline of a shape prepared with modes.
+    pub(crate) fn eigen(&self) -> &EigenmodeField {
+        self.eigen
+            .as_ref()
+            .expect("the shape was prepared with its eigenmodes")
     }
 }
 
 /// Voxelizes and tetrahedralizes `shape` (at `resolution` cells across, or with 0, the
-/// smallest resolution giving `min_vertices` vertices) and computes its `modes` eigenmodes.
+/// smallest resolution giving `min_vertices` vertices) and computes its `modes` eigenmodes (none for 0).
 pub(crate) fn prepare_shape(
     shape: Shape,
     young: f64,
@@ -210,14 +219,18 @@ pub(crate) fn prepare_shape(
     };
     let mesh = TetMesh::from_grid(&grid);
     let (lo, hi) = grid.solid_bounds();
-    let eigen = EigenmodeField::compute(
-        mesh.clone(),
-        shape.normalization(),
-        &EigenmodeOptions {
-            modes,
-            ..Default::default()
-        },
-    )?;
+    let eigen = if modes > 0 {
+        Some(EigenmodeField::compute(
+            mesh.clone(),
+            shape.normalization(),
+            &EigenmodeOptions {
+                modes,
+                ..Default::default()
+            },
+        )?)
+    } else {
+        None
+    };
     Ok(BenchShape {
         source: shape,
         mesh: Arc::new(mesh),
@@ -497,6 +510,7 @@ pub struct SimulateSummary {
     #[serde(flatten)]
     pub row: SimRow,
     pub tets: usize,
+    /// Iterations of the eigen-solve (0 with the learned field, which needs none).
     pub eigen_iterations: usize,
     /// Largest vertex displacement of the reduced simulation at the last step, m.
     pub max_displacement_m: f64,
@@ -528,7 +542,9 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
             ),
         })?;
     let source = bundled(name).expect("a bundled shape");
-    let shape = prepare_shape(source, options.young, options.resolution, 0, options.modes)?;
+    // The learned field needs no eigen-solve: prepare the shape without modes.
+    let modes = if options.learned { 0 } else { options.modes };
+    let shape = prepare_shape(source, options.young, options.resolution, 0, modes)?;
     let params = scenario_params(&shape);
     let (reference, fem_times) = if options.reference {
         run_fem(&shape, scenario, &params, options.steps)?
@@ -554,12 +570,12 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
             shape.source.normalization(),
         )?)
     } else {
-        Arc::new(shape.eigen.truncated(options.modes))
+        Arc::new(shape.eigen().truncated(options.modes))
     };
     let cubature = Cubature::stratified(&shape.grid, options.cubature, shape.mesh.volume());
     let subspace = Arc::new(Subspace::build(
         field.clone(),
-        *shape.eigen_normalization(),
+        shape.eigen_normalization(),
         &cubature,
         params.density,
     ));
@@ -612,7 +628,7 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
         fem_max_displacement_m,
         row,
         tets: shape.mesh.tets.len(),
-        eigen_iterations: shape.eigen.iterations,
+        eigen_iterations: shape.eigen.as_ref().map_or(0, |e| e.iterations),
         max_displacement_m,
     })
 }
