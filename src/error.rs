@@ -25,6 +25,10 @@ pub enum Error {
     /// Candle fails only on shape bugs or allocation failure; its message is kept.
     #[error("network computation: {0}")]
     Network(#[from] candle_core::Error),
+    #[error(transparent)]
+    Node(#[from] crate::ros::NodeError),
+    #[error(transparent)]
+    Params(#[from] crate::ros::params::ParamError),
     #[error("i/o on {path}: {source}")]
     Io {
         path: PathBuf,

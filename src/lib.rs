@@ -55,6 +55,8 @@ pub mod geometry;
 pub mod io;
 mod linalg;
 pub mod physics;
+pub mod pipeline;
+pub mod ros;
 pub mod skinning;
 pub mod training;
 

@@ -61,6 +61,8 @@ enum Command {
     Infer(cli::infer::InferArgs),
     /// Evaluate the learned fields on unseen shapes: metrics, inference time, simulation error.
     Eval(cli::eval::EvalArgs),
+    /// The ROS 2 node: clouds and meshes in, skinning weights and deformed clouds out.
+    Node(cli::node::NodeArgs),
     /// Benchmarks; with no name, all of them.
     Bench {
         #[command(subcommand)]
@@ -132,6 +134,7 @@ fn main() -> ExitCode {
         Command::Train(args) => cli::train::run(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Infer(args) => cli::infer::run(args),
+        Command::Node(args) => cli::node::run(args),
         Command::Bench { which } => match which.unwrap_or(BenchCommand::Sim {
             quick: false,
             json: false,

@@ -2,4 +2,5 @@
 
 pub mod eval;
 pub mod infer;
+pub mod node;
 pub mod train;

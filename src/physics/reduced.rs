@@ -195,6 +195,36 @@ impl ReducedSim {
         self.preconditioner = None;
     }
 
+    /// Pins these material points where they are now (not at rest), e.g. a grasp.
+    pub fn hold(&mut self, points: &[Vector3<f64>], masses: &[f64]) {
+        let first = self.pins.len();
+        self.add_pins(points, masses);
+        for pin in &mut self.pins[first..] {
+            pin.target = pin.rest + &self.z * &pin.phi;
+        }
+        self.update_pin_offsets();
+    }
+
+    /// Releases the pins whose rest positions lie within `radius` of `center`; returns how many.
+    pub fn release_pins_within(&mut self, center: &Vector3<f64>, radius: f64) -> usize {
+        let before = self.pins.len();
+        self.pins.retain(|p| (p.rest - center).norm() > radius);
+        let released = before - self.pins.len();
+        if released > 0 {
+            self.pin_phi.fill(0.0);
+            for pin in &self.pins {
+                self.pin_phi.ger(pin.weight, &pin.phi, &pin.phi, 1.0);
+            }
+            self.update_pin_offsets();
+            self.preconditioner = None;
+        }
+        released
+    }
+
+    pub fn pin_count(&self) -> usize {
+        self.pins.len()
+    }
+
     fn update_pin_offsets(&mut self) {
         self.pin_offset.fill(0.0);
         for pin in &self.pins {
@@ -240,6 +270,9 @@ impl ReducedSim {
     }
 
     pub fn add_poke(&mut self, poke: Poke) {
+        // Finished pokes are dropped here, so a long stream of them costs nothing.
+        let now = self.time;
+        self.pokes.retain(|(_, p)| p.end > now);
         let phi = self.subspace.phis(&[poke.point]).remove(0);
         self.pokes.push((phi, poke));
     }

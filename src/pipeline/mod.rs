@@ -1,0 +1,6 @@
+//! Geometry in, motion out: one object from its points to a running simulation. The node, the
+//! replay and embedding programs all drive this same type.
+
+mod body;
+
+pub use body::{BodyOptions, BuildTimings, SoftBody, Support};

@@ -1,0 +1,288 @@
+//! sensor_msgs/PointCloud2 in and out. Producers differ in offsets, precision, byte order and
+//! extra fields, so reading goes by field name and datatype, never by assumed layout.
+
+use nalgebra::Vector3;
+
+use super::messages::{Header, PointCloud2, PointField};
+
+pub const FLOAT32: u8 = 7;
+pub const FLOAT64: u8 = 8;
+
+/// Why a PointCloud2 could not be read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CloudError {
+    #[error("PointCloud2 has no `{0}` field (fields: {1})")]
+    MissingField(&'static str, String),
+    #[error("PointCloud2 field `{name}` has datatype {datatype}; x, y and z must be FLOAT32 (7) or FLOAT64 (8)")]
+    UnsupportedDatatype { name: &'static str, datatype: u8 },
+    #[error("PointCloud2 field `{name}` at offset {offset} does not fit in point_step {point_step}")]
+    FieldOutsidePoint {
+        name: &'static str,
+        offset: u32,
+        point_step: u32,
+    },
+    #[error("PointCloud2 row_step {row_step} is smaller than width {width} x point_step {point_step}")]
+    RowTooShort {
+        row_step: u32,
+        width: u32,
+        point_step: u32,
+    },
+    #[error("PointCloud2 data holds {actual} bytes but row_step {row_step} x height {height} = {expected}")]
+    DataLength {
+        actual: usize,
+        expected: u64,
+        row_step: u32,
+        height: u32,
+    },
+    #[error("PointCloud2 holds {count} points, more than max_points = {cap}")]
+    TooManyPoints { count: u64, cap: usize },
+    #[error("PointCloud2 holds no finite point ({dropped} with NaN or Inf coordinates dropped)")]
+    NoFinitePoints { dropped: usize },
+}
+
+/// The finite points of a cloud, in order, and how many were dropped for NaN or Inf.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DecodedCloud {
+    pub points: Vec<Vector3<f64>>,
+    pub dropped: usize,
+}
+
+struct Coordinate {
+    offset: usize,
+    double: bool,
+}
+
+fn coordinate(cloud: &PointCloud2, name: &'static str) -> Result<Coordinate, CloudError> {
+    let field = cloud
+        .fields
+        .iter()
+        .find(|f| f.name == name)
+        .ok_or_else(|| {
+            let names: Vec<_> = cloud.fields.iter().map(|f| f.name.as_str()).collect();
+            CloudError::MissingField(name, names.join(", "))
+        })?;
+    let size = match field.datatype {
+        FLOAT32 => 4,
+        FLOAT64 => 8,
+        datatype => return Err(CloudError::UnsupportedDatatype { name, datatype }),
+    };
+    if field.offset as u64 + size > cloud.point_step as u64 {
+        return Err(CloudError::FieldOutsidePoint {
+            name,
+            offset: field.offset,
+            point_step: cloud.point_step,
+        });
+    }
+    Ok(Coordinate {
+        offset: field.offset as usize,
+        double: size == 8,
+    })
+}
+
+/// Reads x, y, z of every point, checks the layout against the data, and drops points with a
+/// non-finite coordinate whatever `is_dense` claims. `max_points` caps the points accepted
+/// before any work is done on them.
+pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedCloud, CloudError> {
+    let axes = [
+        coordinate(cloud, "x")?,
+        coordinate(cloud, "y")?,
+        coordinate(cloud, "z")?,
+    ];
+    let (width, height) = (cloud.width as u64, cloud.height as u64);
+    if (cloud.row_step as u64) < width * cloud.point_step as u64 {
+        return Err(CloudError::RowTooShort {
+            row_step: cloud.row_step,
+            width: cloud.width,
+            point_step: cloud.point_step,
+        });
+    }
+    let expected = cloud.row_step as u64 * height;
+    if cloud.data.len() as u64 != expected {
+        return Err(CloudError::DataLength {
+            actual: cloud.data.len(),
+            expected,
+            row_step: cloud.row_step,
+            height: cloud.height,
+        });
+    }
+    let count = width * height;
+    if count > max_points as u64 {
+        return Err(CloudError::TooManyPoints {
+            count,
+            cap: max_points,
+        });
+    }
+    let big = cloud.is_bigendian;
+    let read = |bytes: &[u8], axis: &Coordinate| -> f64 {
+        let at = &bytes[axis.offset..];
+        if axis.double {
+            let raw: [u8; 8] = at[..8].try_into().expect("8 bytes checked against point_step");
+            if big {
+                f64::from_be_bytes(raw)
+            } else {
+                f64::from_le_bytes(raw)
+            }
+        } else {
+            let raw: [u8; 4] = at[..4].try_into().expect("4 bytes checked against point_step");
+            (if big {
+                f32::from_be_bytes(raw)
+            } else {
+                f32::from_le_bytes(raw)
+            }) as f64
+        }
+    };
+    let mut points = Vec::with_capacity(count as usize);
+    let mut dropped = 0;
+    let step = cloud.point_step as usize;
+    for row in cloud.data.chunks_exact(cloud.row_step.max(1) as usize) {
+        for p in 0..cloud.width as usize {
+            let bytes = &row[p * step..(p + 1) * step];
+            let point = Vector3::new(read(bytes, &axes[0]), read(bytes, &axes[1]), read(bytes, &axes[2]));
+            if point.iter().all(|c| c.is_finite()) {
+                points.push(point);
+            } else {
+                dropped += 1;
+            }
+        }
+    }
+    if points.is_empty() {
+        return Err(CloudError::NoFinitePoints { dropped });
+    }
+    Ok(DecodedCloud { points, dropped })
+}
+
+/// An unordered (height 1), dense, little-endian cloud of float32 x, y, z followed by one float32
+/// field per name in `channels`; `values` holds those channels point by point.
+pub fn encode_cloud(header: Header, xyz: &[f32], channels: &[String], values: &[f32]) -> PointCloud2 {
+    assert_eq!(xyz.len() % 3, 0, "xyz holds 3 floats per point");
+    let count = xyz.len() / 3;
+    let c = channels.len();
+    assert_eq!(values.len(), count * c, "values hold one float per point and channel");
+    let names = ["x", "y", "z"].into_iter().map(String::from).chain(channels.iter().cloned());
+    let fields: Vec<PointField> = names
+        .enumerate()
+        .map(|(i, name)| PointField {
+            name,
+            offset: 4 * i as u32,
+            datatype: FLOAT32,
+            count: 1,
+        })
+        .collect();
+    let point_step = 4 * (3 + c);
+    let mut data = Vec::with_capacity(count * point_step);
+    for p in 0..count {
+        for v in xyz[3 * p..3 * p + 3].iter().chain(&values[p * c..(p + 1) * c]) {
+            data.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    PointCloud2 {
+        header,
+        height: 1,
+        width: count as u32,
+        fields,
+        is_bigendian: false,
+        point_step: point_step as u32,
+        row_step: (point_step * count) as u32,
+        data,
+        is_dense: true,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn field(name: &str, offset: u32, datatype: u8) -> PointField {
+        PointField {
+            name: name.into(),
+            offset,
+            datatype,
+            count: 1,
+        }
+    }
+
+    /// A cloud laid out like many drivers: float64 z first, padding, intensity, then x and y.
+    fn odd_cloud(points: &[[f64; 3]], big: bool) -> PointCloud2 {
+        let step = 32u32;
+        let mut data = Vec::new();
+        for p in points {
+            let mut rec = vec![0u8; step as usize];
+            let put64 = |rec: &mut Vec<u8>, at: usize, v: f64| {
+                let b = if big { v.to_be_bytes() } else { v.to_le_bytes() };
+                rec[at..at + 8].copy_from_slice(&b);
+            };
+            let put32 = |rec: &mut Vec<u8>, at: usize, v: f32| {
+                let b = if big { v.to_be_bytes() } else { v.to_le_bytes() };
+                rec[at..at + 4].copy_from_slice(&b);
+            };
+            put64(&mut rec, 0, p[2]);
+            put32(&mut rec, 12, 7.5); // intensity, ignored
+            put32(&mut rec, 16, p[0] as f32);
+            put64(&mut rec, 24, p[1]);
+            data.extend(rec);
+        }
+        PointCloud2 {
+            header: Header::default(),
+            height: 1,
+            width: points.len() as u32,
+            fields: vec![
+                field("z", 0, FLOAT64),
+                field("intensity", 12, FLOAT32),
+                field("x", 16, FLOAT32),
+                field("y", 24, FLOAT64),
+            ],
+            is_bigendian: big,
+            point_step: step,
+            row_step: step * points.len() as u32,
+            data,
+            is_dense: true, // it lies below: one point is NaN
+        }
+    }
+
+    #[test]
+    fn reads_by_name_any_offset_precision_and_byte_order() {
+        let points = [[1.5, -2.0, 3.25], [f64::NAN, 0.0, 1.0], [0.5, 0.25, -4.0]];
+        for big in [false, true] {
+            let decoded = decode_cloud(&odd_cloud(&points, big), 100).unwrap();
+            assert_eq!(decoded.dropped, 1, "the NaN point is dropped although is_dense says true");
+            assert_eq!(
+                decoded.points,
+                vec![Vector3::new(1.5, -2.0, 3.25), Vector3::new(0.5, 0.25, -4.0)]
+            );
+        }
+    }
+
+    #[test]
+    fn round_trips_our_own_clouds_with_extra_channels() {
+        let xyz = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
+        let channels = vec!["w0".to_string(), "w1".to_string()];
+        let cloud = encode_cloud(Header::default(), &xyz, &channels, &[1.0, 0.5, 1.0, -0.5]);
+        assert_eq!(cloud.point_step, 20);
+        assert_eq!(cloud.data.len(), 40);
+        let decoded = decode_cloud(&cloud, 10).unwrap();
+        assert_eq!(decoded.points[1], Vector3::new(3.0, 4.0, 5.0));
+    }
+
+    #[test]
+    fn names_what_is_wrong() {
+        let good = odd_cloud(&[[1.0, 2.0, 3.0]], false);
+        let mut missing = good.clone();
+        missing.fields.retain(|f| f.name != "z");
+        assert!(matches!(decode_cloud(&missing, 10), Err(CloudError::MissingField("z", _))));
+        let mut ints = good.clone();
+        ints.fields[2].datatype = 5;
+        assert_eq!(
+            decode_cloud(&ints, 10),
+            Err(CloudError::UnsupportedDatatype { name: "x", datatype: 5 })
+        );
+        let mut short_step = good.clone();
+        short_step.point_step = 24;
+        assert!(matches!(decode_cloud(&short_step, 10), Err(CloudError::FieldOutsidePoint { name: "y", .. })));
+        let mut short_data = good.clone();
+        short_data.data.pop();
+        assert!(matches!(decode_cloud(&short_data, 10), Err(CloudError::DataLength { .. })));
+        assert!(matches!(decode_cloud(&good, 0), Err(CloudError::TooManyPoints { count: 1, cap: 0 })));
+        let nan = odd_cloud(&[[f64::INFINITY, 0.0, 0.0]], false);
+        assert_eq!(decode_cloud(&nan, 10), Err(CloudError::NoFinitePoints { dropped: 1 }));
+    }
+}

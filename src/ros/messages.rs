@@ -1,0 +1,248 @@
+//! ROS 2 message types, as plain structs whose serde layout is exactly the CDR layout of their
+//! .msg files (fields in declaration order; constants are not serialized).
+//!
+//! Each struct is declared through `ros_message!`, which also records its fields with ROS types
+//! derived from the Rust types, so a test can hold them against the .msg files in `msg/`.
+
+use serde::{Deserialize, Serialize};
+
+/// The ROS 2 type of a Rust field type ("uint32", "float32[]", "std_msgs/Header").
+pub trait RosType {
+    fn ros_type() -> String;
+}
+
+macro_rules! primitive {
+    ($($rust:ty => $ros:literal),* $(,)?) => {
+        $(impl RosType for $rust {
+            fn ros_type() -> String {
+                $ros.into()
+            }
+        })*
+    };
+}
+
+primitive!(bool => "bool", u8 => "uint8", i8 => "int8", u16 => "uint16", i16 => "int16",
+    u32 => "uint32", i32 => "int32", u64 => "uint64", i64 => "int64", f32 => "float32",
+    f64 => "float64", String => "string");
+
+impl<T: RosType> RosType for Vec<T> {
+    fn ros_type() -> String {
+        format!("{}[]", T::ros_type())
+    }
+}
+
+impl<T: RosType, const N: usize> RosType for [T; N] {
+    fn ros_type() -> String {
+        format!("{}[{N}]", T::ros_type())
+    }
+}
+
+/// A message type: its package, name and fields (name, ROS type) in wire order.
+pub trait RosMessage: Serialize + for<'de> Deserialize<'de> + Send + 'static {
+    const PACKAGE: &'static str;
+    const NAME: &'static str;
+    fn fields() -> Vec<(&'static str, String)>;
+
+    /// "pkg/msg/Name", as in MCAP schemas and `ros2 topic info`.
+    fn type_name() -> String {
+        format!("{}/msg/{}", Self::PACKAGE, Self::NAME)
+    }
+}
+
+macro_rules! ros_message {
+    ($(#[$meta:meta])* $name:ident = $pkg:literal {
+        $($(#[$field_meta:meta])* $field:ident : $ty:ty),* $(,)?
+    }) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+        pub struct $name {
+            $($(#[$field_meta])* pub $field: $ty),*
+        }
+
+        impl RosType for $name {
+            fn ros_type() -> String {
+                format!("{}/{}", $pkg, stringify!($name))
+            }
+        }
+
+        impl RosMessage for $name {
+            const PACKAGE: &'static str = $pkg;
+            const NAME: &'static str = stringify!($name);
+            fn fields() -> Vec<(&'static str, String)> {
+                vec![$((stringify!($field), <$ty as RosType>::ros_type())),*]
+            }
+        }
+    };
+}
+
+ros_message!(
+    /// builtin_interfaces/msg/Time.
+    Time = "builtin_interfaces" { sec: i32, nanosec: u32 }
+);
+
+impl Time {
+    pub fn from_nanos(nanos: i64) -> Self {
+        Self {
+            sec: nanos.div_euclid(1_000_000_000) as i32,
+            nanosec: nanos.rem_euclid(1_000_000_000) as u32,
+        }
+    }
+
+    pub fn nanos(&self) -> i64 {
+        self.sec as i64 * 1_000_000_000 + self.nanosec as i64
+    }
+}
+
+ros_message!(
+    /// rosgraph_msgs/msg/Clock: the simulated time of a replay.
+    Clock = "rosgraph_msgs" { clock: Time }
+);
+
+ros_message!(
+    /// std_msgs/msg/Header.
+    Header = "std_msgs" { stamp: Time, frame_id: String }
+);
+
+ros_message!(
+    /// std_msgs/msg/String.
+    RosString = "std_msgs" { data: String }
+);
+
+ros_message!(
+    /// geometry_msgs/msg/Point.
+    Point = "geometry_msgs" { x: f64, y: f64, z: f64 }
+);
+
+ros_message!(
+    /// geometry_msgs/msg/Vector3.
+    Vector3 = "geometry_msgs" { x: f64, y: f64, z: f64 }
+);
+
+ros_message!(
+    /// sensor_msgs/msg/PointField. Datatypes: INT8 1, UINT8 2, INT16 3, UINT16 4, INT32 5,
+    /// UINT32 6, FLOAT32 7, FLOAT64 8.
+    PointField = "sensor_msgs" { name: String, offset: u32, datatype: u8, count: u32 }
+);
+
+ros_message!(
+    /// sensor_msgs/msg/PointCloud2: read it with [`super::cloud::decode_cloud`].
+    PointCloud2 = "sensor_msgs" {
+        header: Header,
+        height: u32,
+        width: u32,
+        fields: Vec<PointField>,
+        is_bigendian: bool,
+        point_step: u32,
+        row_step: u32,
+        data: Vec<u8>,
+        is_dense: bool,
+    }
+);
+
+ros_message!(
+    /// shape_msgs/msg/MeshTriangle.
+    MeshTriangle = "shape_msgs" { vertex_indices: [u32; 3] }
+);
+
+ros_message!(
+    /// shape_msgs/msg/Mesh (no header: the node takes its frame from the `mesh_frame` parameter).
+    Mesh = "shape_msgs" { triangles: Vec<MeshTriangle>, vertices: Vec<Point> }
+);
+
+ros_message!(
+    /// physskin/msg/MeshStamped: a mesh with its frame.
+    MeshStamped = "physskin" { header: Header, mesh: Mesh }
+);
+
+ros_message!(
+    /// physskin/msg/SkinningWeights: points x handles, row-major.
+    SkinningWeights = "physskin" {
+        header: Header,
+        shape_id: u32,
+        point_count: u32,
+        handle_count: u32,
+        weights: Vec<f32>,
+    }
+);
+
+ros_message!(
+    /// physskin/msg/SubspaceState: the reduced state after a step.
+    SubspaceState = "physskin" {
+        header: Header,
+        shape_id: u32,
+        handle_count: u32,
+        z: Vec<f64>,
+        z_velocity: Vec<f64>,
+        elastic_energy: f64,
+        kinetic_energy: f64,
+        gravity_energy: f64,
+        newton_iterations: u32,
+        converged: bool,
+        fallback: bool,
+        residual: f64,
+        step_time_ms: f64,
+    }
+);
+
+ros_message!(
+    /// physskin/msg/Interaction: a force, pin or release (see the constants below).
+    Interaction = "physskin" {
+        header: Header,
+        shape_id: u32,
+        kind: u8,
+        point: Point,
+        force: Vector3,
+        duration: f64,
+        radius: f64,
+    }
+);
+
+impl Interaction {
+    pub const FORCE: u8 = 0;
+    pub const PIN: u8 = 1;
+    pub const RELEASE: u8 = 2;
+}
+
+ros_message!(
+    /// physskin/msg/Status: what the node did with an input, and why.
+    Status = "physskin" {
+        header: Header,
+        shape_id: u32,
+        level: u8,
+        event: String,
+        message: String,
+    }
+);
+
+impl Status {
+    pub const INFO: u8 = 0;
+    pub const WARN: u8 = 1;
+    pub const ERROR: u8 = 2;
+}
+
+/// Serializes a message to CDR little-endian with its 4-byte encapsulation header, as on the
+/// wire and in MCAP.
+pub fn to_cdr<M: Serialize>(message: &M) -> Vec<u8> {
+    let mut bytes = vec![0x00, 0x01, 0x00, 0x00];
+    bytes.extend(
+        cdr_encoding::to_vec::<M, byteorder::LittleEndian>(message)
+            .expect("plain message structs always serialize"),
+    );
+    bytes
+}
+
+/// Parses CDR with its encapsulation header (either byte order).
+pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, String> {
+    if bytes.len() < 4 {
+        return Err(format!("{} bytes, shorter than the CDR header", bytes.len()));
+    }
+    let body = &bytes[4..];
+    let parsed = match bytes[1] {
+        0x00 => cdr_encoding::from_bytes::<M, byteorder::BigEndian>(body),
+        0x01 => cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(body),
+        other => return Err(format!("unknown CDR representation {other:#04x}")),
+    };
+    parsed
+        .map(|(m, _)| m)
+        .map_err(|e| format!("bad CDR: {e}"))
+}

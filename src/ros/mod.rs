@@ -1,0 +1,14 @@
+//! ROS 2: message types, the PointCloud2 codec, parameters, and the node.
+
+mod builder;
+mod clock;
+pub mod cloud;
+pub mod messages;
+mod node;
+mod outputs;
+pub mod params;
+mod stepper;
+
+pub use node::{context, publisher, reliable_qos, run_node, sensor_qos, subscription, NodeConfig, NodeError};
+pub use params::NodeParams;
+pub use stepper::StepperStats;

@@ -1,0 +1,330 @@
+//! The ROS 2 node: parameters, subscriptions and publishers on ros2-client, wired to the build
+//! and step threads. Subscriptions only decode and forward; nothing slow runs on the executor.
+
+use std::net::Ipv4Addr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, Sender};
+use std::sync::{Arc, RwLock};
+use std::time::Duration;
+
+use futures::StreamExt;
+use nalgebra::Vector3;
+use ros2_client::ros2::policy::{Durability, History, Reliability};
+use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
+use ros2_client::rustdds::DomainParticipantBuilder;
+use ros2_client::{Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher, Subscription};
+
+use super::builder::{run_builder, BuildRequest};
+use super::clock::NodeClock;
+use super::cloud::decode_cloud;
+use super::messages::{
+    Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights, Status, SubspaceState,
+};
+use super::outputs::Outputs;
+use super::params::NodeParams;
+use super::stepper::{run_stepper, StepperCommand, StepperStats};
+use crate::skinning::NeuralModel;
+
+/// Why the node could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    #[error("DDS: {0}")]
+    Dds(String),
+    #[error("invalid node name: {0}")]
+    Name(String),
+    #[error(transparent)]
+    Params(#[from] super::params::ParamError),
+    #[error("signal handler: {0}")]
+    Signal(String),
+}
+
+/// How to start the node.
+#[derive(Clone, Debug)]
+pub struct NodeConfig {
+    pub params: NodeParams,
+    /// Default "physskin".
+    pub name: String,
+    /// Default "/".
+    pub namespace: String,
+    /// ROS_DOMAIN_ID. Default 0.
+    pub domain_id: u16,
+    /// Restrict DDS to 127.0.0.1 (tests and benchmarks outside a private network namespace).
+    pub loopback_only: bool,
+}
+
+impl Default for NodeConfig {
+    fn default() -> Self {
+        Self {
+            params: NodeParams::default(),
+            name: "physskin".into(),
+            namespace: "/".into(),
+            domain_id: 0,
+            loopback_only: false,
+        }
+    }
+}
+
+impl NodeConfig {
+    pub fn fully_qualified_name(&self) -> String {
+        format!("{}/{}", self.namespace.trim_end_matches('/'), self.name)
+    }
+}
+
+/// A DDS context, restricted to loopback when asked.
+pub fn context(domain_id: u16, loopback_only: bool) -> Result<Context, NodeError> {
+    let dds = |e: ros2_client::ros2::CreateError| NodeError::Dds(format!("{e:?}"));
+    let mut builder = DomainParticipantBuilder::new(domain_id);
+    if loopback_only {
+        builder = builder.with_only_networks([Ipv4Addr::LOCALHOST]);
+    }
+    Context::from_domain_participant(builder.build().map_err(dds)?).map_err(dds)
+}
+
+/// Sensor inputs: keep-last 5, best effort, volatile (ROS's sensor-data profile). A best-effort
+/// reader also matches reliable writers.
+pub fn sensor_qos() -> QosPolicies {
+    QosPolicyBuilder::new()
+        .history(History::KeepLast { depth: 5 })
+        .reliability(Reliability::BestEffort)
+        .durability(Durability::Volatile)
+        .build()
+}
+
+/// Reliable keep-last `depth`, transient local when late joiners should still get the last ones.
+pub fn reliable_qos(depth: i32, transient_local: bool) -> QosPolicies {
+    QosPolicyBuilder::new()
+        .history(History::KeepLast { depth })
+        .reliability(Reliability::Reliable {
+            max_blocking_time: ros2_client::ros2::Duration::from_millis(100),
+        })
+        .durability(if transient_local {
+            Durability::TransientLocal
+        } else {
+            Durability::Volatile
+        })
+        .build()
+}
+
+fn topic_of<M: RosMessage>(node: &Node, name: &str, qos: &QosPolicies) -> Result<ros2_client::rustdds::Topic, NodeError> {
+    let parsed = Name::parse(name).map_err(|e| NodeError::Name(format!("topic `{name}`: {e:?}")))?;
+    node.create_topic(&parsed, MessageTypeName::new(M::PACKAGE, M::NAME), qos)
+        .map_err(|e| NodeError::Dds(format!("topic `{name}`: {e:?}")))
+}
+
+pub fn publisher<M: RosMessage>(node: &mut Node, name: &str, qos: QosPolicies) -> Result<Publisher<M>, NodeError> {
+    let topic = topic_of::<M>(node, name, &qos)?;
+    node.create_publisher(&topic, Some(qos))
+        .map_err(|e| NodeError::Dds(format!("publisher `{name}`: {e:?}")))
+}
+
+pub fn subscription<M: RosMessage>(node: &mut Node, name: &str, qos: QosPolicies) -> Result<Subscription<M>, NodeError> {
+    let topic = topic_of::<M>(node, name, &qos)?;
+    node.create_subscription(&topic, Some(qos))
+        .map_err(|e| NodeError::Dds(format!("subscription `{name}`: {e:?}")))
+}
+
+/// Runs the node until `stop` is set; returns the stepper's counters.
+pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBool>) -> Result<StepperStats, NodeError> {
+    config
+        .params
+        .validate()
+        .map_err(|e| super::params::ParamError::Invalid { name: "parameters".into(), reason: e.to_string() })?;
+    let params = Arc::new(RwLock::new(config.params.clone()));
+    let p = config.params.clone();
+    let context = context(config.domain_id, config.loopback_only)?;
+
+    let mut options = NodeOptions::new().enable_rosout(true);
+    for (name, value) in p.to_ros() {
+        if name != "use_sim_time" {
+            options = options.declare_parameter(&name, value);
+        }
+    }
+    let check = params.clone();
+    let apply = params.clone();
+    options = options
+        .parameter_validator(Box::new(move |name: &str, value: &ParameterValue| {
+            let current = check.read().map_err(|_| "parameters poisoned".to_string())?.clone();
+            current.with_ros(name, value).map(|_| ()).map_err(|e| e.to_string())
+        }))
+        .parameter_set_action(Box::new(move |name: &str, value: &ParameterValue| {
+            let mut current = apply.write().map_err(|_| "parameters poisoned".to_string())?;
+            *current = current.with_ros(name, value).map_err(|e| e.to_string())?;
+            eprintln!("[physskin] info: parameter {name} set to {value:?}; it applies to shapes that arrive from now on");
+            Ok(())
+        }));
+    let node_name = NodeName::new(&config.namespace, &config.name).map_err(|e| NodeError::Name(format!("{e:?}")))?;
+    let mut node = context
+        .new_node(node_name, options)
+        .map_err(|e| NodeError::Dds(format!("{e:?}")))?;
+    if p.use_sim_time {
+        let _ = node.set_parameter("use_sim_time", ParameterValue::Boolean(true));
+    }
+
+    let clock = if p.use_sim_time { NodeClock::simulated() } else { NodeClock::Wall };
+    let t = &p.topics;
+    let outputs = Arc::new(Outputs {
+        deformed_points: p
+            .publish
+            .deformed_points
+            .then(|| publisher::<PointCloud2>(&mut node, &t.deformed_points, reliable_qos(2, false)))
+            .transpose()?,
+        weights: p
+            .publish
+            .weights
+            .then(|| publisher::<SkinningWeights>(&mut node, &t.weights, reliable_qos(4, true)))
+            .transpose()?,
+        weights_cloud: p
+            .publish
+            .weights_cloud
+            .then(|| publisher::<PointCloud2>(&mut node, &t.weights_cloud, reliable_qos(4, true)))
+            .transpose()?,
+        state: p
+            .publish
+            .state
+            .then(|| publisher::<SubspaceState>(&mut node, &t.state, reliable_qos(10, false)))
+            .transpose()?,
+        status: publisher::<Status>(&mut node, &t.status, reliable_qos(50, true))?,
+        clock: clock.clone(),
+    });
+    let points_sub = subscription::<PointCloud2>(&mut node, &t.points, sensor_qos())?;
+    let mesh_sub = subscription::<Mesh>(&mut node, &t.mesh, sensor_qos())?;
+    let stamped_sub = subscription::<MeshStamped>(&mut node, &t.mesh_stamped, sensor_qos())?;
+    let interaction_sub = subscription::<Interaction>(&mut node, &t.interaction, reliable_qos(10, false))?;
+    let clock_sub = subscription::<Clock>(&mut node, "/clock", sensor_qos())?;
+
+    let (build_tx, build_rx) = channel::<BuildRequest>();
+    let (ready_tx, ready_rx) = channel();
+    let (step_tx, step_rx) = channel::<StepperCommand>();
+    let builder = {
+        let (params, outputs) = (params.clone(), outputs.clone());
+        std::thread::Builder::new()
+            .name("physskin-build".into())
+            .spawn(move || run_builder(build_rx, ready_tx, params, model, outputs))
+            .map_err(|e| NodeError::Dds(format!("cannot start the build thread: {e}")))?
+    };
+    // Ready bodies reach the stepper through its own channel, so it waits on one queue only.
+    let forward = {
+        let step_tx = step_tx.clone();
+        std::thread::spawn(move || {
+            for ready in ready_rx {
+                if step_tx.send(StepperCommand::Add(ready)).is_err() {
+                    break;
+                }
+            }
+        })
+    };
+    let stepper = {
+        let outputs = outputs.clone();
+        let rate = p.rate_hz;
+        std::thread::Builder::new()
+            .name("physskin-step".into())
+            .spawn(move || run_stepper(step_rx, rate, outputs))
+            .map_err(|e| NodeError::Dds(format!("cannot start the step thread: {e}")))?
+    };
+    outputs.report(
+        Status::INFO,
+        0,
+        "node_started",
+        format!(
+            "{} listening on {} and {}, stepping at {} Hz{}",
+            config.fully_qualified_name(),
+            t.points,
+            t.mesh,
+            p.rate_hz,
+            if p.use_sim_time { " of /clock time" } else { "" }
+        ),
+    );
+
+    let executor = smol::Executor::new();
+    let spinner = node.spinner().map_err(|e| NodeError::Dds(format!("{e:?}")))?;
+    executor.spawn(spinner.spin()).detach();
+    let max_points = p.max_points;
+    let mesh_frame = p.mesh_frame.clone();
+    let work = async {
+        let clouds = points_sub.async_stream().for_each(|m| {
+            if let Ok((cloud, _)) = m {
+                on_cloud(&cloud, max_points, &build_tx, &outputs);
+            }
+            async {}
+        });
+        let meshes = mesh_sub.async_stream().for_each(|m| {
+            if let Ok((mesh, _)) = m {
+                on_mesh(&mesh, &mesh_frame, max_points, &build_tx, &outputs);
+            }
+            async {}
+        });
+        let stamped = stamped_sub.async_stream().for_each(|m| {
+            if let Ok((m, _)) = m {
+                on_mesh(&m.mesh, &m.header.frame_id, max_points, &build_tx, &outputs);
+            }
+            async {}
+        });
+        let interactions = interaction_sub.async_stream().for_each(|m| {
+            if let Ok((i, _)) = m {
+                let _ = step_tx.send(StepperCommand::Interact(i));
+            }
+            async {}
+        });
+        let ticks = clock_sub.async_stream().for_each(|m| {
+            if let Ok((c, _)) = m {
+                clock.set(&c.clock);
+            }
+            async {}
+        });
+        futures::join!(clouds, meshes, stamped, interactions, ticks);
+    };
+    let stopped = async {
+        while !stop.load(Ordering::Relaxed) {
+            smol::Timer::after(Duration::from_millis(50)).await;
+        }
+    };
+    smol::block_on(executor.run(smol::future::race(work, stopped)));
+
+    drop(build_tx);
+    drop(step_tx);
+    let _ = builder.join();
+    let _ = forward.join();
+    let stats = stepper.join().unwrap_or_default();
+    outputs.report(
+        Status::INFO,
+        0,
+        "node_stopped",
+        format!("{} ticks, {} missed", stats.ticks, stats.missed),
+    );
+    node.stop_spinner();
+    drop(executor);
+    Ok(stats)
+}
+
+fn on_cloud(cloud: &PointCloud2, max_points: usize, build: &Sender<BuildRequest>, outputs: &Outputs) {
+    let frame = cloud.header.frame_id.clone();
+    match decode_cloud(cloud, max_points) {
+        Ok(decoded) => {
+            let _ = build.send(BuildRequest {
+                frame,
+                source: "cloud",
+                points: decoded.points,
+                triangles: Vec::new(),
+                dropped: decoded.dropped,
+            });
+        }
+        Err(e) => outputs.report(Status::ERROR, 0, "input_rejected", format!("cloud in frame `{frame}`: {e}")),
+    }
+}
+
+fn on_mesh(mesh: &Mesh, frame: &str, max_points: usize, build: &Sender<BuildRequest>, outputs: &Outputs) {
+    if mesh.vertices.len() > max_points {
+        let message = format!(
+            "mesh in frame `{frame}`: {} vertices, more than max_points = {max_points}",
+            mesh.vertices.len()
+        );
+        return outputs.report(Status::ERROR, 0, "input_rejected", message);
+    }
+    let _ = build.send(BuildRequest {
+        frame: frame.into(),
+        source: "mesh",
+        points: mesh.vertices.iter().map(|v| Vector3::new(v.x, v.y, v.z)).collect(),
+        triangles: mesh.triangles.iter().map(|t| t.vertex_indices).collect(),
+        dropped: 0,
+    });
+}

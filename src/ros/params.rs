@@ -1,0 +1,520 @@
+//! Node parameters: defaults in code, overrides from a `ros__parameters` YAML file, and the
+//! flat dotted names (`material.young`) that `ros2 param get/set` see.
+//!
+//! The parameters live as one serde struct. Loading and setting go through its JSON form, so a
+//! file, a `ros2 param set` and the defaults all pass the same type checks and validation.
+
+use std::path::Path;
+
+use nalgebra::Vector3;
+use ros2_client::ParameterValue;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+use crate::physics::{SimParams, Solver};
+use crate::pipeline::{BodyOptions, Support};
+
+/// Why parameters were refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamError {
+    #[error("cannot read parameter file {path}: {reason}")]
+    File { path: String, reason: String },
+    #[error("parameter file {path}: {reason}")]
+    Format { path: String, reason: String },
+    #[error("parameter `{name}`: {reason}")]
+    Invalid { name: String, reason: String },
+}
+
+/// Topic names (absolute, or relative to the node's namespace).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Topics {
+    /// sensor_msgs/PointCloud2 in. Default /physskin/points.
+    pub points: String,
+    /// shape_msgs/Mesh in (its frame is `mesh_frame`). Default /physskin/mesh.
+    pub mesh: String,
+    /// physskin/MeshStamped in. Default /physskin/mesh_stamped.
+    pub mesh_stamped: String,
+    /// physskin/Interaction in: forces, pins, releases. Default /physskin/interaction.
+    pub interaction: String,
+    /// PointCloud2 out: the deformed input points, every step. Default /physskin/deformed_points.
+    pub deformed_points: String,
+    /// PointCloud2 out: x, y, z and one float32 field w0..wK per handle, once per shape.
+    /// Default /physskin/weights_cloud.
+    pub weights_cloud: String,
+    /// physskin/SkinningWeights out, once per shape. Default /physskin/weights.
+    pub weights: String,
+    /// physskin/SubspaceState out, every step. Default /physskin/state.
+    pub state: String,
+    /// physskin/Status out: accepted and rejected inputs, errors. Default /physskin/status.
+    pub status: String,
+}
+
+impl Default for Topics {
+    fn default() -> Self {
+        let t = |name: &str| format!("/physskin/{name}");
+        Self {
+            points: t("points"),
+            mesh: t("mesh"),
+            mesh_stamped: t("mesh_stamped"),
+            interaction: t("interaction"),
+            deformed_points: t("deformed_points"),
+            weights_cloud: t("weights_cloud"),
+            weights: t("weights"),
+            state: t("state"),
+            status: t("status"),
+        }
+    }
+}
+
+/// Material of new shapes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MaterialParams {
+    /// Young's modulus, Pa. Default 2e5.
+    pub young: f64,
+    /// Poisson ratio. Default 0.45.
+    pub poisson: f64,
+    /// Density, kg/m^3. Default 1000.
+    pub density: f64,
+}
+
+impl Default for MaterialParams {
+    fn default() -> Self {
+        Self {
+            young: 2e5,
+            poisson: 0.45,
+            density: 1000.0,
+        }
+    }
+}
+
+/// Simulation of new shapes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimulationParams {
+    /// Gravity, m/s^2. Default [0, 0, -9.81].
+    pub gravity: [f64; 3],
+    /// Velocity decay rate, 1/s. Default 1.
+    pub damping: f64,
+    /// free, floor, pin_top or pin_bottom. Default pin_bottom.
+    pub support: Support,
+    /// Cubature points per shape. Default 256.
+    pub cubature: usize,
+    /// newton or quasi_newton. Default quasi_newton.
+    pub solver: String,
+}
+
+impl Default for SimulationParams {
+    fn default() -> Self {
+        Self {
+            gravity: [0.0, 0.0, -9.81],
+            damping: 1.0,
+            support: Support::PinBottom,
+            cubature: 256,
+            solver: "quasi_newton".into(),
+        }
+    }
+}
+
+/// Inference of new shapes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InferenceParams {
+    /// Surface points the network encodes. Default 4096 (the trained count).
+    pub surface_points: usize,
+    /// Interior points that fix the output normalization. Default 2048.
+    pub reference_points: usize,
+    /// Voxels across the longest side for the inside test. Default 64.
+    pub voxel_resolution: usize,
+    /// Threads for inference, kept apart from the stepping thread. Default 1.
+    pub threads: usize,
+}
+
+impl Default for InferenceParams {
+    fn default() -> Self {
+        Self {
+            surface_points: 4096,
+            reference_points: 2048,
+            voxel_resolution: 64,
+            threads: 1,
+        }
+    }
+}
+
+/// Which outputs are published.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PublishParams {
+    pub deformed_points: bool,
+    pub weights: bool,
+    pub weights_cloud: bool,
+    pub state: bool,
+}
+
+impl Default for PublishParams {
+    fn default() -> Self {
+        Self {
+            deformed_points: true,
+            weights: true,
+            weights_cloud: true,
+            state: true,
+        }
+    }
+}
+
+/// Every node parameter. Names in ROS are the dotted paths (`material.young`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NodeParams {
+    /// Steps per second (of sim time when use_sim_time). Read-only after start. Default 60.
+    pub rate_hz: f64,
+    /// Take time from /clock. Read-only after start. Default false.
+    pub use_sim_time: bool,
+    /// Largest cloud or mesh accepted, points. Default 1,000,000.
+    pub max_points: usize,
+    /// Frame of shape_msgs/Mesh inputs, which carry none. Default "world".
+    pub mesh_frame: String,
+    pub topics: Topics,
+    pub material: MaterialParams,
+    pub simulation: SimulationParams,
+    pub inference: InferenceParams,
+    pub publish: PublishParams,
+}
+
+impl Default for NodeParams {
+    fn default() -> Self {
+        Self {
+            rate_hz: 60.0,
+            use_sim_time: false,
+            max_points: 1_000_000,
+            mesh_frame: "world".into(),
+            topics: Topics::default(),
+            material: MaterialParams::default(),
+            simulation: SimulationParams::default(),
+            inference: InferenceParams::default(),
+            publish: PublishParams::default(),
+        }
+    }
+}
+
+/// Parameters that only take effect at start; `ros2 param set` on them is refused.
+const READ_ONLY: [&str; 4] = ["rate_hz", "use_sim_time", "topics.", "inference.threads"];
+
+impl NodeParams {
+    /// Defaults overridden by the entries of `path` that apply to the node `/namespace/name`.
+    pub fn from_yaml_file(path: &Path, fully_qualified_name: &str) -> Result<Self, ParamError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ParamError::File {
+            path: path.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        Self::from_yaml(&text, fully_qualified_name).map_err(|e| match e {
+            ParamError::Format { reason, .. } => ParamError::Format {
+                path: path.display().to_string(),
+                reason,
+            },
+            other => other,
+        })
+    }
+
+    /// Parses the ROS 2 parameter file format: `node: ros__parameters: {...}` where the node
+    /// key may be a name, `/namespace/name`, nested namespace keys, or a `/**` or `*` wildcard.
+    /// Later matching sections override earlier ones.
+    pub fn from_yaml(text: &str, fully_qualified_name: &str) -> Result<Self, ParamError> {
+        let format = |reason: String| ParamError::Format {
+            path: "<text>".into(),
+            reason,
+        };
+        let yaml: serde_yaml::Value =
+            serde_yaml::from_str(text).map_err(|e| format(e.to_string()))?;
+        let json = serde_json::to_value(yaml).map_err(|e| format(e.to_string()))?;
+        let Value::Object(top) = json else {
+            return Err(format("the top level must map node names to sections".into()));
+        };
+        let mut sections = Vec::new();
+        collect_sections(&top, "", &mut sections).map_err(format)?;
+        let mut params = Self::default();
+        let mut matched = false;
+        for (pattern, section) in sections {
+            if node_matches(&pattern, fully_qualified_name) {
+                matched = true;
+                for (name, value) in flatten(&section, "") {
+                    params = params.with(&name, value)?;
+                }
+            }
+        }
+        if !matched {
+            return Err(format(format!(
+                "no section applies to node {fully_qualified_name} (use its name or /**)"
+            )));
+        }
+        Ok(params)
+    }
+
+    /// A copy with one dotted parameter replaced, type-checked and validated.
+    pub fn with(&self, name: &str, value: Value) -> Result<Self, ParamError> {
+        let invalid = |reason: String| ParamError::Invalid {
+            name: name.into(),
+            reason,
+        };
+        let mut json = serde_json::to_value(self).expect("parameters serialize");
+        let mut slot = &mut json;
+        for part in name.split('.') {
+            slot = slot
+                .as_object_mut()
+                .and_then(|o| o.get_mut(part))
+                .ok_or_else(|| invalid("no such parameter".into()))?;
+        }
+        if slot.is_object() {
+            return Err(invalid("a group of parameters, not one".into()));
+        }
+        *slot = value;
+        let params: Self = serde_json::from_value(json).map_err(|e| invalid(e.to_string()))?;
+        params.validate().map_err(|e| invalid(e.to_string()))?;
+        Ok(params)
+    }
+
+    /// `with` for a value arriving from `ros2 param set`; read-only parameters are refused.
+    pub fn with_ros(&self, name: &str, value: &ParameterValue) -> Result<Self, ParamError> {
+        if READ_ONLY.iter().any(|r| name == *r || (r.ends_with('.') && name.starts_with(r))) {
+            return Err(ParamError::Invalid {
+                name: name.into(),
+                reason: "read-only while the node runs: set it in the parameter file".into(),
+            });
+        }
+        self.with(name, from_ros(value))
+    }
+
+    pub fn validate(&self) -> crate::Result<()> {
+        use crate::error::ensure;
+        ensure(
+            self.rate_hz > 0.0 && self.rate_hz <= 1000.0,
+            "rate_hz",
+            || format!("{} is outside (0, 1000] Hz", self.rate_hz),
+        )?;
+        ensure(self.max_points >= 4, "max_points", || {
+            "must be at least 4".into()
+        })?;
+        ensure(
+            self.simulation.cubature >= 16,
+            "simulation.cubature",
+            || format!("{} points are too few (at least 16)", self.simulation.cubature),
+        )?;
+        ensure(
+            (16..=256).contains(&self.inference.voxel_resolution),
+            "inference.voxel_resolution",
+            || format!("{} is outside 16..=256", self.inference.voxel_resolution),
+        )?;
+        ensure(
+            self.inference.surface_points >= 64 && self.inference.reference_points >= 64,
+            "inference.surface_points",
+            || "surface and reference points must be at least 64".into(),
+        )?;
+        ensure(self.inference.threads >= 1, "inference.threads", || {
+            "at least 1".into()
+        })?;
+        self.solver()?;
+        self.sim_params().validate()
+    }
+
+    pub fn solver(&self) -> crate::Result<Solver> {
+        match self.simulation.solver.as_str() {
+            "newton" => Ok(Solver::Newton),
+            "quasi_newton" => Ok(Solver::QuasiNewton),
+            other => Err(crate::Error::InvalidParameter {
+                name: "simulation.solver",
+                reason: format!("`{other}` is neither newton nor quasi_newton"),
+            }),
+        }
+    }
+
+    /// The simulation parameters of new shapes.
+    pub fn sim_params(&self) -> SimParams {
+        SimParams {
+            young: self.material.young,
+            poisson: self.material.poisson,
+            density: self.material.density,
+            dt: 1.0 / self.rate_hz,
+            gravity: Vector3::from(self.simulation.gravity),
+            damping: self.simulation.damping,
+            ..SimParams::default()
+        }
+    }
+
+    /// How new shapes are built and simulated.
+    pub fn body_options(&self) -> crate::Result<BodyOptions> {
+        Ok(BodyOptions {
+            surface_points: self.inference.surface_points,
+            reference_points: self.inference.reference_points,
+            voxel_resolution: self.inference.voxel_resolution,
+            cubature: self.simulation.cubature,
+            sim: self.sim_params(),
+            solver: self.solver()?,
+            support: self.simulation.support,
+        })
+    }
+
+    /// Every parameter by dotted name, as ROS declares them.
+    pub fn to_ros(&self) -> Vec<(String, ParameterValue)> {
+        let json = serde_json::to_value(self).expect("parameters serialize");
+        let Value::Object(map) = json else {
+            unreachable!("a struct serializes to an object")
+        };
+        flatten(&map, "")
+            .into_iter()
+            .map(|(name, value)| (name, to_ros(&value)))
+            .collect()
+    }
+}
+
+/// (node pattern, its ros__parameters) for every section, nested namespaces joined with '/'.
+fn collect_sections(
+    map: &Map<String, Value>,
+    prefix: &str,
+    out: &mut Vec<(String, Map<String, Value>)>,
+) -> Result<(), String> {
+    for (key, value) in map {
+        let Value::Object(inner) = value else {
+            return Err(format!("`{prefix}{key}` must be a mapping"));
+        };
+        let path = format!("{prefix}/{}", key.trim_matches('/'));
+        match inner.get("ros__parameters") {
+            Some(Value::Object(params)) => out.push((path.clone(), params.clone())),
+            Some(_) => return Err(format!("`{path}: ros__parameters` must be a mapping")),
+            None => collect_sections(inner, &path, out)?,
+        }
+    }
+    Ok(())
+}
+
+/// ROS 2 node-name matching: `/**` matches everything, `*` one name segment, a pattern without
+/// a leading namespace matches that node name in the root namespace.
+fn node_matches(pattern: &str, name: &str) -> bool {
+    fn matches(p: &[&str], n: &[&str]) -> bool {
+        match (p.first(), n.first()) {
+            (None, None) => true,
+            (Some(&"**"), _) => (0..=n.len()).any(|i| matches(&p[1..], &n[i..])),
+            (Some(&"*"), Some(_)) => matches(&p[1..], &n[1..]),
+            (Some(a), Some(b)) if a == b => matches(&p[1..], &n[1..]),
+            _ => false,
+        }
+    }
+    let split = |s: &str| -> Vec<String> {
+        s.split('/').filter(|x| !x.is_empty()).map(String::from).collect()
+    };
+    let (p, n) = (split(pattern), split(name));
+    let p: Vec<&str> = p.iter().map(String::as_str).collect();
+    let n: Vec<&str> = n.iter().map(String::as_str).collect();
+    matches(&p, &n)
+}
+
+fn flatten(map: &Map<String, Value>, prefix: &str) -> Vec<(String, Value)> {
+    let mut out = Vec::new();
+    for (key, value) in map {
+        let name = format!("{prefix}{key}");
+        match value {
+            Value::Object(inner) => out.extend(flatten(inner, &format!("{name}."))),
+            other => out.push((name, other.clone())),
+        }
+    }
+    out
+}
+
+fn to_ros(value: &Value) -> ParameterValue {
+    match value {
+        Value::Bool(b) => ParameterValue::Boolean(*b),
+        Value::Number(n) if n.is_f64() => ParameterValue::Double(n.as_f64().unwrap_or(f64::NAN)),
+        Value::Number(n) => ParameterValue::Integer(n.as_i64().unwrap_or(i64::MAX)),
+        Value::String(s) => ParameterValue::String(s.clone()),
+        Value::Array(items) if items.iter().all(Value::is_boolean) => {
+            ParameterValue::BooleanArray(items.iter().filter_map(Value::as_bool).collect())
+        }
+        Value::Array(items) if items.iter().all(|v| v.is_i64() || v.is_u64()) && !items.is_empty() => {
+            ParameterValue::IntegerArray(items.iter().filter_map(Value::as_i64).collect())
+        }
+        Value::Array(items) if items.iter().all(Value::is_number) => {
+            ParameterValue::DoubleArray(items.iter().filter_map(Value::as_f64).collect())
+        }
+        Value::Array(items) => ParameterValue::StringArray(
+            items.iter().map(|v| v.as_str().map_or_else(|| v.to_string(), String::from)).collect(),
+        ),
+        Value::Null | Value::Object(_) => ParameterValue::NotSet,
+    }
+}
+
+fn from_ros(value: &ParameterValue) -> Value {
+    use ParameterValue as P;
+    match value {
+        P::NotSet => Value::Null,
+        P::Boolean(b) => Value::from(*b),
+        P::Integer(i) => Value::from(*i),
+        P::Double(d) => Value::from(*d),
+        P::String(s) => Value::from(s.clone()),
+        P::ByteArray(v) => Value::from(v.clone()),
+        P::BooleanArray(v) => Value::from(v.clone()),
+        P::IntegerArray(v) => Value::from(v.clone()),
+        P::DoubleArray(v) => Value::from(v.clone()),
+        P::StringArray(v) => Value::from(v.clone()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wildcard_namespaced_and_nested_sections_apply_in_order() {
+        let yaml = r#"
+/**:
+  ros__parameters:
+    rate_hz: 30.0
+    material: {young: 1.0e6}
+/robots:
+  physskin:
+    ros__parameters:
+      material:
+        poisson: 0.3
+      simulation: {support: floor, gravity: [0.0, -9.81, 0.0]}
+other_node:
+  ros__parameters:
+    rate_hz: 5.0
+"#;
+        let p = NodeParams::from_yaml(yaml, "/robots/physskin").unwrap();
+        assert_eq!(p.rate_hz, 30.0);
+        assert_eq!(p.material.young, 1e6);
+        assert_eq!(p.material.poisson, 0.3);
+        assert_eq!(p.simulation.support, Support::Floor);
+        assert_eq!(p.simulation.gravity, [0.0, -9.81, 0.0]);
+        // The namespaced section does not apply to /physskin in the root namespace.
+        let root = NodeParams::from_yaml(yaml, "/physskin").unwrap();
+        assert_eq!(root.material.poisson, 0.45);
+    }
+
+    #[test]
+    fn bad_files_name_the_parameter() {
+        let typo = "physskin:\n  ros__parameters:\n    material: {yung: 3.0}\n";
+        let e = NodeParams::from_yaml(typo, "/physskin").unwrap_err().to_string();
+        assert!(e.contains("material.yung"), "{e}");
+        let negative = "/**:\n  ros__parameters:\n    material: {young: -1.0}\n";
+        let e = NodeParams::from_yaml(negative, "/physskin").unwrap_err().to_string();
+        assert!(e.contains("material.young") && e.contains("young"), "{e}");
+        let wrong_type = "/**:\n  ros__parameters:\n    rate_hz: fast\n";
+        let e = NodeParams::from_yaml(wrong_type, "/physskin").unwrap_err().to_string();
+        assert!(e.contains("rate_hz"), "{e}");
+        let nobody = "someone_else:\n  ros__parameters: {rate_hz: 5.0}\n";
+        assert!(NodeParams::from_yaml(nobody, "/physskin").is_err());
+    }
+
+    #[test]
+    fn ros_names_round_trip_and_read_only_is_refused() {
+        let p = NodeParams::default();
+        let declared = p.to_ros();
+        assert!(declared.contains(&("material.young".into(), ParameterValue::Double(2e5))));
+        assert!(declared.contains(&("topics.points".into(), ParameterValue::String("/physskin/points".into()))));
+        let q = p.with_ros("material.young", &ParameterValue::Double(5e5)).unwrap();
+        assert_eq!(q.material.young, 5e5);
+        assert!(p.with_ros("topics.points", &ParameterValue::String("/x".into())).is_err());
+        assert!(p.with_ros("material.young", &ParameterValue::String("soft".into())).is_err());
+        assert!(p.with_ros("material.poisson", &ParameterValue::Double(0.5)).is_err());
+    }
+}

@@ -1,0 +1,135 @@
+//! The stepping thread: every running object advances once per period and its outputs go out.
+//! New bodies and interactions arrive on a channel between ticks.
+
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::time::{Duration, Instant};
+
+use nalgebra::Vector3;
+
+use super::builder::ReadyBody;
+use super::messages::{Interaction, Status};
+use super::outputs::SharedOutputs;
+
+pub enum StepperCommand {
+    Add(ReadyBody),
+    Interact(Interaction),
+}
+
+/// Counters the stepper keeps for the node's final report.
+#[derive(Clone, Debug, Default)]
+pub struct StepperStats {
+    pub ticks: u64,
+    /// Ticks skipped because a tick ran past the next one's start.
+    pub missed: u64,
+}
+
+/// Runs until `commands` closes. `rate_hz` periods of the node's clock (wall or /clock).
+pub fn run_stepper(commands: Receiver<StepperCommand>, rate_hz: f64, outputs: SharedOutputs) -> StepperStats {
+    let period = (1e9 / rate_hz) as i64;
+    let mut bodies: Vec<ReadyBody> = Vec::new();
+    let mut stats = StepperStats::default();
+    let mut next_tick: Option<i64> = None;
+    loop {
+        // Wait for the tick, serving commands meanwhile. A simulated clock is polled: /clock
+        // moves in jumps, not at the wall clock's pace.
+        loop {
+            let now = outputs.clock.now_nanos();
+            let wait = match (now, next_tick) {
+                (Some(now), Some(t)) if now >= t => break,
+                (Some(now), Some(t)) if !outputs.clock.is_simulated() => {
+                    Duration::from_nanos((t - now) as u64)
+                }
+                (Some(now), None) => {
+                    next_tick = Some(now);
+                    break;
+                }
+                _ => Duration::from_millis(1),
+            };
+            match commands.recv_timeout(wait) {
+                Ok(StepperCommand::Add(ready)) => add(&mut bodies, ready, &outputs),
+                Ok(StepperCommand::Interact(i)) => interact(&mut bodies, &i, &outputs),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return stats,
+            }
+        }
+        let started = Instant::now();
+        for b in &mut bodies {
+            step(b, &outputs);
+        }
+        stats.ticks += 1;
+        let tick = next_tick.expect("set before the first tick") + period;
+        let now = outputs.clock.now_nanos().unwrap_or(tick);
+        next_tick = Some(if now - tick > period || now < tick - 2 * period {
+            // Late by more than a period (or the simulated clock went back): skip ahead
+            // instead of bursting to catch up.
+            stats.missed += ((now - tick) / period).max(0) as u64;
+            if !outputs.clock.is_simulated() {
+                let ms = started.elapsed().as_secs_f64() * 1e3;
+                eprintln!("[physskin] warn: tick took {ms:.1} ms, behind schedule");
+            }
+            now + period
+        } else {
+            tick
+        });
+    }
+}
+
+fn step(b: &mut ReadyBody, outputs: &SharedOutputs) {
+    let report = b.body.step();
+    if !report.converged {
+        let message = format!(
+            "step did not converge ({} iterations, decrement {:e})",
+            report.iterations, report.decrement
+        );
+        outputs.report(Status::WARN, b.id, "step_unconverged", message);
+    }
+    outputs.publish_step(b.id, &b.frame, &b.body);
+}
+
+/// A new body replaces the one in its frame and makes its first step at once, so its first
+/// deformed cloud does not wait for the next tick.
+fn add(bodies: &mut Vec<ReadyBody>, mut ready: ReadyBody, outputs: &SharedOutputs) {
+    step(&mut ready, outputs);
+    if let Some(old) = bodies.iter_mut().find(|b| b.frame == ready.frame) {
+        *old = ready;
+    } else {
+        bodies.push(ready);
+    }
+}
+
+fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &SharedOutputs) {
+    let point = Vector3::new(i.point.x, i.point.y, i.point.z);
+    let force = Vector3::new(i.force.x, i.force.y, i.force.z);
+    let frame = &i.header.frame_id;
+    let finite = point.iter().chain(force.iter()).all(|c| c.is_finite())
+        && i.duration.is_finite()
+        && i.radius.is_finite();
+    let ignored = |problem: String| outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem);
+    if !finite {
+        return ignored("non-finite point, force, duration or radius".into());
+    }
+    if i.kind > Interaction::RELEASE {
+        return ignored(format!("unknown kind {} (FORCE 0, PIN 1, RELEASE 2)", i.kind));
+    }
+    let mut matched = 0;
+    for b in bodies
+        .iter_mut()
+        .filter(|b| (i.shape_id == 0 || b.id == i.shape_id) && (frame.is_empty() || b.frame == *frame))
+    {
+        matched += 1;
+        match i.kind {
+            Interaction::FORCE => b.body.push(point, force, i.duration.max(0.0)),
+            Interaction::PIN => {
+                if b.body.hold(&point, i.radius) == 0 {
+                    ignored(format!("no material within {} m of the pin point", i.radius));
+                }
+            }
+            _ => {
+                b.body.release(&point, i.radius);
+            }
+        }
+    }
+    if matched == 0 {
+        ignored(format!("no shape matches shape_id {} in frame `{frame}`", i.shape_id));
+    }
+}
