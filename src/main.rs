@@ -72,6 +72,15 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// ROS 2 node latency: cloud in to first deformed cloud out (10k, 100k points), and 60 Hz
+    /// publish jitter while another shape is inferred. DDS stays on 127.0.0.1.
+    Latency {
+        #[arg(long)]
+        json: bool,
+        /// ROS domain for the run (keeps it apart from other runs on this machine).
+        #[arg(long, default_value_t = 77)]
+        domain_id: u16,
+    },
     /// Reduced simulation against the FEM reference: step time next to error.
     Sim {
         /// Small meshes and fewer variants (fits in CI).
@@ -141,6 +150,7 @@ fn main() -> ExitCode {
             plot: "target/bench/sim.svg".into(),
         }) {
             BenchCommand::Sim { quick, json, plot } => run_bench_sim(quick, json, &plot),
+            BenchCommand::Latency { json, domain_id } => run_bench_latency(json, domain_id),
         },
     };
     match result {
@@ -194,6 +204,21 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
         "max displacement {:.4} m at the last step (FEM: {:.4} m)",
         summary.max_displacement_m, summary.fem_max_displacement_m
     );
+    Ok(())
+}
+
+fn run_bench_latency(json: bool, domain_id: u16) -> physskin::Result<()> {
+    let r = physskin::bench::run_latency_bench(domain_id, |line| eprintln!("{line}"))?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&r).expect("serializable"));
+    } else {
+        println!("first deformed cloud after a new 10k-point cloud   {:8.1} ms", r.latency_10k_ms);
+        println!("first deformed cloud after a new 100k-point cloud  {:8.1} ms", r.latency_100k_ms);
+        println!(
+            "publish jitter at {} Hz while shapes are inferred   p99 {:.3} ms, max {:.3} ms ({} intervals)",
+            r.rate_hz, r.jitter_p99_ms, r.jitter_max_ms, r.jitter_intervals
+        );
+    }
     Ok(())
 }
 

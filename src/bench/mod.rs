@@ -1,6 +1,7 @@
 //! Benchmarks that print tables (and JSON): speed next to error against the full-space reference.
 
 mod fields;
+mod latency;
 mod plot;
 mod sim;
 mod stats;
@@ -9,6 +10,7 @@ pub use fields::{
     evaluate_fields, interior_points, prepare_input, EvalMean, EvalOptions, EvalReport,
     PreparedInput, ShapeEval,
 };
+pub use latency::{run_latency_bench, sample_cloud, LatencyReport};
 pub use sim::{
     run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimRow, SimulateOptions,
     SimulateSummary,

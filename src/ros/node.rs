@@ -148,7 +148,11 @@ pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBoo
         }))
         .parameter_set_action(Box::new(move |name: &str, value: &ParameterValue| {
             let mut current = apply.write().map_err(|_| "parameters poisoned".to_string())?;
-            *current = current.with_ros(name, value).map_err(|e| e.to_string())?;
+            let updated = current.with_ros(name, value).map_err(|e| e.to_string())?;
+            if updated == *current {
+                return Ok(());
+            }
+            *current = updated;
             eprintln!("[physskin] info: parameter {name} set to {value:?}; it applies to shapes that arrive from now on");
             Ok(())
         }));

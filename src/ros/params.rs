@@ -276,6 +276,14 @@ impl NodeParams {
 
     /// `with` for a value arriving from `ros2 param set`; read-only parameters are refused.
     pub fn with_ros(&self, name: &str, value: &ParameterValue) -> Result<Self, ParamError> {
+        let unchanged = self
+            .to_ros()
+            .iter()
+            .any(|(n, v)| n == name && v == value);
+        if unchanged {
+            // ROS sets every declared parameter once at start; that is not a change.
+            return Ok(self.clone());
+        }
         if READ_ONLY.iter().any(|r| name == *r || (r.ends_with('.') && name.starts_with(r))) {
             return Err(ParamError::Invalid {
                 name: name.into(),
