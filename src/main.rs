@@ -210,10 +210,19 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
 fn run_bench_latency(json: bool, domain_id: u16) -> physskin::Result<()> {
     let r = physskin::bench::run_latency_bench(domain_id, |line| eprintln!("{line}"))?;
     if json {
-        println!("{}", serde_json::to_string_pretty(&r).expect("serializable"));
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&r).expect("serializable")
+        );
     } else {
-        println!("first deformed cloud after a new 10k-point cloud   {:8.1} ms", r.latency_10k_ms);
-        println!("first deformed cloud after a new 100k-point cloud  {:8.1} ms", r.latency_100k_ms);
+        println!(
+            "first deformed cloud after a new 10k-point cloud   {:8.1} ms",
+            r.latency_10k_ms
+        );
+        println!(
+            "first deformed cloud after a new 100k-point cloud  {:8.1} ms",
+            r.latency_100k_ms
+        );
         println!(
             "publish jitter at {} Hz while shapes are inferred   p99 {:.3} ms, max {:.3} ms ({} intervals)",
             r.rate_hz, r.jitter_p99_ms, r.jitter_max_ms, r.jitter_intervals

@@ -15,12 +15,31 @@ fn ros_venv() -> PathBuf {
         .status()
         .is_ok_and(|s| s.success());
     if !ready {
-        let status = Command::new("python3").args(["-m", "venv"]).arg(&venv).status();
-        assert!(status.is_ok_and(|s| s.success()), "python3 -m venv {} failed", venv.display());
-        let status = Command::new(venv.join("bin/pip"))
-            .args(["install", "-q", "ros-rclpy", "ros-sensor-msgs", "ros-std-msgs", "ros-shape-msgs", "ros-rmw-fastrtps-cpp", "numpy"])
+        let status = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
             .status();
-        assert!(status.is_ok_and(|s| s.success()), "pip could not install rclpy (ros-rclpy from PyPI)");
+        assert!(
+            status.is_ok_and(|s| s.success()),
+            "python3 -m venv {} failed",
+            venv.display()
+        );
+        let status = Command::new(venv.join("bin/pip"))
+            .args([
+                "install",
+                "-q",
+                "ros-rclpy",
+                "ros-sensor-msgs",
+                "ros-std-msgs",
+                "ros-shape-msgs",
+                "ros-rmw-fastrtps-cpp",
+                "numpy",
+            ])
+            .status();
+        assert!(
+            status.is_ok_and(|s| s.success()),
+            "pip could not install rclpy (ros-rclpy from PyPI)"
+        );
     }
     python
 }

@@ -1,7 +1,8 @@
 //! The Rust message types against the .msg files in msg/, field by field, and their CDR bytes.
 
 use physskin::ros::messages::{
-    from_cdr, to_cdr, Header, Interaction, MeshStamped, RosMessage, SkinningWeights, Status, SubspaceState, Time,
+    from_cdr, to_cdr, Header, Interaction, MeshStamped, RosMessage, SkinningWeights, Status,
+    SubspaceState, Time,
 };
 
 /// (name, type) of every field of a .msg file; constants and comments skipped, package-local
@@ -23,7 +24,10 @@ fn check<M: RosMessage>() {
     let path = format!("{}/msg/{}.msg", env!("CARGO_MANIFEST_DIR"), M::NAME);
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let expected = parse_msg(&text);
-    let actual: Vec<(String, String)> = M::fields().into_iter().map(|(n, t)| (n.to_string(), t)).collect();
+    let actual: Vec<(String, String)> = M::fields()
+        .into_iter()
+        .map(|(n, t)| (n.to_string(), t))
+        .collect();
     assert_eq!(actual, expected, "{} differs from {path}", M::type_name());
 }
 

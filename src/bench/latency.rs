@@ -41,7 +41,11 @@ pub fn sample_cloud(shape: &str, count: usize, frame: &str, seed: u64) -> PointC
         },
         &mut rng,
     );
-    let xyz: Vec<f32> = samples.points.iter().flat_map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
+    let xyz: Vec<f32> = samples
+        .points
+        .iter()
+        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
     encode_cloud(
         Header {
             frame_id: frame.into(),
@@ -90,12 +94,17 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
         let ctx = context(domain_id, false)?;
         let mut client = ctx
             .new_node(
-                ros2_client::NodeName::new("/", "physskin_bench").map_err(|e| dds(format!("{e:?}")))?,
+                ros2_client::NodeName::new("/", "physskin_bench")
+                    .map_err(|e| dds(format!("{e:?}")))?,
                 ros2_client::NodeOptions::new().enable_rosout(false),
             )
             .map_err(|e| dds(format!("{e:?}")))?;
         let points = publisher::<PointCloud2>(&mut client, &topics.points, reliable_qos(5, false))?;
-        let deformed = subscription::<PointCloud2>(&mut client, &topics.deformed_points, reliable_qos(50, false))?;
+        let deformed = subscription::<PointCloud2>(
+            &mut client,
+            &topics.deformed_points,
+            reliable_qos(50, false),
+        )?;
         let spinner = client.spinner().map_err(|e| dds(format!("{e:?}")))?;
         std::thread::spawn(move || smol::block_on(spinner.spin()));
         // Wait for discovery both ways before timing anything.
@@ -127,8 +136,11 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
             let sent = Instant::now();
             points.publish(cloud).map_err(|e| dds(format!("{e:?}")))?;
             loop {
-                let (m, at) = receive(Duration::from_secs(30))
-                    .ok_or_else(|| dds(format!("no deformed cloud for the {count}-point cloud within 30 s")))?;
+                let (m, at) = receive(Duration::from_secs(30)).ok_or_else(|| {
+                    dds(format!(
+                        "no deformed cloud for the {count}-point cloud within 30 s"
+                    ))
+                })?;
                 if m.header.frame_id == frame && m.width as usize == count {
                     return Ok((at - sent).as_secs_f64() * 1e3);
                 }
@@ -139,7 +151,9 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
         // frame by the measured one, so one 10k shape runs during the jitter phase.
         latency(9_999, "cloud_10k", 1)?;
         let l10k = latency(10_000, "cloud_10k", 2)?;
-        log(&format!("10k points: first deformed cloud after {l10k:.1} ms"));
+        log(&format!(
+            "10k points: first deformed cloud after {l10k:.1} ms"
+        ));
 
         // Jitter: intervals of the 10k shape's clouds while new shapes are inferred.
         let mut arrivals = Vec::new();
@@ -162,7 +176,9 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
         }
         // Last, so its 100k-point frames do not load the jitter phase.
         let l100k = latency(100_000, "cloud_100k", 3)?;
-        log(&format!("100k points: first deformed cloud after {l100k:.1} ms"));
+        log(&format!(
+            "100k points: first deformed cloud after {l100k:.1} ms"
+        ));
         let period = 1e3 / rate_hz;
         let mut deviations: Vec<f64> = arrivals
             .windows(2)
@@ -170,9 +186,13 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
             .collect();
         deviations.sort_by(f64::total_cmp);
         if deviations.len() < 10 {
-            return Err(dds(format!("only {} deformed clouds arrived in 4 s", arrivals.len())));
+            return Err(dds(format!(
+                "only {} deformed clouds arrived in 4 s",
+                arrivals.len()
+            )));
         }
-        let p99 = deviations[((deviations.len() as f64 * 0.99).ceil() as usize).min(deviations.len()) - 1];
+        let p99 = deviations
+            [((deviations.len() as f64 * 0.99).ceil() as usize).min(deviations.len()) - 1];
         Ok(LatencyReport {
             latency_10k_ms: l10k,
             latency_100k_ms: l100k,

@@ -53,6 +53,9 @@ pub fn run(args: NodeArgs) -> physskin::Result<()> {
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .map_err(|e| NodeError::Signal(e.to_string()))?;
     let stats = run_node(config, model, stop)?;
-    eprintln!("physskin node stopped: {} ticks, {} missed", stats.ticks, stats.missed);
+    eprintln!(
+        "physskin node stopped: {} ticks, {} missed",
+        stats.ticks, stats.missed
+    );
     Ok(())
 }

@@ -9,7 +9,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{sample_surface, Cubature, Shape, SurfaceSamples, SurfaceSampling, VoxelGrid};
+use crate::geometry::{
+    sample_surface, Cubature, Shape, SurfaceSamples, SurfaceSampling, VoxelGrid,
+};
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, StepReport, Subspace};
 use crate::skinning::{NeuralModel, SkinningField};
 use crate::Result;
@@ -122,11 +124,12 @@ impl SoftBody {
             normals: world.normals.clone(),
             areas: world.areas.clone(),
         };
-        let reference: Vec<_> = Cubature::stratified(&grid, options.reference_points, grid.solid_volume())
-            .points
-            .iter()
-            .map(|p| map.to_normalized(p))
-            .collect();
+        let reference: Vec<_> =
+            Cubature::stratified(&grid, options.reference_points, grid.solid_volume())
+                .points
+                .iter()
+                .map(|p| map.to_normalized(p))
+                .collect();
         let mut timings = BuildTimings {
             voxelize_ms: ms(started),
             ..Default::default()
@@ -138,9 +141,19 @@ impl SoftBody {
 
         let t = Instant::now();
         let cubature = Cubature::stratified(&grid, options.cubature, grid.solid_volume());
-        let subspace = Arc::new(Subspace::build(field.clone(), map, &cubature, options.sim.density));
+        let subspace = Arc::new(Subspace::build(
+            field.clone(),
+            map,
+            &cubature,
+            options.sim.density,
+        ));
         let (lo, hi) = grid.solid_bounds();
-        let mut sim = ReducedSim::new(subspace, options.sim.clone(), options.solver, (hi - lo).norm())?;
+        let mut sim = ReducedSim::new(
+            subspace,
+            options.sim.clone(),
+            options.solver,
+            (hi - lo).norm(),
+        )?;
         apply_support(&mut sim, options, &cubature, &world.points, &world.areas);
         sim.prepare();
         timings.subspace_ms = ms(t);
@@ -149,7 +162,10 @@ impl SoftBody {
         let handles = field.handle_count();
         let (weights, _) = crate::physics::sample(field.as_ref(), &map, points, false);
         let lifter = Lifter::from_weights(handles, &weights, points);
-        let deformed = points.iter().flat_map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
+        let deformed = points
+            .iter()
+            .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+            .collect();
         timings.weights_ms = ms(t);
         timings.total_ms = ms(started);
         Ok(Self {
@@ -264,11 +280,17 @@ fn apply_support(
 ) {
     let g = options.sim.gravity;
     // "Up" is against gravity; without gravity, +z.
-    let up = if g.norm() > 0.0 { -g.normalize() } else { Vector3::z() };
+    let up = if g.norm() > 0.0 {
+        -g.normalize()
+    } else {
+        Vector3::z()
+    };
     let heights: Vec<f64> = cubature.points.iter().map(|p| p.dot(&up)).collect();
     let (lo, hi) = heights
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &h| (a.min(h), b.max(h)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &h| {
+            (a.min(h), b.max(h))
+        });
     let slab = 0.1 * (hi - lo);
     let pin_where = |keep: &dyn Fn(f64) -> bool| -> (Vec<Vector3<f64>>, Vec<f64>) {
         cubature

@@ -65,7 +65,12 @@ pub fn run_builder(
     {
         Ok(pool) => pool,
         Err(e) => {
-            outputs.report(Status::ERROR, 0, "node_error", format!("no inference threads: {e}"));
+            outputs.report(
+                Status::ERROR,
+                0,
+                "node_error",
+                format!("no inference threads: {e}"),
+            );
             return;
         }
     };

@@ -15,13 +15,17 @@ pub enum CloudError {
     MissingField(&'static str, String),
     #[error("PointCloud2 field `{name}` has datatype {datatype}; x, y and z must be FLOAT32 (7) or FLOAT64 (8)")]
     UnsupportedDatatype { name: &'static str, datatype: u8 },
-    #[error("PointCloud2 field `{name}` at offset {offset} does not fit in point_step {point_step}")]
+    #[error(
+        "PointCloud2 field `{name}` at offset {offset} does not fit in point_step {point_step}"
+    )]
     FieldOutsidePoint {
         name: &'static str,
         offset: u32,
         point_step: u32,
     },
-    #[error("PointCloud2 row_step {row_step} is smaller than width {width} x point_step {point_step}")]
+    #[error(
+        "PointCloud2 row_step {row_step} is smaller than width {width} x point_step {point_step}"
+    )]
     RowTooShort {
         row_step: u32,
         width: u32,
@@ -116,14 +120,18 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
     let read = |bytes: &[u8], axis: &Coordinate| -> f64 {
         let at = &bytes[axis.offset..];
         if axis.double {
-            let raw: [u8; 8] = at[..8].try_into().expect("8 bytes checked against point_step");
+            let raw: [u8; 8] = at[..8]
+                .try_into()
+                .expect("8 bytes checked against point_step");
             if big {
                 f64::from_be_bytes(raw)
             } else {
                 f64::from_le_bytes(raw)
             }
         } else {
-            let raw: [u8; 4] = at[..4].try_into().expect("4 bytes checked against point_step");
+            let raw: [u8; 4] = at[..4]
+                .try_into()
+                .expect("4 bytes checked against point_step");
             (if big {
                 f32::from_be_bytes(raw)
             } else {
@@ -137,7 +145,11 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
     for row in cloud.data.chunks_exact(cloud.row_step.max(1) as usize) {
         for p in 0..cloud.width as usize {
             let bytes = &row[p * step..(p + 1) * step];
-            let point = Vector3::new(read(bytes, &axes[0]), read(bytes, &axes[1]), read(bytes, &axes[2]));
+            let point = Vector3::new(
+                read(bytes, &axes[0]),
+                read(bytes, &axes[1]),
+                read(bytes, &axes[2]),
+            );
             if point.iter().all(|c| c.is_finite()) {
                 points.push(point);
             } else {
@@ -153,12 +165,24 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
 
 /// An unordered (height 1), dense, little-endian cloud of float32 x, y, z followed by one float32
 /// field per name in `channels`; `values` holds those channels point by point.
-pub fn encode_cloud(header: Header, xyz: &[f32], channels: &[String], values: &[f32]) -> PointCloud2 {
+pub fn encode_cloud(
+    header: Header,
+    xyz: &[f32],
+    channels: &[String],
+    values: &[f32],
+) -> PointCloud2 {
     assert_eq!(xyz.len() % 3, 0, "xyz holds 3 floats per point");
     let count = xyz.len() / 3;
     let c = channels.len();
-    assert_eq!(values.len(), count * c, "values hold one float per point and channel");
-    let names = ["x", "y", "z"].into_iter().map(String::from).chain(channels.iter().cloned());
+    assert_eq!(
+        values.len(),
+        count * c,
+        "values hold one float per point and channel"
+    );
+    let names = ["x", "y", "z"]
+        .into_iter()
+        .map(String::from)
+        .chain(channels.iter().cloned());
     let fields: Vec<PointField> = names
         .enumerate()
         .map(|(i, name)| PointField {
@@ -171,7 +195,10 @@ pub fn encode_cloud(header: Header, xyz: &[f32], channels: &[String], values: &[
     let point_step = 4 * (3 + c);
     let mut data = Vec::with_capacity(count * point_step);
     for p in 0..count {
-        for v in xyz[3 * p..3 * p + 3].iter().chain(&values[p * c..(p + 1) * c]) {
+        for v in xyz[3 * p..3 * p + 3]
+            .iter()
+            .chain(&values[p * c..(p + 1) * c])
+        {
             data.extend_from_slice(&v.to_le_bytes());
         }
     }
@@ -208,11 +235,19 @@ mod tests {
         for p in points {
             let mut rec = vec![0u8; step as usize];
             let put64 = |rec: &mut Vec<u8>, at: usize, v: f64| {
-                let b = if big { v.to_be_bytes() } else { v.to_le_bytes() };
+                let b = if big {
+                    v.to_be_bytes()
+                } else {
+                    v.to_le_bytes()
+                };
                 rec[at..at + 8].copy_from_slice(&b);
             };
             let put32 = |rec: &mut Vec<u8>, at: usize, v: f32| {
-                let b = if big { v.to_be_bytes() } else { v.to_le_bytes() };
+                let b = if big {
+                    v.to_be_bytes()
+                } else {
+                    v.to_le_bytes()
+                };
                 rec[at..at + 4].copy_from_slice(&b);
             };
             put64(&mut rec, 0, p[2]);
@@ -244,7 +279,10 @@ mod tests {
         let points = [[1.5, -2.0, 3.25], [f64::NAN, 0.0, 1.0], [0.5, 0.25, -4.0]];
         for big in [false, true] {
             let decoded = decode_cloud(&odd_cloud(&points, big), 100).unwrap();
-            assert_eq!(decoded.dropped, 1, "the NaN point is dropped although is_dense says true");
+            assert_eq!(
+                decoded.dropped, 1,
+                "the NaN point is dropped although is_dense says true"
+            );
             assert_eq!(
                 decoded.points,
                 vec![Vector3::new(1.5, -2.0, 3.25), Vector3::new(0.5, 0.25, -4.0)]
@@ -268,21 +306,39 @@ mod tests {
         let good = odd_cloud(&[[1.0, 2.0, 3.0]], false);
         let mut missing = good.clone();
         missing.fields.retain(|f| f.name != "z");
-        assert!(matches!(decode_cloud(&missing, 10), Err(CloudError::MissingField("z", _))));
+        assert!(matches!(
+            decode_cloud(&missing, 10),
+            Err(CloudError::MissingField("z", _))
+        ));
         let mut ints = good.clone();
         ints.fields[2].datatype = 5;
         assert_eq!(
             decode_cloud(&ints, 10),
-            Err(CloudError::UnsupportedDatatype { name: "x", datatype: 5 })
+            Err(CloudError::UnsupportedDatatype {
+                name: "x",
+                datatype: 5
+            })
         );
         let mut short_step = good.clone();
         short_step.point_step = 24;
-        assert!(matches!(decode_cloud(&short_step, 10), Err(CloudError::FieldOutsidePoint { name: "y", .. })));
+        assert!(matches!(
+            decode_cloud(&short_step, 10),
+            Err(CloudError::FieldOutsidePoint { name: "y", .. })
+        ));
         let mut short_data = good.clone();
         short_data.data.pop();
-        assert!(matches!(decode_cloud(&short_data, 10), Err(CloudError::DataLength { .. })));
-        assert!(matches!(decode_cloud(&good, 0), Err(CloudError::TooManyPoints { count: 1, cap: 0 })));
+        assert!(matches!(
+            decode_cloud(&short_data, 10),
+            Err(CloudError::DataLength { .. })
+        ));
+        assert!(matches!(
+            decode_cloud(&good, 0),
+            Err(CloudError::TooManyPoints { count: 1, cap: 0 })
+        ));
         let nan = odd_cloud(&[[f64::INFINITY, 0.0, 0.0]], false);
-        assert_eq!(decode_cloud(&nan, 10), Err(CloudError::NoFinitePoints { dropped: 1 }));
+        assert_eq!(
+            decode_cloud(&nan, 10),
+            Err(CloudError::NoFinitePoints { dropped: 1 })
+        );
     }
 }

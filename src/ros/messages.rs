@@ -234,7 +234,10 @@ pub fn to_cdr<M: Serialize>(message: &M) -> Vec<u8> {
 /// Parses CDR with its encapsulation header (either byte order).
 pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, String> {
     if bytes.len() < 4 {
-        return Err(format!("{} bytes, shorter than the CDR header", bytes.len()));
+        return Err(format!(
+            "{} bytes, shorter than the CDR header",
+            bytes.len()
+        ));
     }
     let body = &bytes[4..];
     let parsed = match bytes[1] {
@@ -242,7 +245,5 @@ pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, String>
         0x01 => cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(body),
         other => return Err(format!("unknown CDR representation {other:#04x}")),
     };
-    parsed
-        .map(|(m, _)| m)
-        .map_err(|e| format!("bad CDR: {e}"))
+    parsed.map(|(m, _)| m).map_err(|e| format!("bad CDR: {e}"))
 }

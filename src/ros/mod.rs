@@ -9,6 +9,8 @@ mod outputs;
 pub mod params;
 mod stepper;
 
-pub use node::{context, publisher, reliable_qos, run_node, sensor_qos, subscription, NodeConfig, NodeError};
+pub use node::{
+    context, publisher, reliable_qos, run_node, sensor_qos, subscription, NodeConfig, NodeError,
+};
 pub use params::NodeParams;
 pub use stepper::StepperStats;

@@ -12,13 +12,17 @@ use nalgebra::Vector3;
 use ros2_client::ros2::policy::{Durability, History, Reliability};
 use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
 use ros2_client::rustdds::DomainParticipantBuilder;
-use ros2_client::{Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher, Subscription};
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
+    Subscription,
+};
 
 use super::builder::{run_builder, BuildRequest};
 use super::clock::NodeClock;
 use super::cloud::decode_cloud;
 use super::messages::{
-    Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights, Status, SubspaceState,
+    Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights, Status,
+    SubspaceState,
 };
 use super::outputs::Outputs;
 use super::params::NodeParams;
@@ -105,30 +109,50 @@ pub fn reliable_qos(depth: i32, transient_local: bool) -> QosPolicies {
         .build()
 }
 
-fn topic_of<M: RosMessage>(node: &Node, name: &str, qos: &QosPolicies) -> Result<ros2_client::rustdds::Topic, NodeError> {
-    let parsed = Name::parse(name).map_err(|e| NodeError::Name(format!("topic `{name}`: {e:?}")))?;
+fn topic_of<M: RosMessage>(
+    node: &Node,
+    name: &str,
+    qos: &QosPolicies,
+) -> Result<ros2_client::rustdds::Topic, NodeError> {
+    let parsed =
+        Name::parse(name).map_err(|e| NodeError::Name(format!("topic `{name}`: {e:?}")))?;
     node.create_topic(&parsed, MessageTypeName::new(M::PACKAGE, M::NAME), qos)
         .map_err(|e| NodeError::Dds(format!("topic `{name}`: {e:?}")))
 }
 
-pub fn publisher<M: RosMessage>(node: &mut Node, name: &str, qos: QosPolicies) -> Result<Publisher<M>, NodeError> {
+pub fn publisher<M: RosMessage>(
+    node: &mut Node,
+    name: &str,
+    qos: QosPolicies,
+) -> Result<Publisher<M>, NodeError> {
     let topic = topic_of::<M>(node, name, &qos)?;
     node.create_publisher(&topic, Some(qos))
         .map_err(|e| NodeError::Dds(format!("publisher `{name}`: {e:?}")))
 }
 
-pub fn subscription<M: RosMessage>(node: &mut Node, name: &str, qos: QosPolicies) -> Result<Subscription<M>, NodeError> {
+pub fn subscription<M: RosMessage>(
+    node: &mut Node,
+    name: &str,
+    qos: QosPolicies,
+) -> Result<Subscription<M>, NodeError> {
     let topic = topic_of::<M>(node, name, &qos)?;
     node.create_subscription(&topic, Some(qos))
         .map_err(|e| NodeError::Dds(format!("subscription `{name}`: {e:?}")))
 }
 
 /// Runs the node until `stop` is set; returns the stepper's counters.
-pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBool>) -> Result<StepperStats, NodeError> {
+pub fn run_node(
+    config: NodeConfig,
+    model: Arc<NeuralModel>,
+    stop: Arc<AtomicBool>,
+) -> Result<StepperStats, NodeError> {
     config
         .params
         .validate()
-        .map_err(|e| super::params::ParamError::Invalid { name: "parameters".into(), reason: e.to_string() })?;
+        .map_err(|e| super::params::ParamError::Invalid {
+            name: "parameters".into(),
+            reason: e.to_string(),
+        })?;
     let params = Arc::new(RwLock::new(config.params.clone()));
     let p = config.params.clone();
     let context = context(config.domain_id, config.loopback_only)?;
@@ -156,7 +180,8 @@ pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBoo
             eprintln!("[physskin] info: parameter {name} set to {value:?}; it applies to shapes that arrive from now on");
             Ok(())
         }));
-    let node_name = NodeName::new(&config.namespace, &config.name).map_err(|e| NodeError::Name(format!("{e:?}")))?;
+    let node_name = NodeName::new(&config.namespace, &config.name)
+        .map_err(|e| NodeError::Name(format!("{e:?}")))?;
     let mut node = context
         .new_node(node_name, options)
         .map_err(|e| NodeError::Dds(format!("{e:?}")))?;
@@ -164,13 +189,19 @@ pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBoo
         let _ = node.set_parameter("use_sim_time", ParameterValue::Boolean(true));
     }
 
-    let clock = if p.use_sim_time { NodeClock::simulated() } else { NodeClock::Wall };
+    let clock = if p.use_sim_time {
+        NodeClock::simulated()
+    } else {
+        NodeClock::Wall
+    };
     let t = &p.topics;
     let outputs = Arc::new(Outputs {
         deformed_points: p
             .publish
             .deformed_points
-            .then(|| publisher::<PointCloud2>(&mut node, &t.deformed_points, reliable_qos(2, false)))
+            .then(|| {
+                publisher::<PointCloud2>(&mut node, &t.deformed_points, reliable_qos(2, false))
+            })
             .transpose()?,
         weights: p
             .publish
@@ -193,7 +224,8 @@ pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBoo
     let points_sub = subscription::<PointCloud2>(&mut node, &t.points, sensor_qos())?;
     let mesh_sub = subscription::<Mesh>(&mut node, &t.mesh, sensor_qos())?;
     let stamped_sub = subscription::<MeshStamped>(&mut node, &t.mesh_stamped, sensor_qos())?;
-    let interaction_sub = subscription::<Interaction>(&mut node, &t.interaction, reliable_qos(10, false))?;
+    let interaction_sub =
+        subscription::<Interaction>(&mut node, &t.interaction, reliable_qos(10, false))?;
     let clock_sub = subscription::<Clock>(&mut node, "/clock", sensor_qos())?;
 
     let (build_tx, build_rx) = channel::<BuildRequest>();
@@ -211,7 +243,7 @@ pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBoo
         let step_tx = step_tx.clone();
         std::thread::spawn(move || {
             for ready in ready_rx {
-                if step_tx.send(StepperCommand::Add(ready)).is_err() {
+                if step_tx.send(StepperCommand::Add(Box::new(ready))).is_err() {
                     break;
                 }
             }
@@ -235,12 +267,18 @@ pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBoo
             t.points,
             t.mesh,
             p.rate_hz,
-            if p.use_sim_time { " of /clock time" } else { "" }
+            if p.use_sim_time {
+                " of /clock time"
+            } else {
+                ""
+            }
         ),
     );
 
     let executor = smol::Executor::new();
-    let spinner = node.spinner().map_err(|e| NodeError::Dds(format!("{e:?}")))?;
+    let spinner = node
+        .spinner()
+        .map_err(|e| NodeError::Dds(format!("{e:?}")))?;
     executor.spawn(spinner.spin()).detach();
     let max_points = p.max_points;
     let mesh_frame = p.mesh_frame.clone();
@@ -300,7 +338,12 @@ pub fn run_node(config: NodeConfig, model: Arc<NeuralModel>, stop: Arc<AtomicBoo
     Ok(stats)
 }
 
-fn on_cloud(cloud: &PointCloud2, max_points: usize, build: &Sender<BuildRequest>, outputs: &Outputs) {
+fn on_cloud(
+    cloud: &PointCloud2,
+    max_points: usize,
+    build: &Sender<BuildRequest>,
+    outputs: &Outputs,
+) {
     let frame = cloud.header.frame_id.clone();
     match decode_cloud(cloud, max_points) {
         Ok(decoded) => {
@@ -312,11 +355,22 @@ fn on_cloud(cloud: &PointCloud2, max_points: usize, build: &Sender<BuildRequest>
                 dropped: decoded.dropped,
             });
         }
-        Err(e) => outputs.report(Status::ERROR, 0, "input_rejected", format!("cloud in frame `{frame}`: {e}")),
+        Err(e) => outputs.report(
+            Status::ERROR,
+            0,
+            "input_rejected",
+            format!("cloud in frame `{frame}`: {e}"),
+        ),
     }
 }
 
-fn on_mesh(mesh: &Mesh, frame: &str, max_points: usize, build: &Sender<BuildRequest>, outputs: &Outputs) {
+fn on_mesh(
+    mesh: &Mesh,
+    frame: &str,
+    max_points: usize,
+    build: &Sender<BuildRequest>,
+    outputs: &Outputs,
+) {
     if mesh.vertices.len() > max_points {
         let message = format!(
             "mesh in frame `{frame}`: {} vertices, more than max_points = {max_points}",
@@ -327,7 +381,11 @@ fn on_mesh(mesh: &Mesh, frame: &str, max_points: usize, build: &Sender<BuildRequ
     let _ = build.send(BuildRequest {
         frame: frame.into(),
         source: "mesh",
-        points: mesh.vertices.iter().map(|v| Vector3::new(v.x, v.y, v.z)).collect(),
+        points: mesh
+            .vertices
+            .iter()
+            .map(|v| Vector3::new(v.x, v.y, v.z))
+            .collect(),
         triangles: mesh.triangles.iter().map(|t| t.vertex_indices).collect(),
         dropped: 0,
     });

@@ -45,13 +45,25 @@ impl Outputs {
 
     /// The weights of a new shape, as physskin/SkinningWeights and as a PointCloud2 with one
     /// float32 field per handle (w0 is the rigid handle).
-    pub fn publish_weights(&self, shape_id: u32, frame: &str, rest: &[f32], weights: &[f32], handles: usize) {
+    pub fn publish_weights(
+        &self,
+        shape_id: u32,
+        frame: &str,
+        rest: &[f32],
+        weights: &[f32],
+        handles: usize,
+    ) {
         let header = self.header(frame);
         if let Some(p) = &self.weights_cloud {
             let channels: Vec<String> = (0..handles).map(|i| format!("w{i}")).collect();
             let cloud = encode_cloud(header.clone(), rest, &channels, weights);
             if let Err(e) = p.publish(cloud) {
-                self.report(Status::WARN, shape_id, "publish_failed", format!("weights cloud: {e:?}"));
+                self.report(
+                    Status::WARN,
+                    shape_id,
+                    "publish_failed",
+                    format!("weights cloud: {e:?}"),
+                );
             }
         }
         if let Some(p) = &self.weights {
@@ -63,7 +75,12 @@ impl Outputs {
                 weights: weights.to_vec(),
             };
             if let Err(e) = p.publish(message) {
-                self.report(Status::WARN, shape_id, "publish_failed", format!("weights: {e:?}"));
+                self.report(
+                    Status::WARN,
+                    shape_id,
+                    "publish_failed",
+                    format!("weights: {e:?}"),
+                );
             }
         }
     }
@@ -74,12 +91,19 @@ impl Outputs {
         if let Some(p) = &self.deformed_points {
             let cloud = encode_cloud(header.clone(), body.deformed(), &[], &[]);
             if let Err(e) = p.publish(cloud) {
-                self.report(Status::WARN, shape_id, "publish_failed", format!("deformed points: {e:?}"));
+                self.report(
+                    Status::WARN,
+                    shape_id,
+                    "publish_failed",
+                    format!("deformed points: {e:?}"),
+                );
             }
         }
         if let (Some(p), Some(report)) = (&self.state, body.last_step()) {
             let rows = |m: &nalgebra::DMatrix<f64>| -> Vec<f64> {
-                (0..m.nrows()).flat_map(|r| m.row(r).iter().copied().collect::<Vec<_>>()).collect()
+                (0..m.nrows())
+                    .flat_map(|r| m.row(r).iter().copied().collect::<Vec<_>>())
+                    .collect()
             };
             let state = SubspaceState {
                 header,
@@ -97,7 +121,12 @@ impl Outputs {
                 step_time_ms: report.seconds * 1e3,
             };
             if let Err(e) = p.publish(state) {
-                self.report(Status::WARN, shape_id, "publish_failed", format!("state: {e:?}"));
+                self.report(
+                    Status::WARN,
+                    shape_id,
+                    "publish_failed",
+                    format!("state: {e:?}"),
+                );
             }
         }
     }

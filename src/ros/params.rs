@@ -229,7 +229,9 @@ impl NodeParams {
             serde_yaml::from_str(text).map_err(|e| format(e.to_string()))?;
         let json = serde_json::to_value(yaml).map_err(|e| format(e.to_string()))?;
         let Value::Object(top) = json else {
-            return Err(format("the top level must map node names to sections".into()));
+            return Err(format(
+                "the top level must map node names to sections".into(),
+            ));
         };
         let mut sections = Vec::new();
         collect_sections(&top, "", &mut sections).map_err(format)?;
@@ -276,15 +278,15 @@ impl NodeParams {
 
     /// `with` for a value arriving from `ros2 param set`; read-only parameters are refused.
     pub fn with_ros(&self, name: &str, value: &ParameterValue) -> Result<Self, ParamError> {
-        let unchanged = self
-            .to_ros()
-            .iter()
-            .any(|(n, v)| n == name && v == value);
+        let unchanged = self.to_ros().iter().any(|(n, v)| n == name && v == value);
         if unchanged {
             // ROS sets every declared parameter once at start; that is not a change.
             return Ok(self.clone());
         }
-        if READ_ONLY.iter().any(|r| name == *r || (r.ends_with('.') && name.starts_with(r))) {
+        if READ_ONLY
+            .iter()
+            .any(|r| name == *r || (r.ends_with('.') && name.starts_with(r)))
+        {
             return Err(ParamError::Invalid {
                 name: name.into(),
                 reason: "read-only while the node runs: set it in the parameter file".into(),
@@ -306,7 +308,12 @@ impl NodeParams {
         ensure(
             self.simulation.cubature >= 16,
             "simulation.cubature",
-            || format!("{} points are too few (at least 16)", self.simulation.cubature),
+            || {
+                format!(
+                    "{} points are too few (at least 16)",
+                    self.simulation.cubature
+                )
+            },
         )?;
         ensure(
             (16..=256).contains(&self.inference.voxel_resolution),
@@ -408,7 +415,10 @@ fn node_matches(pattern: &str, name: &str) -> bool {
         }
     }
     let split = |s: &str| -> Vec<String> {
-        s.split('/').filter(|x| !x.is_empty()).map(String::from).collect()
+        s.split('/')
+            .filter(|x| !x.is_empty())
+            .map(String::from)
+            .collect()
     };
     let (p, n) = (split(pattern), split(name));
     let p: Vec<&str> = p.iter().map(String::as_str).collect();
@@ -437,14 +447,19 @@ fn to_ros(value: &Value) -> ParameterValue {
         Value::Array(items) if items.iter().all(Value::is_boolean) => {
             ParameterValue::BooleanArray(items.iter().filter_map(Value::as_bool).collect())
         }
-        Value::Array(items) if items.iter().all(|v| v.is_i64() || v.is_u64()) && !items.is_empty() => {
+        Value::Array(items)
+            if items.iter().all(|v| v.is_i64() || v.is_u64()) && !items.is_empty() =>
+        {
             ParameterValue::IntegerArray(items.iter().filter_map(Value::as_i64).collect())
         }
         Value::Array(items) if items.iter().all(Value::is_number) => {
             ParameterValue::DoubleArray(items.iter().filter_map(Value::as_f64).collect())
         }
         Value::Array(items) => ParameterValue::StringArray(
-            items.iter().map(|v| v.as_str().map_or_else(|| v.to_string(), String::from)).collect(),
+            items
+                .iter()
+                .map(|v| v.as_str().map_or_else(|| v.to_string(), String::from))
+                .collect(),
         ),
         Value::Null | Value::Object(_) => ParameterValue::NotSet,
     }
@@ -501,13 +516,19 @@ other_node:
     #[test]
     fn bad_files_name_the_parameter() {
         let typo = "physskin:\n  ros__parameters:\n    material: {yung: 3.0}\n";
-        let e = NodeParams::from_yaml(typo, "/physskin").unwrap_err().to_string();
+        let e = NodeParams::from_yaml(typo, "/physskin")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("material.yung"), "{e}");
         let negative = "/**:\n  ros__parameters:\n    material: {young: -1.0}\n";
-        let e = NodeParams::from_yaml(negative, "/physskin").unwrap_err().to_string();
+        let e = NodeParams::from_yaml(negative, "/physskin")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("material.young") && e.contains("young"), "{e}");
         let wrong_type = "/**:\n  ros__parameters:\n    rate_hz: fast\n";
-        let e = NodeParams::from_yaml(wrong_type, "/physskin").unwrap_err().to_string();
+        let e = NodeParams::from_yaml(wrong_type, "/physskin")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("rate_hz"), "{e}");
         let nobody = "someone_else:\n  ros__parameters: {rate_hz: 5.0}\n";
         assert!(NodeParams::from_yaml(nobody, "/physskin").is_err());
@@ -518,11 +539,35 @@ other_node:
         let p = NodeParams::default();
         let declared = p.to_ros();
         assert!(declared.contains(&("material.young".into(), ParameterValue::Double(2e5))));
-        assert!(declared.contains(&("topics.points".into(), ParameterValue::String("/physskin/points".into()))));
-        let q = p.with_ros("material.young", &ParameterValue::Double(5e5)).unwrap();
+        assert!(declared.contains(&(
+            "topics.points".into(),
+            ParameterValue::String("/physskin/points".into())
+        )));
+        let q = p
+            .with_ros("material.young", &ParameterValue::Double(5e5))
+            .unwrap();
         assert_eq!(q.material.young, 5e5);
-        assert!(p.with_ros("topics.points", &ParameterValue::String("/x".into())).is_err());
-        assert!(p.with_ros("material.young", &ParameterValue::String("soft".into())).is_err());
-        assert!(p.with_ros("material.poisson", &ParameterValue::Double(0.5)).is_err());
+        assert!(p
+            .with_ros("topics.points", &ParameterValue::String("/x".into()))
+            .is_err());
+        assert!(p
+            .with_ros("material.young", &ParameterValue::String("soft".into()))
+            .is_err());
+        assert!(p
+            .with_ros("material.poisson", &ParameterValue::Double(0.5))
+            .is_err());
+    }
+}
+
+#[cfg(test)]
+mod shipped_file {
+    use super::*;
+
+    /// config/physskin.yaml states the defaults: loading it changes nothing.
+    #[test]
+    fn shipped_parameter_file_is_the_defaults() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/physskin.yaml");
+        let params = NodeParams::from_yaml_file(&path, "/physskin").unwrap();
+        assert_eq!(params, NodeParams::default());
     }
 }

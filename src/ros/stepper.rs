@@ -11,7 +11,7 @@ use super::messages::{Interaction, Status};
 use super::outputs::SharedOutputs;
 
 pub enum StepperCommand {
-    Add(ReadyBody),
+    Add(Box<ReadyBody>),
     Interact(Interaction),
 }
 
@@ -24,7 +24,11 @@ pub struct StepperStats {
 }
 
 /// Runs until `commands` closes. `rate_hz` periods of the node's clock (wall or /clock).
-pub fn run_stepper(commands: Receiver<StepperCommand>, rate_hz: f64, outputs: SharedOutputs) -> StepperStats {
+pub fn run_stepper(
+    commands: Receiver<StepperCommand>,
+    rate_hz: f64,
+    outputs: SharedOutputs,
+) -> StepperStats {
     let period = (1e9 / rate_hz) as i64;
     let mut bodies: Vec<ReadyBody> = Vec::new();
     let mut stats = StepperStats::default();
@@ -46,7 +50,7 @@ pub fn run_stepper(commands: Receiver<StepperCommand>, rate_hz: f64, outputs: Sh
                 _ => Duration::from_millis(1),
             };
             match commands.recv_timeout(wait) {
-                Ok(StepperCommand::Add(ready)) => add(&mut bodies, ready, &outputs),
+                Ok(StepperCommand::Add(ready)) => add(&mut bodies, *ready, &outputs),
                 Ok(StepperCommand::Interact(i)) => interact(&mut bodies, &i, &outputs),
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => return stats,
@@ -104,24 +108,30 @@ fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &SharedOutputs) 
     let finite = point.iter().chain(force.iter()).all(|c| c.is_finite())
         && i.duration.is_finite()
         && i.radius.is_finite();
-    let ignored = |problem: String| outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem);
+    let ignored =
+        |problem: String| outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem);
     if !finite {
         return ignored("non-finite point, force, duration or radius".into());
     }
     if i.kind > Interaction::RELEASE {
-        return ignored(format!("unknown kind {} (FORCE 0, PIN 1, RELEASE 2)", i.kind));
+        return ignored(format!(
+            "unknown kind {} (FORCE 0, PIN 1, RELEASE 2)",
+            i.kind
+        ));
     }
     let mut matched = 0;
-    for b in bodies
-        .iter_mut()
-        .filter(|b| (i.shape_id == 0 || b.id == i.shape_id) && (frame.is_empty() || b.frame == *frame))
-    {
+    for b in bodies.iter_mut().filter(|b| {
+        (i.shape_id == 0 || b.id == i.shape_id) && (frame.is_empty() || b.frame == *frame)
+    }) {
         matched += 1;
         match i.kind {
             Interaction::FORCE => b.body.push(point, force, i.duration.max(0.0)),
             Interaction::PIN => {
                 if b.body.hold(&point, i.radius) == 0 {
-                    ignored(format!("no material within {} m of the pin point", i.radius));
+                    ignored(format!(
+                        "no material within {} m of the pin point",
+                        i.radius
+                    ));
                 }
             }
             _ => {
@@ -130,6 +140,9 @@ fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &SharedOutputs) 
         }
     }
     if matched == 0 {
-        ignored(format!("no shape matches shape_id {} in frame `{frame}`", i.shape_id));
+        ignored(format!(
+            "no shape matches shape_id {} in frame `{frame}`",
+            i.shape_id
+        ));
     }
 }
