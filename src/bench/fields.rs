@@ -10,9 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, Scenario};
-use crate::geometry::{
-    sample_surface, Cubature, Shape, SurfaceSamples, SurfaceSampling, VoxelGrid,
-};
+use crate::geometry::{Cubature, Shape, SurfaceSamples, VoxelGrid};
 use crate::physics::{Solver, Subspace};
 use crate::skinning::{FieldMetrics, NeuralField, NeuralModel, SkinningField};
 use crate::Result;
@@ -149,30 +147,10 @@ pub fn prepare_input(
     surface_points: usize,
     reference_points: usize,
 ) -> PreparedInput {
-    let map = shape.normalization();
     let mut grid = VoxelGrid::from_shape(shape, 128, None);
     grid.keep_largest_component();
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let world = sample_surface(
-        shape,
-        &grid,
-        &SurfaceSampling {
-            count: surface_points,
-            ..Default::default()
-        },
-        &mut rng,
-    );
-    let surface = SurfaceSamples {
-        points: world.points.iter().map(|p| map.to_normalized(p)).collect(),
-        normals: world.normals.clone(),
-        areas: world.areas.clone(),
-    };
-    let cubature = Cubature::stratified(&grid, reference_points, grid.solid_volume());
-    let reference = cubature
-        .points
-        .iter()
-        .map(|p| map.to_normalized(p))
-        .collect();
+    let (_, surface, reference) =
+        crate::pipeline::network_input(shape, &grid, surface_points, reference_points);
     PreparedInput {
         grid,
         surface,

@@ -108,28 +108,12 @@ impl SoftBody {
                 "the shape encloses no volume at this voxel resolution".into(),
             ));
         }
-        // A fixed seed: the same geometry always gives the same body.
-        let mut rng = ChaCha8Rng::seed_from_u64(11);
-        let world = sample_surface(
+        let (world, surface, reference) = network_input(
             shape,
             &grid,
-            &SurfaceSampling {
-                count: options.surface_points,
-                ..Default::default()
-            },
-            &mut rng,
+            options.surface_points,
+            options.reference_points,
         );
-        let surface = SurfaceSamples {
-            points: world.points.iter().map(|p| map.to_normalized(p)).collect(),
-            normals: world.normals.clone(),
-            areas: world.areas.clone(),
-        };
-        let reference: Vec<_> =
-            Cubature::stratified(&grid, options.reference_points, grid.solid_volume())
-                .points
-                .iter()
-                .map(|p| map.to_normalized(p))
-                .collect();
         let mut timings = BuildTimings {
             voxelize_ms: ms(started),
             ..Default::default()
@@ -268,6 +252,39 @@ impl SoftBody {
     pub fn pin_count(&self) -> usize {
         self.sim.pin_count()
     }
+}
+
+/// What the network reads from a shape: `surface_points` surface samples (in world units, and
+/// in the normalized frame) and `reference_points` stratified interior points (normalized) that
+/// fix the output normalization. A fixed seed: the same geometry always gives the same input.
+pub(crate) fn network_input(
+    shape: &Shape,
+    grid: &VoxelGrid,
+    surface_points: usize,
+    reference_points: usize,
+) -> (SurfaceSamples, SurfaceSamples, Vec<Vector3<f64>>) {
+    let map = shape.normalization();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let world = sample_surface(
+        shape,
+        grid,
+        &SurfaceSampling {
+            count: surface_points,
+            ..Default::default()
+        },
+        &mut rng,
+    );
+    let surface = SurfaceSamples {
+        points: world.points.iter().map(|p| map.to_normalized(p)).collect(),
+        normals: world.normals.clone(),
+        areas: world.areas.clone(),
+    };
+    let reference = Cubature::stratified(grid, reference_points, grid.solid_volume())
+        .points
+        .iter()
+        .map(|p| map.to_normalized(p))
+        .collect();
+    (world, surface, reference)
 }
 
 /// Pins a slab of the cubature points or adds a floor, per `options.support`.

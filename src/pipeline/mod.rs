@@ -3,4 +3,5 @@
 
 mod body;
 
+pub(crate) use body::network_input;
 pub use body::{BodyOptions, BuildTimings, SoftBody, Support};
