@@ -28,6 +28,8 @@ pub enum Error {
     #[error(transparent)]
     Node(#[from] crate::ros::NodeError),
     #[error(transparent)]
+    Bag(#[from] crate::bag::BagError),
+    #[error(transparent)]
     Params(#[from] crate::ros::params::ParamError),
     #[error("i/o on {path}: {source}")]
     Io {

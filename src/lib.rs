@@ -49,7 +49,9 @@
 //! # }
 //! ```
 
+pub mod bag;
 pub mod bench;
+pub mod demo;
 pub mod error;
 pub mod geometry;
 pub mod io;

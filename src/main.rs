@@ -23,6 +23,13 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The main job: replay the bundled demo recording through the whole pipeline, record the
+    /// result to MCAP, compare with the full-space FEM, draw a strip of frames.
+    Demo(cli::demo::DemoArgs),
+    /// Feed a recording's inputs through the pipeline on the log's time; record the outputs.
+    Replay(cli::bag::ReplayArgs),
+    /// Rewrite a recording cut short by a crash into a complete file.
+    Recover(cli::bag::RecoverArgs),
     /// Simulate a bundled shape in its skinning subspace and compare with the full-space FEM.
     Simulate {
         /// Bundled shape: plate, rod, creature, box, sphere.
@@ -140,6 +147,9 @@ fn main() -> ExitCode {
             },
             json,
         ),
+        Command::Demo(args) => cli::demo::run(args),
+        Command::Replay(args) => cli::bag::run_replay(args),
+        Command::Recover(args) => cli::bag::run_recover(args),
         Command::Train(args) => cli::train::run(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Infer(args) => cli::infer::run(args),

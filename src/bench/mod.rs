@@ -3,7 +3,7 @@
 mod fields;
 mod latency;
 mod plot;
-mod sim;
+pub(crate) mod sim;
 mod stats;
 
 pub use fields::{

@@ -1,5 +1,7 @@
 //! The subcommands that are more than a call into the library.
 
+pub mod bag;
+pub mod demo;
 pub mod eval;
 pub mod infer;
 pub mod node;

@@ -24,6 +24,9 @@ pub struct NodeArgs {
     /// Keep DDS on 127.0.0.1.
     #[arg(long)]
     loopback_only: bool,
+    /// Record every input and output topic to this MCAP file (overrides `record.path`).
+    #[arg(long)]
+    record: Option<PathBuf>,
     /// Model weights (default: the bundled model).
     #[arg(long)]
     model: Option<PathBuf>,
@@ -42,6 +45,9 @@ pub fn run(args: NodeArgs) -> physskin::Result<()> {
     };
     if let Some(path) = &args.params {
         config.params = NodeParams::from_yaml_file(path, &config.fully_qualified_name())?;
+    }
+    if let Some(path) = &args.record {
+        config.params.record.path = path.display().to_string();
     }
     let model = match &args.model {
         Some(path) => Arc::new(NeuralModel::load(path)?),

@@ -304,13 +304,16 @@ impl VoxelGrid {
     }
 }
 
-/// For clouds: enough closing to bridge the typical gap between neighbouring points.
+/// For clouds: enough closing to bridge the gaps between neighbouring points. Real clouds are
+/// clumpy (random samples, scan lines), so the gap is judged by the distance to the 6th nearest
+/// neighbour, not the nearest; a 6-connected dilation reaches only 1/sqrt(3) of its radius
+/// along diagonals, hence the margin.
 fn default_closing_radius(shape: &Shape, cell: f64) -> usize {
     if !shape.is_point_cloud() {
         return 1;
     }
-    let spacing = super::sampling::median_spacing(&shape.positions);
-    ((spacing / cell).ceil() as usize).clamp(1, 8)
+    let gap = super::sampling::neighbour_distance(&shape.positions, 6, 0.9);
+    ((1.5 * gap / cell).ceil() as usize).clamp(1, 8)
 }
 
 /// Separating-axis test between a triangle and an axis-aligned box (center, half extents).

@@ -94,6 +94,20 @@ pub fn render_field_png(
     Ok(())
 }
 
+/// The colour of every point of a row-major weights matrix (points x handles).
+pub(crate) fn weight_colors(weights: &[f32], handles: usize) -> Vec<[f64; 3]> {
+    let mut row = vec![0.0; handles];
+    weights
+        .chunks_exact(handles)
+        .map(|w| {
+            for (r, w) in row.iter_mut().zip(w) {
+                *r = *w as f64;
+            }
+            blend(&row)
+        })
+        .collect()
+}
+
 /// The colour of one point: handle colours weighted by the squared positive part of the
 /// learned weights, so each region shows its dominant handles and borders blend.
 fn blend(row: &[f64]) -> [f64; 3] {

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{
-    sample_surface, Cubature, Shape, SurfaceSamples, SurfaceSampling, VoxelGrid,
+    sample_surface, Cubature, Normalization, Shape, SurfaceSamples, SurfaceSampling, VoxelGrid,
 };
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, StepReport, Subspace};
 use crate::skinning::{NeuralModel, SkinningField};
@@ -80,6 +80,8 @@ pub struct BuildTimings {
 /// deformed input points after the last step. Slices are borrowed, never copied.
 pub struct SoftBody {
     sim: ReducedSim,
+    field: Arc<dyn SkinningField>,
+    map: Normalization,
     lifter: Lifter,
     handles: usize,
     weights: Vec<f32>,
@@ -154,6 +156,8 @@ impl SoftBody {
         timings.total_ms = ms(started);
         Ok(Self {
             sim,
+            field,
+            map,
             lifter,
             handles,
             weights: weights.into_iter().map(|w| w as f32).collect(),
@@ -206,6 +210,12 @@ impl SoftBody {
             .filter(|(p, _)| (*p - center).norm() <= radius)
             .map(|(p, v)| (*p, v * density))
             .unzip()
+    }
+
+    /// A lifter for other points of this body (rest positions, world units), e.g. the vertices
+    /// of a reference mesh: `lifter.lift(body.state(), out)` deforms them like the body.
+    pub fn lifter_for(&self, points: &[Vector3<f64>]) -> Lifter {
+        Lifter::new(self.field.as_ref(), &self.map, points)
     }
 
     /// Skinning weights at the input points: points x handles, row-major.

@@ -9,8 +9,9 @@ use std::sync::{Arc, RwLock};
 
 use nalgebra::Vector3;
 
-use super::messages::Status;
-use super::outputs::SharedOutputs;
+use super::cloud::decode_cloud;
+use super::messages::{Mesh, PointCloud2, Status};
+use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
 use crate::geometry::Shape;
 use crate::pipeline::SoftBody;
@@ -35,6 +36,41 @@ pub struct ReadyBody {
 }
 
 impl BuildRequest {
+    /// The geometry of a cloud (its frame from the header); why not, naming the problem.
+    pub fn from_cloud(cloud: &PointCloud2, max_points: usize) -> Result<Self, String> {
+        let frame = cloud.header.frame_id.clone();
+        let decoded =
+            decode_cloud(cloud, max_points).map_err(|e| format!("cloud in frame `{frame}`: {e}"))?;
+        Ok(Self {
+            frame,
+            source: "cloud",
+            points: decoded.points,
+            triangles: Vec::new(),
+            dropped: decoded.dropped,
+        })
+    }
+
+    /// The geometry of a mesh in `frame`.
+    pub fn from_mesh(mesh: &Mesh, frame: &str, max_points: usize) -> Result<Self, String> {
+        if mesh.vertices.len() > max_points {
+            return Err(format!(
+                "mesh in frame `{frame}`: {} vertices, more than max_points = {max_points}",
+                mesh.vertices.len()
+            ));
+        }
+        Ok(Self {
+            frame: frame.into(),
+            source: "mesh",
+            points: mesh
+                .vertices
+                .iter()
+                .map(|v| Vector3::new(v.x, v.y, v.z))
+                .collect(),
+            triangles: mesh.triangles.iter().map(|t| t.vertex_indices).collect(),
+            dropped: 0,
+        })
+    }
+
     fn content_hash(&self) -> u64 {
         let mut h = DefaultHasher::new();
         for p in &self.points {
@@ -47,8 +83,111 @@ impl BuildRequest {
     }
 }
 
-/// Runs until `requests` closes. Geometry identical to the object already in its frame is not
-/// rebuilt; when requests arrive faster than inference, only the newest per frame is built.
+/// Turns requests into bodies: numbers them, skips geometry identical to what its frame already
+/// runs, reports failures. The node runs it on its build thread; a replay calls it in line.
+#[derive(Default)]
+pub struct Builder {
+    built: HashMap<String, u64>,
+    next_id: u32,
+}
+
+/// What is announced once a body is with the stepper: its weights and a `shape_ready` status.
+pub struct Announcement {
+    id: u32,
+    frame: String,
+    rest: Vec<f32>,
+    weights: Vec<f32>,
+    handles: usize,
+    message: String,
+}
+
+impl Announcement {
+    pub fn publish(self, outputs: &Outputs) {
+        outputs.publish_weights(self.id, &self.frame, &self.rest, &self.weights, self.handles);
+        outputs.report(Status::INFO, self.id, "shape_ready", self.message);
+    }
+}
+
+/// What became of a request.
+pub enum BuildOutcome {
+    Ready(Box<ReadyBody>, Announcement),
+    /// The frame already runs this geometry.
+    Unchanged,
+    /// Refused; the reason went out on the status topic.
+    Rejected,
+}
+
+impl Builder {
+    /// Builds the body of `request`.
+    pub fn build(
+        &mut self,
+        request: &BuildRequest,
+        params: &NodeParams,
+        model: &Arc<NeuralModel>,
+        outputs: &Outputs,
+    ) -> BuildOutcome {
+        let hash = request.content_hash();
+        if self.built.get(&request.frame) == Some(&hash) {
+            return BuildOutcome::Unchanged;
+        }
+        self.next_id += 1;
+        let id = self.next_id;
+        let body = params.body_options().and_then(|options| {
+            let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
+            SoftBody::build(model, &shape, &request.points, &options)
+        });
+        let body = match body {
+            Ok(body) => body,
+            Err(e) => {
+                let message = format!("{} in frame `{}`: {e}", request.source, request.frame);
+                outputs.report(Status::ERROR, id, "input_rejected", message);
+                return BuildOutcome::Rejected;
+            }
+        };
+        self.built.insert(request.frame.clone(), hash);
+        let t = body.timings();
+        let dropped = if request.dropped > 0 {
+            format!(", {} NaN or Inf points dropped", request.dropped)
+        } else {
+            String::new()
+        };
+        let timings = if outputs.timings {
+            format!(
+                "; built in {:.1} ms (voxels {:.1}, inference {:.1}, subspace {:.1}, weights {:.1})",
+                t.total_ms, t.voxelize_ms, t.infer_ms, t.subspace_ms, t.weights_ms
+            )
+        } else {
+            String::new()
+        };
+        let announcement = Announcement {
+            id,
+            frame: request.frame.clone(),
+            rest: request
+                .points
+                .iter()
+                .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                .collect(),
+            weights: body.weights().to_vec(),
+            handles: body.handles(),
+            message: format!(
+                "{} in frame `{}`: {} points, {} handles{dropped}{timings}",
+                request.source,
+                request.frame,
+                body.point_count(),
+                body.handles()
+            ),
+        };
+        let ready = ReadyBody {
+            id,
+            frame: request.frame.clone(),
+            body,
+        };
+        BuildOutcome::Ready(Box::new(ready), announcement)
+    }
+}
+
+/// Runs until `requests` closes. When requests arrive faster than inference, only the newest
+/// per frame is built.
 pub fn run_builder(
     requests: Receiver<BuildRequest>,
     ready: Sender<ReadyBody>,
@@ -74,8 +213,7 @@ pub fn run_builder(
             return;
         }
     };
-    let mut built: HashMap<String, u64> = HashMap::new();
-    let mut next_id = 1u32;
+    let mut builder = Builder::default();
     while let Ok(first) = requests.recv() {
         let mut newest: Vec<BuildRequest> = vec![first];
         for request in requests.try_iter() {
@@ -86,63 +224,15 @@ pub fn run_builder(
             }
         }
         for request in newest {
-            let hash = request.content_hash();
-            if built.get(&request.frame) == Some(&hash) {
-                continue;
-            }
             let snapshot = params.read().map(|p| p.clone()).unwrap_or_default();
-            let id = next_id;
-            next_id += 1;
-            let body = snapshot.body_options().and_then(|options| {
-                let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
-                pool.install(|| SoftBody::build(&model, &shape, &request.points, &options))
-            });
-            match body {
-                Ok(body) => {
-                    built.insert(request.frame.clone(), hash);
-                    let t = body.timings().clone();
-                    let rest: Vec<f32> = request
-                        .points
-                        .iter()
-                        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
-                        .collect();
-                    let weights = body.weights().to_vec();
-                    let handles = body.handles();
-                    let count = body.point_count();
-                    // The body goes to the stepper first: its first frame must not wait for
-                    // the (large) weight messages.
-                    if ready
-                        .send(ReadyBody {
-                            id,
-                            frame: request.frame.clone(),
-                            body,
-                        })
-                        .is_err()
-                    {
-                        return;
-                    }
-                    outputs.publish_weights(id, &request.frame, &rest, &weights, handles);
-                    let dropped = if request.dropped > 0 {
-                        format!(", {} NaN or Inf points dropped", request.dropped)
-                    } else {
-                        String::new()
-                    };
-                    outputs.report(
-                        Status::INFO,
-                        id,
-                        "shape_ready",
-                        format!(
-                            "{} in frame `{}`: {count} points, {handles} handles{dropped}; built in {:.1} ms (voxels {:.1}, inference {:.1}, subspace {:.1}, weights {:.1})",
-                            request.source, request.frame, t.total_ms, t.voxelize_ms, t.infer_ms, t.subspace_ms, t.weights_ms
-                        ),
-                    );
+            let built = pool.install(|| builder.build(&request, &snapshot, &model, &outputs));
+            if let BuildOutcome::Ready(body, announcement) = built {
+                // The body goes to the stepper first: its first frame must not wait for the
+                // (large) weight messages.
+                if ready.send(*body).is_err() {
+                    return;
                 }
-                Err(e) => outputs.report(
-                    Status::ERROR,
-                    id,
-                    "input_rejected",
-                    format!("{} in frame `{}`: {e}", request.source, request.frame),
-                ),
+                announcement.publish(&outputs);
             }
         }
     }

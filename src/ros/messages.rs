@@ -38,7 +38,7 @@ impl<T: RosType, const N: usize> RosType for [T; N] {
 }
 
 /// A message type: its package, name and fields (name, ROS type) in wire order.
-pub trait RosMessage: Serialize + for<'de> Deserialize<'de> + Send + 'static {
+pub trait RosMessage: Serialize + for<'de> Deserialize<'de> + Send + std::fmt::Debug + 'static {
     const PACKAGE: &'static str;
     const NAME: &'static str;
     fn fields() -> Vec<(&'static str, String)>;

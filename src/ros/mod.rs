@@ -9,8 +9,12 @@ mod outputs;
 pub mod params;
 mod stepper;
 
+pub use builder::{BuildOutcome, BuildRequest, Builder, ReadyBody};
+pub use clock::NodeClock;
 pub use node::{
-    context, publisher, reliable_qos, run_node, sensor_qos, subscription, NodeConfig, NodeError,
+    context, publisher, qos_of, reliable_qos, run_node, sensor_qos, subscription, NodeConfig,
+    NodeError,
 };
+pub use outputs::{topic_table, Outputs};
 pub use params::NodeParams;
-pub use stepper::StepperStats;
+pub use stepper::{Stage, StepperStats};

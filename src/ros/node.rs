@@ -3,12 +3,11 @@
 
 use std::net::Ipv4Addr;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, Sender};
+use std::sync::mpsc::channel;
 use std::sync::{Arc, RwLock};
 use std::time::Duration;
 
 use futures::StreamExt;
-use nalgebra::Vector3;
 use ros2_client::ros2::policy::{Durability, History, Reliability};
 use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
 use ros2_client::rustdds::DomainParticipantBuilder;
@@ -19,12 +18,11 @@ use ros2_client::{
 
 use super::builder::{run_builder, BuildRequest};
 use super::clock::NodeClock;
-use super::cloud::decode_cloud;
 use super::messages::{
-    Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights, Status,
-    SubspaceState,
+    Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
 };
-use super::outputs::Outputs;
+use super::outputs::{topic_table, Outputs, Publishers};
+use crate::bag::{QosProfile, RecordOptions, Recorder};
 use super::params::NodeParams;
 use super::stepper::{run_stepper, StepperCommand, StepperStats};
 use crate::skinning::NeuralModel;
@@ -40,6 +38,8 @@ pub enum NodeError {
     Params(#[from] super::params::ParamError),
     #[error("signal handler: {0}")]
     Signal(String),
+    #[error(transparent)]
+    Record(#[from] crate::bag::BagError),
 }
 
 /// How to start the node.
@@ -92,6 +92,21 @@ pub fn sensor_qos() -> QosPolicies {
         .reliability(Reliability::BestEffort)
         .durability(Durability::Volatile)
         .build()
+}
+
+/// The DDS QoS of a recorded profile.
+pub fn qos_of(profile: QosProfile) -> QosPolicies {
+    if profile.reliable {
+        reliable_qos(profile.depth as i32, profile.transient_local)
+    } else {
+        QosPolicyBuilder::new()
+            .history(History::KeepLast {
+                depth: profile.depth as i32,
+            })
+            .reliability(Reliability::BestEffort)
+            .durability(Durability::Volatile)
+            .build()
+    }
 }
 
 /// Reliable keep-last `depth`, transient local when late joiners should still get the last ones.
@@ -195,37 +210,61 @@ pub fn run_node(
         NodeClock::Wall
     };
     let t = &p.topics;
-    let outputs = Arc::new(Outputs {
-        deformed_points: p
-            .publish
+    let table = topic_table(t);
+    let qos = |topic: &str| {
+        qos_of(
+            table
+                .iter()
+                .find(|info| info.name == topic)
+                .map_or(QosProfile::sensor(5), |info| info.qos),
+        )
+    };
+    let recorder = if p.record.path.is_empty() {
+        None
+    } else {
+        let options = RecordOptions {
+            path: p.record.path.clone().into(),
+            split_size_mb: p.record.split_size_mb,
+            split_duration_s: p.record.split_duration_s,
+            ..Default::default()
+        };
+        Some(Recorder::start(options, p.record.topics.clone()).map_err(NodeError::Record)?)
+    };
+    let pubs = &p.publish;
+    let dds = Publishers {
+        deformed_points: pubs
             .deformed_points
-            .then(|| {
-                publisher::<PointCloud2>(&mut node, &t.deformed_points, reliable_qos(2, false))
-            })
+            .then(|| publisher(&mut node, &t.deformed_points, qos(&t.deformed_points)))
             .transpose()?,
-        weights: p
-            .publish
+        weights: pubs
             .weights
-            .then(|| publisher::<SkinningWeights>(&mut node, &t.weights, reliable_qos(4, true)))
+            .then(|| publisher(&mut node, &t.weights, qos(&t.weights)))
             .transpose()?,
-        weights_cloud: p
-            .publish
+        weights_cloud: pubs
             .weights_cloud
-            .then(|| publisher::<PointCloud2>(&mut node, &t.weights_cloud, reliable_qos(4, true)))
+            .then(|| publisher(&mut node, &t.weights_cloud, qos(&t.weights_cloud)))
             .transpose()?,
-        state: p
-            .publish
+        state: pubs
             .state
-            .then(|| publisher::<SubspaceState>(&mut node, &t.state, reliable_qos(10, false)))
+            .then(|| publisher(&mut node, &t.state, qos(&t.state)))
             .transpose()?,
-        status: publisher::<Status>(&mut node, &t.status, reliable_qos(50, true))?,
+        status: publisher(&mut node, &t.status, qos(&t.status))?,
+    };
+    let outputs = Arc::new(Outputs {
+        dds: Some(dds),
+        recorder,
+        topics: t.clone(),
+        publish: p.publish.clone(),
         clock: clock.clone(),
+        timings: true,
     });
-    let points_sub = subscription::<PointCloud2>(&mut node, &t.points, sensor_qos())?;
-    let mesh_sub = subscription::<Mesh>(&mut node, &t.mesh, sensor_qos())?;
-    let stamped_sub = subscription::<MeshStamped>(&mut node, &t.mesh_stamped, sensor_qos())?;
+    outputs.declare_topics();
+    let points_sub = subscription::<PointCloud2>(&mut node, &t.points, qos(&t.points))?;
+    let mesh_sub = subscription::<Mesh>(&mut node, &t.mesh, qos(&t.mesh))?;
+    let stamped_sub =
+        subscription::<MeshStamped>(&mut node, &t.mesh_stamped, qos(&t.mesh_stamped))?;
     let interaction_sub =
-        subscription::<Interaction>(&mut node, &t.interaction, reliable_qos(10, false))?;
+        subscription::<Interaction>(&mut node, &t.interaction, qos(&t.interaction))?;
     let clock_sub = subscription::<Clock>(&mut node, "/clock", sensor_qos())?;
 
     let (build_tx, build_rx) = channel::<BuildRequest>();
@@ -283,26 +322,36 @@ pub fn run_node(
     let max_points = p.max_points;
     let mesh_frame = p.mesh_frame.clone();
     let work = async {
+        let submit = |request: Result<BuildRequest, String>| match request {
+            Ok(request) => {
+                let _ = build_tx.send(request);
+            }
+            Err(problem) => outputs.report(Status::ERROR, 0, "input_rejected", problem),
+        };
         let clouds = points_sub.async_stream().for_each(|m| {
             if let Ok((cloud, _)) = m {
-                on_cloud(&cloud, max_points, &build_tx, &outputs);
+                outputs.record_input(&t.points, Some(cloud.header.stamp.nanos()), &cloud);
+                submit(BuildRequest::from_cloud(&cloud, max_points));
             }
             async {}
         });
         let meshes = mesh_sub.async_stream().for_each(|m| {
             if let Ok((mesh, _)) = m {
-                on_mesh(&mesh, &mesh_frame, max_points, &build_tx, &outputs);
+                outputs.record_input(&t.mesh, None, &mesh);
+                submit(BuildRequest::from_mesh(&mesh, &mesh_frame, max_points));
             }
             async {}
         });
         let stamped = stamped_sub.async_stream().for_each(|m| {
             if let Ok((m, _)) = m {
-                on_mesh(&m.mesh, &m.header.frame_id, max_points, &build_tx, &outputs);
+                outputs.record_input(&t.mesh_stamped, Some(m.header.stamp.nanos()), &m);
+                submit(BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, max_points));
             }
             async {}
         });
         let interactions = interaction_sub.async_stream().for_each(|m| {
             if let Ok((i, _)) = m {
+                outputs.record_input(&t.interaction, Some(i.header.stamp.nanos()), &i);
                 let _ = step_tx.send(StepperCommand::Interact(i));
             }
             async {}
@@ -333,60 +382,22 @@ pub fn run_node(
         "node_stopped",
         format!("{} ticks, {} missed", stats.ticks, stats.missed),
     );
+    if let Some(recorder) = &outputs.recorder {
+        match recorder.finish() {
+            Ok(summary) => eprintln!(
+                "[physskin] info: recorded {} messages in {}",
+                summary.messages,
+                summary
+                    .files
+                    .iter()
+                    .map(|f| f.path.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Err(e) => eprintln!("[physskin] error: recording: {e}"),
+        }
+    }
     node.stop_spinner();
     drop(executor);
     Ok(stats)
-}
-
-fn on_cloud(
-    cloud: &PointCloud2,
-    max_points: usize,
-    build: &Sender<BuildRequest>,
-    outputs: &Outputs,
-) {
-    let frame = cloud.header.frame_id.clone();
-    match decode_cloud(cloud, max_points) {
-        Ok(decoded) => {
-            let _ = build.send(BuildRequest {
-                frame,
-                source: "cloud",
-                points: decoded.points,
-                triangles: Vec::new(),
-                dropped: decoded.dropped,
-            });
-        }
-        Err(e) => outputs.report(
-            Status::ERROR,
-            0,
-            "input_rejected",
-            format!("cloud in frame `{frame}`: {e}"),
-        ),
-    }
-}
-
-fn on_mesh(
-    mesh: &Mesh,
-    frame: &str,
-    max_points: usize,
-    build: &Sender<BuildRequest>,
-    outputs: &Outputs,
-) {
-    if mesh.vertices.len() > max_points {
-        let message = format!(
-            "mesh in frame `{frame}`: {} vertices, more than max_points = {max_points}",
-            mesh.vertices.len()
-        );
-        return outputs.report(Status::ERROR, 0, "input_rejected", message);
-    }
-    let _ = build.send(BuildRequest {
-        frame: frame.into(),
-        source: "mesh",
-        points: mesh
-            .vertices
-            .iter()
-            .map(|v| Vector3::new(v.x, v.y, v.z))
-            .collect(),
-        triangles: mesh.triangles.iter().map(|t| t.vertex_indices).collect(),
-        dropped: 0,
-    });
 }

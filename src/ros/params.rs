@@ -163,6 +163,31 @@ impl Default for PublishParams {
     }
 }
 
+/// MCAP recording of the node's topics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RecordParams {
+    /// The MCAP file to write; empty: no recording. Default "".
+    pub path: String,
+    /// Topics to record; empty: every input and output topic. Default [].
+    pub topics: Vec<String>,
+    /// Start a new file past this size, MB (files `<stem>_1.mcap`, ...); 0: never. Default 0.
+    pub split_size_mb: f64,
+    /// Start a new file past this much log time, s; 0: never. Default 0.
+    pub split_duration_s: f64,
+}
+
+impl Default for RecordParams {
+    fn default() -> Self {
+        Self {
+            path: String::new(),
+            topics: Vec::new(),
+            split_size_mb: 0.0,
+            split_duration_s: 0.0,
+        }
+    }
+}
+
 /// Every node parameter. Names in ROS are the dotted paths (`material.young`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -180,6 +205,7 @@ pub struct NodeParams {
     pub simulation: SimulationParams,
     pub inference: InferenceParams,
     pub publish: PublishParams,
+    pub record: RecordParams,
 }
 
 impl Default for NodeParams {
@@ -194,12 +220,19 @@ impl Default for NodeParams {
             simulation: SimulationParams::default(),
             inference: InferenceParams::default(),
             publish: PublishParams::default(),
+            record: RecordParams::default(),
         }
     }
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-const READ_ONLY: [&str; 4] = ["rate_hz", "use_sim_time", "topics.", "inference.threads"];
+const READ_ONLY: [&str; 5] = [
+    "rate_hz",
+    "use_sim_time",
+    "topics.",
+    "inference.threads",
+    "record.",
+];
 
 impl NodeParams {
     /// Defaults overridden by the entries of `path` that apply to the node `/namespace/name`.
@@ -328,6 +361,11 @@ impl NodeParams {
         ensure(self.inference.threads >= 1, "inference.threads", || {
             "at least 1".into()
         })?;
+        ensure(
+            self.record.split_size_mb >= 0.0 && self.record.split_duration_s >= 0.0,
+            "record.split_size_mb",
+            || "split sizes and durations are 0 (off) or positive".into(),
+        )?;
         self.solver()?;
         self.sim_params().validate()
     }

@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 
 use super::builder::ReadyBody;
 use super::messages::{Interaction, Status};
-use super::outputs::SharedOutputs;
+use super::outputs::{Outputs, SharedOutputs};
 
 pub enum StepperCommand {
     Add(Box<ReadyBody>),
@@ -30,7 +30,7 @@ pub fn run_stepper(
     outputs: SharedOutputs,
 ) -> StepperStats {
     let period = (1e9 / rate_hz) as i64;
-    let mut bodies: Vec<ReadyBody> = Vec::new();
+    let mut stage = Stage::default();
     let mut stats = StepperStats::default();
     let mut next_tick: Option<i64> = None;
     loop {
@@ -50,16 +50,14 @@ pub fn run_stepper(
                 _ => Duration::from_millis(1),
             };
             match commands.recv_timeout(wait) {
-                Ok(StepperCommand::Add(ready)) => add(&mut bodies, *ready, &outputs),
-                Ok(StepperCommand::Interact(i)) => interact(&mut bodies, &i, &outputs),
+                Ok(StepperCommand::Add(ready)) => stage.add(*ready, &outputs, true),
+                Ok(StepperCommand::Interact(i)) => stage.interact(&i, &outputs),
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => return stats,
             }
         }
         let started = Instant::now();
-        for b in &mut bodies {
-            step(b, &outputs);
-        }
+        stage.tick(&outputs);
         stats.ticks += 1;
         let tick = next_tick.expect("set before the first tick") + period;
         let now = outputs.clock.now_nanos().unwrap_or(tick);
@@ -78,7 +76,44 @@ pub fn run_stepper(
     }
 }
 
-fn step(b: &mut ReadyBody, outputs: &SharedOutputs) {
+/// The running objects: one per frame. The stepper thread ticks it on the clock; a replay
+/// ticks it on the log's time.
+#[derive(Default)]
+pub struct Stage {
+    bodies: Vec<ReadyBody>,
+}
+
+impl Stage {
+    /// Steps every object once and publishes its outputs.
+    pub fn tick(&mut self, outputs: &Outputs) {
+        for b in &mut self.bodies {
+            step(b, outputs);
+        }
+    }
+
+    pub fn bodies(&self) -> &[ReadyBody] {
+        &self.bodies
+    }
+
+    /// A new body replaces the one in its frame. With `step_now` it makes its first step at
+    /// once, so its first deformed cloud does not wait for the next tick.
+    pub fn add(&mut self, mut ready: ReadyBody, outputs: &Outputs, step_now: bool) {
+        if step_now {
+            step(&mut ready, outputs);
+        }
+        if let Some(old) = self.bodies.iter_mut().find(|b| b.frame == ready.frame) {
+            *old = ready;
+        } else {
+            self.bodies.push(ready);
+        }
+    }
+
+    pub fn interact(&mut self, i: &Interaction, outputs: &Outputs) {
+        interact(&mut self.bodies, i, outputs)
+    }
+}
+
+fn step(b: &mut ReadyBody, outputs: &Outputs) {
     let report = b.body.step();
     if !report.converged {
         let message = format!(
@@ -90,18 +125,7 @@ fn step(b: &mut ReadyBody, outputs: &SharedOutputs) {
     outputs.publish_step(b.id, &b.frame, &b.body);
 }
 
-/// A new body replaces the one in its frame and makes its first step at once, so its first
-/// deformed cloud does not wait for the next tick.
-fn add(bodies: &mut Vec<ReadyBody>, mut ready: ReadyBody, outputs: &SharedOutputs) {
-    step(&mut ready, outputs);
-    if let Some(old) = bodies.iter_mut().find(|b| b.frame == ready.frame) {
-        *old = ready;
-    } else {
-        bodies.push(ready);
-    }
-}
-
-fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &SharedOutputs) {
+fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &Outputs) {
     let point = Vector3::new(i.point.x, i.point.y, i.point.z);
     let force = Vector3::new(i.force.x, i.force.y, i.force.z);
     let frame = &i.header.frame_id;

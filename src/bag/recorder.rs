@@ -1,0 +1,152 @@
+//! Recording on a thread of its own: callers serialize and hand over bytes; compression and
+//! disk writes never run on the stepping thread.
+
+use std::sync::mpsc::{sync_channel, SyncSender};
+use std::sync::Mutex;
+use std::thread::JoinHandle;
+
+use super::writer::{BagWriter, RecordOptions, RecordSummary, TopicInfo};
+use super::BagError;
+use crate::ros::messages::{to_cdr, RosMessage};
+
+enum Command {
+    Topic(TopicInfo),
+    Message {
+        topic: String,
+        log_time: i64,
+        publish_time: i64,
+        data: Vec<u8>,
+    },
+    Finish,
+}
+
+/// A recording in progress. Cheap to share (`&self` everywhere); [`Recorder::finish`] ends it.
+pub struct Recorder {
+    sender: SyncSender<Command>,
+    /// Topics to record; empty: all.
+    topics: Vec<String>,
+    thread: Mutex<Option<JoinHandle<Result<RecordSummary, BagError>>>>,
+}
+
+impl Recorder {
+    /// Creates the first file now (so a bad path fails here) and starts the writing thread.
+    /// `topics` limits what is recorded (empty: everything offered).
+    pub fn start(options: RecordOptions, topics: Vec<String>) -> Result<Self, BagError> {
+        let mut writer = BagWriter::create(options)?;
+        // Room for a few seconds of 60 Hz output; beyond it callers wait rather than lose data.
+        let (sender, receiver) = sync_channel::<Command>(1024);
+        let thread = std::thread::Builder::new()
+            .name("physskin-record".into())
+            .spawn(move || {
+                let mut failure = None;
+                for command in receiver {
+                    let result = match command {
+                        Command::Topic(topic) => writer.add_topic(topic),
+                        Command::Message {
+                            topic,
+                            log_time,
+                            publish_time,
+                            data,
+                        } => writer.write(&topic, log_time, publish_time, &data),
+                        Command::Finish => break,
+                    };
+                    if let Err(e) = result {
+                        failure = Some(e);
+                        break;
+                    }
+                }
+                // Whatever happened, close the file so that what was written stays readable.
+                let summary = writer.finish();
+                match failure {
+                    Some(e) => Err(e),
+                    None => summary,
+                }
+            })
+            .map_err(|e| BagError::Stopped(format!("cannot start the recording thread: {e}")))?;
+        Ok(Self {
+            sender,
+            topics,
+            thread: Mutex::new(Some(thread)),
+        })
+    }
+
+    /// Whether messages on `topic` are recorded.
+    pub fn wants(&self, topic: &str) -> bool {
+        self.topics.is_empty() || self.topics.iter().any(|t| t == topic)
+    }
+
+    /// Declares a topic (its channel is written even when no message follows).
+    pub fn declare(&self, topic: TopicInfo) -> Result<(), BagError> {
+        if !self.wants(&topic.name) {
+            return Ok(());
+        }
+        self.send(Command::Topic(topic))
+    }
+
+    /// Records a message of a declared topic. Times in ns.
+    pub fn record<M: RosMessage>(
+        &self,
+        topic: &str,
+        log_time: i64,
+        publish_time: i64,
+        message: &M,
+    ) -> Result<(), BagError> {
+        if !self.wants(topic) {
+            return Ok(());
+        }
+        self.send(Command::Message {
+            topic: topic.into(),
+            log_time,
+            publish_time,
+            data: to_cdr(message),
+        })
+    }
+
+    /// Records an already serialized (CDR) message of a declared topic.
+    pub fn record_raw(
+        &self,
+        topic: &str,
+        log_time: i64,
+        publish_time: i64,
+        data: &[u8],
+    ) -> Result<(), BagError> {
+        if !self.wants(topic) {
+            return Ok(());
+        }
+        self.send(Command::Message {
+            topic: topic.into(),
+            log_time,
+            publish_time,
+            data: data.to_vec(),
+        })
+    }
+
+    fn send(&self, command: Command) -> Result<(), BagError> {
+        self.sender
+            .send(command)
+            .map_err(|_| self.stopped_reason())
+    }
+
+    fn stopped_reason(&self) -> BagError {
+        match self.join() {
+            Some(Err(e)) => e,
+            _ => BagError::Stopped("the recording was finished".into()),
+        }
+    }
+
+    fn join(&self) -> Option<Result<RecordSummary, BagError>> {
+        let handle = self.thread.lock().ok()?.take()?;
+        Some(
+            handle
+                .join()
+                .unwrap_or_else(|_| Err(BagError::Stopped("the recording thread panicked".into()))),
+        )
+    }
+
+    /// Writes what is queued, closes the file(s) and says what they hold.
+    pub fn finish(&self) -> Result<RecordSummary, BagError> {
+        let _ = self.sender.send(Command::Finish);
+        self.join()
+            .unwrap_or_else(|| Err(BagError::Stopped("the recording was already finished".into())))
+    }
+}

@@ -1,0 +1,286 @@
+//! Replay: the inputs of a recording go through the node's own pipeline (the same builder and
+//! stage), on the log's time, in log-time order, as fast as possible or at the recorded pace.
+//! Everything runs on one thread in a fixed order, so two replays give identical messages.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::reader::{read_messages, BagMessage};
+use super::recorder::Recorder;
+use super::writer::{RecordOptions, RecordSummary};
+use super::BagError;
+use crate::ros::messages::{
+    from_cdr, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, Status, Time,
+};
+use crate::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
+use crate::skinning::NeuralModel;
+
+/// How to replay.
+#[derive(Clone, Debug)]
+pub struct ReplayOptions {
+    /// The node's parameters: topics, rate, material, inference.
+    pub params: NodeParams,
+    /// Where to record inputs and outputs; None: nothing is written.
+    pub out: Option<PathBuf>,
+    /// Topics recorded in `out`; empty: all.
+    pub record_topics: Vec<String>,
+    /// None: as fast as possible. Some(r): r times the recorded pace (1 = real time).
+    pub pace: Option<f64>,
+    /// Keep stepping this long after the last input, s. Default 1.
+    pub tail_s: f64,
+    /// Wall-clock timings in the messages (then replays are no longer byte-identical).
+    pub timings: bool,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        Self {
+            params: NodeParams::default(),
+            out: None,
+            record_topics: Vec::new(),
+            pace: None,
+            tail_s: 1.0,
+            timings: false,
+        }
+    }
+}
+
+/// One object of a replay.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ShapeSummary {
+    pub shape_id: u32,
+    pub frame: String,
+    /// "cloud" or "mesh".
+    pub source: String,
+    pub points: usize,
+    /// Handles, the rigid one included.
+    pub handles: usize,
+    pub steps: usize,
+    pub build_ms: f64,
+    pub step_ms_median: f64,
+    pub step_ms_p99: f64,
+    /// Largest distance of a point from its rest position over the replay, m.
+    pub max_displacement_m: f64,
+}
+
+/// What a replay did.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ReplaySummary {
+    pub input_messages: usize,
+    /// Inputs refused (each reported on the status topic with the reason).
+    pub rejected: usize,
+    pub shapes: Vec<ShapeSummary>,
+    pub ticks: u64,
+    /// Log time covered, s.
+    pub sim_seconds: f64,
+    pub wall_seconds: f64,
+    /// Simulated seconds per wall second.
+    pub realtime_factor: f64,
+    pub recording: Option<RecordSummary>,
+}
+
+/// One moment of a replay, handed to an observer after every tick.
+pub struct Tick<'a> {
+    /// Log time, ns.
+    pub time_ns: i64,
+    pub stage: &'a Stage,
+    /// Rest positions (x, y, z per point) of each shape id.
+    pub rest: &'a BTreeMap<u32, Vec<f32>>,
+}
+
+/// Replays the recording in `bytes` (named `source` in messages).
+pub fn replay(
+    bytes: &[u8],
+    source: &str,
+    model: &Arc<NeuralModel>,
+    options: &ReplayOptions,
+    observe: &mut dyn FnMut(&Tick),
+) -> crate::Result<ReplaySummary> {
+    let params = &options.params;
+    params.validate()?;
+    let topics = &params.topics;
+    let inputs: Vec<BagMessage> = read_messages(bytes, source)?
+        .into_iter()
+        .filter(|m| {
+            [&topics.points, &topics.mesh, &topics.mesh_stamped, &topics.interaction]
+                .contains(&&m.topic)
+        })
+        .collect();
+    let recorder = match &options.out {
+        Some(path) => Some(Recorder::start(
+            RecordOptions {
+                path: path.clone(),
+                ..Default::default()
+            },
+            options.record_topics.clone(),
+        )?),
+        None => None,
+    };
+    let clock = NodeClock::simulated();
+    let outputs = Outputs {
+        dds: None,
+        recorder,
+        topics: topics.clone(),
+        publish: params.publish.clone(),
+        clock: clock.clone(),
+        timings: options.timings,
+    };
+    outputs.declare_topics();
+
+    let mut summary = ReplaySummary {
+        input_messages: inputs.len(),
+        ..Default::default()
+    };
+    let (Some(first), Some(last)) = (inputs.first(), inputs.last()) else {
+        summary.recording = finish(&outputs)?;
+        return Ok(summary);
+    };
+    let (start, end) = (first.log_time, last.log_time + (options.tail_s * 1e9) as i64);
+    let period = (1e9 / params.rate_hz) as i64;
+    let mut builder = Builder::default();
+    let mut stage = Stage::default();
+    let mut rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
+    let mut shapes: BTreeMap<u32, ShapeSummary> = BTreeMap::new();
+    let mut step_times: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
+    let mut next_input = inputs.iter().peekable();
+    let wall = Instant::now();
+    let mut tick_time = start;
+    while tick_time <= end {
+        while let Some(m) = next_input.next_if(|m| m.log_time <= tick_time) {
+            clock.set(&Time::from_nanos(m.log_time));
+            match input(m, source, params) {
+                Ok(Input::Geometry(request)) => {
+                    let outcome = builder.build(&request, params, model, &outputs);
+                    if let BuildOutcome::Ready(ready, announcement) = outcome {
+                        let points: Vec<f32> = request
+                            .points
+                            .iter()
+                            .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                            .collect();
+                        shapes.insert(
+                            ready.id,
+                            ShapeSummary {
+                                shape_id: ready.id,
+                                frame: ready.frame.clone(),
+                                source: request.source.into(),
+                                points: ready.body.point_count(),
+                                handles: ready.body.handles(),
+                                build_ms: ready.body.timings().total_ms,
+                                ..Default::default()
+                            },
+                        );
+                        rest.insert(ready.id, points);
+                        announcement.publish(&outputs);
+                        stage.add(*ready, &outputs, false);
+                    } else if let BuildOutcome::Rejected = outcome {
+                        summary.rejected += 1;
+                    }
+                }
+                Ok(Input::Interaction(i)) => stage.interact(&i, &outputs),
+                Err(problem) => {
+                    summary.rejected += 1;
+                    outputs.report(Status::ERROR, 0, "input_rejected", problem);
+                }
+            }
+            if let Some(recorder) = &outputs.recorder {
+                recorder.record_raw(&m.topic, m.log_time, m.publish_time, &m.data)?;
+            }
+        }
+        if let Some(pace) = options.pace {
+            let due = Duration::from_secs_f64((tick_time - start) as f64 / 1e9 / pace);
+            if let Some(wait) = due.checked_sub(wall.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+        clock.set(&Time::from_nanos(tick_time));
+        stage.tick(&outputs);
+        summary.ticks += 1;
+        for b in stage.bodies() {
+            if let Some(report) = b.body.last_step() {
+                step_times.entry(b.id).or_default().push(report.seconds * 1e3);
+            }
+            if let (Some(shape), Some(rest)) = (shapes.get_mut(&b.id), rest.get(&b.id)) {
+                let moved = b
+                    .body
+                    .deformed()
+                    .chunks(3)
+                    .zip(rest.chunks(3))
+                    .map(|(x, r)| {
+                        let d = [x[0] - r[0], x[1] - r[1], x[2] - r[2]];
+                        ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f64).sqrt()
+                    })
+                    .fold(0.0, f64::max);
+                shape.max_displacement_m = shape.max_displacement_m.max(moved);
+            }
+        }
+        observe(&Tick {
+            time_ns: tick_time,
+            stage: &stage,
+            rest: &rest,
+        });
+        tick_time += period;
+    }
+    summary.wall_seconds = wall.elapsed().as_secs_f64();
+    summary.sim_seconds = (tick_time - period - start) as f64 / 1e9;
+    summary.realtime_factor = summary.sim_seconds / summary.wall_seconds.max(1e-9);
+    for (id, mut shape) in shapes {
+        let mut times = step_times.remove(&id).unwrap_or_default();
+        times.sort_by(f64::total_cmp);
+        shape.steps = times.len();
+        if !times.is_empty() {
+            shape.step_ms_median = times[times.len() / 2];
+            shape.step_ms_p99 = times[((times.len() as f64 * 0.99) as usize).min(times.len() - 1)];
+        }
+        summary.shapes.push(shape);
+    }
+    summary.recording = finish(&outputs)?;
+    Ok(summary)
+}
+
+fn finish(outputs: &Outputs) -> Result<Option<RecordSummary>, BagError> {
+    outputs.recorder.as_ref().map(|r| r.finish()).transpose()
+}
+
+enum Input {
+    Geometry(BuildRequest),
+    Interaction(Interaction),
+}
+
+/// Decodes one recorded input, checking its channel's type and encoding.
+fn input(m: &BagMessage, source: &str, params: &NodeParams) -> Result<Input, String> {
+    let t = &params.topics;
+    let expected = if m.topic == t.points {
+        PointCloud2::type_name()
+    } else if m.topic == t.mesh {
+        Mesh::type_name()
+    } else if m.topic == t.mesh_stamped {
+        MeshStamped::type_name()
+    } else {
+        Interaction::type_name()
+    };
+    let at = format!("{source} at {} ns, {}", m.log_time, m.topic);
+    if m.encoding != "cdr" || m.type_name != expected {
+        return Err(format!(
+            "{at}: carries {:?} in encoding {:?}, expected {expected} in cdr",
+            m.type_name, m.encoding
+        ));
+    }
+    let bad = |e: String| format!("{at}: {e}");
+    let max = params.max_points;
+    if m.topic == t.points {
+        let cloud: PointCloud2 = from_cdr(&m.data).map_err(bad)?;
+        BuildRequest::from_cloud(&cloud, max).map(Input::Geometry)
+    } else if m.topic == t.mesh {
+        let mesh: Mesh = from_cdr(&m.data).map_err(bad)?;
+        BuildRequest::from_mesh(&mesh, &params.mesh_frame, max).map(Input::Geometry)
+    } else if m.topic == t.mesh_stamped {
+        let stamped: MeshStamped = from_cdr(&m.data).map_err(bad)?;
+        BuildRequest::from_mesh(&stamped.mesh, &stamped.header.frame_id, max).map(Input::Geometry)
+    } else {
+        from_cdr(&m.data).map(Input::Interaction).map_err(bad)
+    }
+}

@@ -1,0 +1,113 @@
+//! `ros2msg` schemas for MCAP channels: the message's definition, then every type it uses
+//! (transitively), each after a line of 80 `=` and `MSG: pkg/msg/Name`, as rosbag2 writes them.
+
+use crate::ros::messages::{
+    Clock, Header, Mesh, MeshTriangle, Point, PointCloud2, PointField, RosMessage, Time, Vector3,
+};
+
+/// The fields of a known message type ("pkg/Name", as in .msg files) and its own text.
+fn definition(ros_type: &str) -> Option<String> {
+    let generated = |fields: Vec<(&str, String)>| {
+        fields
+            .iter()
+            .map(|(name, ty)| format!("{ty} {name}\n"))
+            .collect::<String>()
+    };
+    // This package's messages keep their .msg text (constants and comments included).
+    Some(match ros_type {
+        "builtin_interfaces/Time" => generated(Time::fields()),
+        "rosgraph_msgs/Clock" => generated(Clock::fields()),
+        "std_msgs/Header" => generated(Header::fields()),
+        "geometry_msgs/Point" => generated(Point::fields()),
+        "geometry_msgs/Vector3" => generated(Vector3::fields()),
+        "sensor_msgs/PointField" => format!(
+            "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\nuint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\n{}",
+            generated(PointField::fields())
+        ),
+        "sensor_msgs/PointCloud2" => generated(PointCloud2::fields()),
+        "shape_msgs/MeshTriangle" => generated(MeshTriangle::fields()),
+        "shape_msgs/Mesh" => generated(Mesh::fields()),
+        "physskin/MeshStamped" => include_str!("../../msg/MeshStamped.msg").into(),
+        "physskin/SkinningWeights" => include_str!("../../msg/SkinningWeights.msg").into(),
+        "physskin/SubspaceState" => include_str!("../../msg/SubspaceState.msg").into(),
+        "physskin/Interaction" => include_str!("../../msg/Interaction.msg").into(),
+        "physskin/Status" => include_str!("../../msg/Status.msg").into(),
+        _ => return None,
+    })
+}
+
+/// The complex types a definition refers to, in order of first use ("std_msgs/Header").
+fn references(text: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    for line in text.lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        let Some(ty) = line.split_whitespace().next() else {
+            continue;
+        };
+        let base = ty.split('[').next().unwrap_or(ty);
+        if base.contains('/') && !found.iter().any(|f| f == base) {
+            found.push(base.to_string());
+        }
+    }
+    found
+}
+
+/// The `ros2msg` schema text of `M`, with every dependency.
+pub fn schema_text<M: RosMessage>() -> String {
+    let top = format!("{}/{}", M::PACKAGE, M::NAME);
+    let mut text = definition(&top).unwrap_or_else(|| panic!("no definition for {top}"));
+    let mut queue = references(&text);
+    let mut done: Vec<String> = Vec::new();
+    while let Some(ty) = queue.first().cloned() {
+        queue.remove(0);
+        if done.contains(&ty) {
+            continue;
+        }
+        let body = definition(&ty).unwrap_or_else(|| panic!("no definition for {ty}"));
+        let (package, name) = ty.split_once('/').expect("pkg/Name");
+        if !text.ends_with('\n') {
+            text.push('\n');
+        }
+        text.push_str(&"=".repeat(80));
+        text.push_str(&format!("\nMSG: {package}/msg/{name}\n"));
+        text.push_str(&body);
+        queue.extend(references(&body));
+        done.push(ty);
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ros::messages::{Interaction, MeshStamped, SkinningWeights, Status, SubspaceState};
+
+    #[test]
+    fn point_cloud2_lists_every_dependency_once() {
+        let text = schema_text::<PointCloud2>();
+        assert!(text.starts_with("std_msgs/Header header\nuint32 height\n"));
+        for dep in [
+            "MSG: std_msgs/msg/Header\n",
+            "MSG: builtin_interfaces/msg/Time\n",
+            "MSG: sensor_msgs/msg/PointField\n",
+        ] {
+            assert_eq!(text.matches(dep).count(), 1, "{dep} in\n{text}");
+        }
+        assert!(text.contains(&format!("{}\nMSG:", "=".repeat(80))));
+    }
+
+    #[test]
+    fn every_recorded_type_has_a_schema() {
+        for text in [
+            schema_text::<Mesh>(),
+            schema_text::<MeshStamped>(),
+            schema_text::<SkinningWeights>(),
+            schema_text::<SubspaceState>(),
+            schema_text::<Interaction>(),
+            schema_text::<Status>(),
+            schema_text::<Clock>(),
+        ] {
+            assert!(text.contains("\n") && !text.contains("MSG: physskin/msg/Interaction"));
+        }
+    }
+}

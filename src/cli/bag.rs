@@ -1,0 +1,112 @@
+//! `physskin replay` and `physskin recover`.
+
+use std::path::PathBuf;
+
+use physskin::bag::{recover, replay, ReplayOptions};
+use physskin::ros::NodeParams;
+use physskin::skinning::NeuralModel;
+use physskin::Error;
+
+#[derive(clap::Args)]
+pub struct ReplayArgs {
+    /// The recording whose inputs (clouds, meshes, interactions) are replayed.
+    input: PathBuf,
+    /// Where to record the inputs and every output.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Node parameters (ROS 2 YAML), as for `physskin node`.
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// Replay at this multiple of the recorded pace (1 = real time); default as fast as possible.
+    #[arg(long)]
+    pace: Option<f64>,
+    /// Keep stepping this long after the last input, s.
+    #[arg(long, default_value_t = 1.0)]
+    tail: f64,
+    /// Topics to record (repeat); default all.
+    #[arg(long = "topic")]
+    topics: Vec<String>,
+    /// Put wall-clock timings into the messages (replays are then no longer byte-identical).
+    #[arg(long)]
+    timings: bool,
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
+    let params = match &args.params {
+        Some(path) => NodeParams::from_yaml_file(path, "/physskin")?,
+        None => NodeParams::default(),
+    };
+    if args.pace.is_some_and(|p| !(p > 0.0 && p.is_finite())) || !(args.tail >= 0.0) {
+        return Err(Error::InvalidParameter {
+            name: "pace",
+            reason: "--pace must be positive and --tail at least 0".into(),
+        });
+    }
+    let bytes = std::fs::read(&args.input).map_err(|e| Error::Io {
+        path: args.input.clone(),
+        source: e,
+    })?;
+    let model = NeuralModel::bundled()?;
+    let options = ReplayOptions {
+        params,
+        out: args.out,
+        record_topics: args.topics,
+        pace: args.pace,
+        tail_s: args.tail,
+        timings: args.timings,
+    };
+    let summary = replay(
+        &bytes,
+        &args.input.display().to_string(),
+        &model,
+        &options,
+        &mut |_| {},
+    )?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summary).expect("plain data serializes")
+        );
+    } else {
+        println!(
+            "{} inputs ({} rejected), {} shapes, {} ticks: {:.2} s simulated in {:.2} s ({:.1}x real time)",
+            summary.input_messages,
+            summary.rejected,
+            summary.shapes.len(),
+            summary.ticks,
+            summary.sim_seconds,
+            summary.wall_seconds,
+            summary.realtime_factor
+        );
+        if let Some(rec) = &summary.recording {
+            println!("recorded {} messages", rec.messages);
+        }
+    }
+    Ok(())
+}
+
+#[derive(clap::Args)]
+pub struct RecoverArgs {
+    /// A recording cut short (a killed recorder): no summary, maybe a torn last chunk.
+    input: PathBuf,
+    /// The rewritten, complete file.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run_recover(args: RecoverArgs) -> physskin::Result<()> {
+    let recovered = recover(&args.input, &args.out)?;
+    let s = &recovered.summary;
+    println!(
+        "recovered {} messages on {} topics into {}{}",
+        s.messages,
+        s.per_topic.len(),
+        args.out.display(),
+        recovered
+            .stopped_by
+            .map_or(String::new(), |why| format!(" (reading stopped: {why})"))
+    );
+    Ok(())
+}

@@ -1,0 +1,190 @@
+//! The demo: the bundled recording `bags/demo.mcap` (three shapes arriving as a cloud, a
+//! stamped mesh and a mesh, then pokes) replayed through the node's pipeline, recorded to MCAP,
+//! checked against the full-space FEM, and drawn as a strip of frames.
+
+mod reference;
+mod script;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use serde::Serialize;
+
+pub use reference::ReferenceError;
+pub use script::{cloud_points, write_demo_bag, DemoPoke, DemoScript, DemoShape, Delivery, DEMO_START_NS};
+
+use crate::bag::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
+use crate::io::{render_strip_png, weight_colors, StripObject};
+use crate::ros::NodeParams;
+use crate::skinning::NeuralModel;
+use crate::{Error, Result};
+
+/// The bundled demo recording, in the source tree.
+pub const DEMO_BAG: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/demo.mcap");
+
+/// What the demo reads and writes.
+#[derive(Clone, Debug)]
+pub struct DemoOptions {
+    /// The input recording. Default the bundled `bags/demo.mcap`.
+    pub input: PathBuf,
+    /// The output recording (inputs and every output topic). Default target/demo/demo_out.mcap.
+    pub out: PathBuf,
+    /// The strip of frames. Default target/demo/demo.png.
+    pub picture: PathBuf,
+    /// Frames in the picture. Default 6.
+    pub frames: usize,
+    /// Run the FEM reference (only meaningful for the bundled recording). Default true.
+    pub reference: bool,
+    /// None: as fast as possible; Some(r): r times real time.
+    pub pace: Option<f64>,
+}
+
+impl Default for DemoOptions {
+    fn default() -> Self {
+        Self {
+            input: DEMO_BAG.into(),
+            out: "target/demo/demo_out.mcap".into(),
+            picture: "target/demo/demo.png".into(),
+            frames: 6,
+            reference: true,
+            pace: None,
+        }
+    }
+}
+
+/// One shape of the demo: the replay's figures and the FEM's.
+#[derive(Clone, Debug, Serialize)]
+pub struct DemoShapeRow {
+    #[serde(flatten)]
+    pub replay: ShapeSummary,
+    /// Vertices of the FEM reference mesh (0 without the reference).
+    pub fem_vertices: usize,
+    pub fem_step_ms: f64,
+    /// RMS distance to the FEM over the reference mesh's vertices and all steps, % of the
+    /// shape's bounding diagonal (NaN without the reference).
+    pub error_pct: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct DemoSummary {
+    pub shapes: Vec<DemoShapeRow>,
+    pub replay: ReplaySummary,
+    pub output: PathBuf,
+    pub picture: PathBuf,
+}
+
+/// Runs the demo.
+pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoSummary> {
+    let bytes = std::fs::read(&options.input).map_err(|e| Error::Io {
+        path: options.input.clone(),
+        source: e,
+    })?;
+    let params = NodeParams::default();
+    let script = DemoScript::new();
+    let mut trajectories = if options.reference {
+        script
+            .shapes
+            .iter()
+            .map(reference::Trajectory::new)
+            .collect::<Result<Vec<_>>>()?
+    } else {
+        Vec::new()
+    };
+    // Frames of the picture: evenly spaced over the script's span and the replay's tail.
+    let replay_options = ReplayOptions {
+        params: params.clone(),
+        out: Some(options.out.clone()),
+        pace: options.pace,
+        ..Default::default()
+    };
+    let last_input = script
+        .pokes
+        .iter()
+        .map(|p| p.at_s)
+        .chain(script.shapes.iter().map(|s| s.at_s))
+        .fold(0.0, f64::max);
+    let span_ns = ((last_input + replay_options.tail_s) * 1e9) as i64;
+    let frames = options.frames.max(1);
+    let mut due: Vec<i64> = (0..frames)
+        .map(|i| DEMO_START_NS + span_ns * (2 * i as i64 + 1) / (2 * frames as i64))
+        .collect();
+    let mut colors: BTreeMap<u32, Vec<[f64; 3]>> = BTreeMap::new();
+    let mut captured: Vec<Vec<(u32, Vec<f32>)>> = Vec::new();
+    let mut observe = |tick: &Tick| {
+        for t in &mut trajectories {
+            if let Some(b) = tick.stage.bodies().iter().find(|b| b.frame == t.frame) {
+                t.record(tick.time_ns, &b.body);
+            }
+        }
+        if due.first().is_some_and(|&d| tick.time_ns >= d - 1) {
+            due.remove(0);
+            let mut frame = Vec::new();
+            for b in tick.stage.bodies() {
+                colors
+                    .entry(b.id)
+                    .or_insert_with(|| weight_colors(b.body.weights(), b.body.handles()));
+                frame.push((b.id, b.body.deformed().to_vec()));
+            }
+            captured.push(frame);
+        }
+    };
+    let summary = replay(
+        &bytes,
+        &options.input.display().to_string(),
+        model,
+        &replay_options,
+        &mut observe,
+    )?;
+
+    let errors = if options.reference {
+        let period = (1e9 / params.rate_hz) as i64;
+        reference::reference_errors(&trajectories, &script, &params.sim_params(), period)?
+    } else {
+        Vec::new()
+    };
+    let shapes = summary
+        .shapes
+        .iter()
+        .map(|s| {
+            let fem = errors.iter().find(|e| e.frame == s.frame);
+            DemoShapeRow {
+                replay: s.clone(),
+                fem_vertices: fem.map_or(0, |e| e.vertices),
+                fem_step_ms: fem.map_or(f64::NAN, |e| e.fem_step_ms),
+                error_pct: fem.map_or(f64::NAN, |e| e.error_pct),
+            }
+        })
+        .collect();
+
+    let strip: Vec<Vec<StripObject>> = captured
+        .iter()
+        .map(|frame| {
+            frame
+                .iter()
+                .map(|(id, positions)| StripObject {
+                    positions,
+                    colors: &colors[id],
+                })
+                .collect()
+        })
+        .collect();
+    if let Some(dir) = options.picture.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::Io {
+            path: dir.into(),
+            source: e,
+        })?;
+    }
+    let mut file = std::fs::File::create(&options.picture).map_err(|e| Error::Io {
+        path: options.picture.clone(),
+        source: e,
+    })?;
+    render_strip_png(&strip, 360, &mut file)
+        .map_err(|e| Error::Geometry(format!("demo picture: {e}")))?;
+    Ok(DemoSummary {
+        shapes,
+        replay: summary,
+        output: options.out.clone(),
+        picture: options.picture.clone(),
+    })
+}

@@ -1,0 +1,144 @@
+//! The demo's accuracy figure: each shape again in the full-space FEM (same material, support,
+//! gravity, time step and pokes) on a tetrahedral mesh of its interior, against the replay's
+//! body lifted to the same mesh vertices every step.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::script::{DemoScript, DemoShape};
+use crate::bench::sim::{prepare_shape, BenchShape};
+use crate::physics::{FemSim, Lifter, Poke, SimParams};
+use crate::Result;
+
+/// FEM mesh size of the reference: at least this many vertices.
+const REFERENCE_VERTICES: usize = 500;
+
+/// One shape's reduced trajectory at its reference mesh's vertices.
+pub struct Trajectory {
+    pub frame: String,
+    bench: BenchShape,
+    lifter: Option<Lifter>,
+    /// Per step of the replayed body: x, y, z per mesh vertex.
+    steps: Vec<Vec<f32>>,
+    /// Log time of the body's first step, ns.
+    first_step_ns: Option<i64>,
+}
+
+impl Trajectory {
+    pub fn new(shape: &DemoShape) -> Result<Self> {
+        Ok(Self {
+            frame: shape.frame.into(),
+            bench: reference_mesh(&shape.shape)?,
+            lifter: None,
+            steps: Vec::new(),
+            first_step_ns: None,
+        })
+    }
+
+    /// After a tick of the replay: the body of this frame, lifted to the mesh vertices.
+    pub fn record(&mut self, time_ns: i64, body: &crate::pipeline::SoftBody) {
+        let lifter = self
+            .lifter
+            .get_or_insert_with(|| body.lifter_for(&self.bench.mesh.vertices));
+        let mut x = vec![0.0f32; 3 * lifter.len()];
+        lifter.lift(body.state(), &mut x);
+        self.steps.push(x);
+        self.first_step_ns.get_or_insert(time_ns);
+    }
+}
+
+/// The coarsest tetrahedral mesh of the shape's interior with REFERENCE_VERTICES vertices: the
+/// FEM's cost grows fast with vertices on compact shapes.
+fn reference_mesh(shape: &crate::geometry::Shape) -> Result<BenchShape> {
+    let mut resolution = 8;
+    loop {
+        let bench = prepare_shape(shape.clone(), 0.0, resolution, 0, 0)?;
+        if bench.mesh.vertices.len() >= REFERENCE_VERTICES || resolution >= 64 {
+            return Ok(bench);
+        }
+        resolution += 2;
+    }
+}
+
+/// Per shape: the RMS distance between the replay and the FEM over all vertices and steps, in
+/// percent of the shape's bounding diagonal; and the FEM's median step time, ms.
+pub struct ReferenceError {
+    pub frame: String,
+    pub vertices: usize,
+    pub error_pct: f64,
+    pub fem_step_ms: f64,
+}
+
+/// Runs the FEM of every recorded shape (in parallel) and compares.
+pub fn reference_errors(
+    trajectories: &[Trajectory],
+    script: &DemoScript,
+    params: &SimParams,
+    period_ns: i64,
+) -> Result<Vec<ReferenceError>> {
+    trajectories
+        .par_iter()
+        .filter(|t| !t.steps.is_empty())
+        .map(|t| fem_error(t, script, params, period_ns))
+        .collect()
+}
+
+fn fem_error(
+    t: &Trajectory,
+    script: &DemoScript,
+    params: &SimParams,
+    period_ns: i64,
+) -> Result<ReferenceError> {
+    let mesh = &t.bench.mesh;
+    let mut fem = FemSim::new(mesh.clone(), params.clone())?;
+    fem.pin_vertices(&bottom_vertices(&mesh.vertices, &params.gravity));
+    let first = t.first_step_ns.expect("a trajectory with steps has a start");
+    // The replay applies an interaction before the first tick at or after its log time; that
+    // tick is step k of the body, whose simulated time is then k * dt.
+    for poke in script.pokes.iter().filter(|p| p.frame == t.frame) {
+        let late = DemoScript::time_ns(poke.at_s) - first;
+        let step = if late <= 0 { 0 } else { (late + period_ns - 1) / period_ns };
+        let start = step as f64 * params.dt;
+        fem.add_poke(Poke {
+            point: poke.point,
+            force: poke.force,
+            start,
+            end: start + poke.duration_s,
+        });
+    }
+    let mut squared = 0.0;
+    let mut samples = 0usize;
+    let mut times = Vec::with_capacity(t.steps.len());
+    for reduced in &t.steps {
+        let report = fem.step()?;
+        times.push(report.seconds * 1e3);
+        for (r, f) in reduced.chunks(3).zip(fem.positions().chunks(3)) {
+            let d = Vector3::new(r[0] as f64 - f[0], r[1] as f64 - f[1], r[2] as f64 - f[2]);
+            squared += d.norm_squared();
+            samples += 1;
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(ReferenceError {
+        frame: t.frame.clone(),
+        vertices: mesh.vertices.len(),
+        error_pct: (squared / samples.max(1) as f64).sqrt() / t.bench.diagonal * 100.0,
+        fem_step_ms: times[times.len() / 2],
+    })
+}
+
+/// The vertices in the lowest 10% along gravity: the FEM's counterpart of `pin_bottom`.
+fn bottom_vertices(vertices: &[Vector3<f64>], gravity: &Vector3<f64>) -> Vec<usize> {
+    let up = if gravity.norm() > 0.0 {
+        -gravity.normalize()
+    } else {
+        Vector3::z()
+    };
+    let heights: Vec<f64> = vertices.iter().map(|v| v.dot(&up)).collect();
+    let lo = heights.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let slab = 0.1 * (hi - lo);
+    (0..vertices.len())
+        .filter(|&i| heights[i] <= lo + slab)
+        .collect()
+}
