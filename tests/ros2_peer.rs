@@ -2,59 +2,41 @@
 //! rclpy publishes a PointCloud2 (float64/float32 mixed, big-endian) and a Mesh; the node must
 //! answer with deformed clouds and weights clouds whose contents the peer checks.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// target/ros-venv with rclpy, made on first use. Fails loudly when it cannot be made.
+/// target/ros-venv with rclpy (Fast DDS) from pip.
 fn ros_venv() -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let venv = root.join("target/ros-venv");
-    let python = venv.join("bin/python");
-    let ready = Command::new(&python)
-        .args(["-c", "import rclpy, sensor_msgs.msg, shape_msgs.msg, numpy"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ready {
-        let status = Command::new("python3")
-            .args(["-m", "venv"])
-            .arg(&venv)
-            .status();
-        assert!(
-            status.is_ok_and(|s| s.success()),
-            "python3 -m venv {} failed",
-            venv.display()
-        );
-        let status = Command::new(venv.join("bin/pip"))
-            .args([
-                "install",
-                "-q",
-                "ros-rclpy",
-                "ros-sensor-msgs",
-                "ros-std-msgs",
-                "ros-shape-msgs",
-                "ros-rmw-fastrtps-cpp",
-                "numpy",
-            ])
-            .status();
-        assert!(
-            status.is_ok_and(|s| s.success()),
-            "pip could not install rclpy (ros-rclpy from PyPI)"
-        );
-    }
-    python
+    common::venv(
+        "ros-venv",
+        "import rclpy, sensor_msgs.msg, shape_msgs.msg, numpy",
+        &[
+            "ros-rclpy",
+            "ros-sensor-msgs",
+            "ros-std-msgs",
+            "ros-shape-msgs",
+            "ros-rmw-fastrtps-cpp",
+            "numpy",
+        ],
+    )
 }
 
 #[test]
 fn rclpy_peer_gets_deformed_and_weights_clouds() {
     let python = ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let bag = root.join("target/ros2-peer-node.mcap");
+    let _ = std::fs::remove_file(&bag);
     let script = format!(
-        "{node} node --domain-id 31 > {log} 2>&1 & NODE=$!; \
+        "{node} node --domain-id 31 --record {bag} > {log} 2>&1 & NODE=$!; \
          ROS_DOMAIN_ID=31 timeout 120 {python} {peer}; RC=$?; \
          kill -INT $NODE; wait $NODE; NODE_RC=$?; \
          echo node exit $NODE_RC; exit $(( RC != 0 ? RC : NODE_RC ))",
         node = env!("CARGO_BIN_EXE_physskin"),
         log = root.join("target/ros2-peer-node.log").display(),
+        bag = bag.display(),
         python = python.display(),
         peer = root.join("tests/peers/ros2_peer.py").display(),
     );
@@ -74,4 +56,10 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("ok: "), "{stdout}");
     assert!(log.contains("shape_ready"), "{log}");
+    // The node recorded what it received and sent; readers nobody here wrote agree.
+    let counts = &common::python_counts(&[bag])[0];
+    for topic in ["points", "mesh", "deformed_points", "weights_cloud", "weights", "state", "status"] {
+        let n = counts.get(&format!("/physskin/{topic}")).copied().unwrap_or(0);
+        assert!(n > 0, "nothing recorded on /physskin/{topic}: {counts:?}");
+    }
 }

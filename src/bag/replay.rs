@@ -3,7 +3,6 @@
 //! Everything runs on one thread in a fixed order, so two replays give identical messages.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -24,8 +23,8 @@ use crate::skinning::NeuralModel;
 pub struct ReplayOptions {
     /// The node's parameters: topics, rate, material, inference.
     pub params: NodeParams,
-    /// Where to record inputs and outputs; None: nothing is written.
-    pub out: Option<PathBuf>,
+    /// Where and how to record inputs and outputs; None: nothing is written.
+    pub record: Option<RecordOptions>,
     /// Topics recorded in `out`; empty: all.
     pub record_topics: Vec<String>,
     /// None: as fast as possible. Some(r): r times the recorded pace (1 = real time).
@@ -40,7 +39,7 @@ impl Default for ReplayOptions {
     fn default() -> Self {
         Self {
             params: NodeParams::default(),
-            out: None,
+            record: None,
             record_topics: Vec::new(),
             pace: None,
             tail_s: 1.0,
@@ -110,12 +109,9 @@ pub fn replay(
                 .contains(&&m.topic)
         })
         .collect();
-    let recorder = match &options.out {
-        Some(path) => Some(Recorder::start(
-            RecordOptions {
-                path: path.clone(),
-                ..Default::default()
-            },
+    let recorder = match &options.record {
+        Some(record) => Some(Recorder::start(
+            record.clone(),
             options.record_topics.clone(),
         )?),
         None => None,

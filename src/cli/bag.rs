@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use physskin::bag::{recover, replay, ReplayOptions};
+use physskin::bag::{recover, replay, RecordOptions, ReplayOptions};
 use physskin::ros::NodeParams;
 use physskin::skinning::NeuralModel;
 use physskin::Error;
@@ -14,6 +14,12 @@ pub struct ReplayArgs {
     /// Where to record the inputs and every output.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Start a new output file past this size, MB (0: never).
+    #[arg(long, default_value_t = 0.0)]
+    split_size_mb: f64,
+    /// Start a new output file past this much log time, s (0: never).
+    #[arg(long, default_value_t = 0.0)]
+    split_duration: f64,
     /// Node parameters (ROS 2 YAML), as for `physskin node`.
     #[arg(long)]
     params: Option<PathBuf>,
@@ -51,7 +57,12 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
     let model = NeuralModel::bundled()?;
     let options = ReplayOptions {
         params,
-        out: args.out,
+        record: args.out.map(|path| RecordOptions {
+            path,
+            split_size_mb: args.split_size_mb,
+            split_duration_s: args.split_duration,
+            ..Default::default()
+        }),
         record_topics: args.topics,
         pace: args.pace,
         tail_s: args.tail,
@@ -81,7 +92,8 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
             summary.realtime_factor
         );
         if let Some(rec) = &summary.recording {
-            println!("recorded {} messages", rec.messages);
+            let files: Vec<String> = rec.files.iter().map(|f| f.path.display().to_string()).collect();
+            println!("recorded {} messages in {}", rec.messages, files.join(", "));
         }
     }
     Ok(())

@@ -14,7 +14,7 @@ use serde::Serialize;
 pub use reference::ReferenceError;
 pub use script::{cloud_points, write_demo_bag, DemoPoke, DemoScript, DemoShape, Delivery, DEMO_START_NS};
 
-use crate::bag::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
+use crate::bag::{replay, RecordOptions, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
 use crate::io::{render_strip_png, weight_colors, StripObject};
 use crate::ros::NodeParams;
 use crate::skinning::NeuralModel;
@@ -94,7 +94,10 @@ pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoS
     // Frames of the picture: evenly spaced over the script's span and the replay's tail.
     let replay_options = ReplayOptions {
         params: params.clone(),
-        out: Some(options.out.clone()),
+        record: Some(RecordOptions {
+            path: options.out.clone(),
+            ..Default::default()
+        }),
         pace: options.pace,
         ..Default::default()
     };

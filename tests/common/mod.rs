@@ -1,0 +1,65 @@
+//! What several integration tests share: Python peers in virtual environments under target/,
+//! made on first use, failing loudly when they cannot be made.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// target/<name> with `packages` from pip; `check` is a Python statement that succeeds once
+/// they are installed. Returns the venv's python.
+pub fn venv(name: &str, check: &str, packages: &[&str]) -> PathBuf {
+    let venv = root().join("target").join(name);
+    let python = venv.join("bin/python");
+    let ready = Command::new(&python)
+        .args(["-c", check])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ready {
+        let made = Command::new("python3").args(["-m", "venv"]).arg(&venv).status();
+        assert!(made.is_ok_and(|s| s.success()), "python3 -m venv {} failed", venv.display());
+        let installed = Command::new(venv.join("bin/pip"))
+            .args(["install", "-q"])
+            .args(packages)
+            .status();
+        assert!(
+            installed.is_ok_and(|s| s.success()),
+            "pip could not install {packages:?} into {}",
+            venv.display()
+        );
+    }
+    python
+}
+
+/// Runs tests/peers/mcap_peer.py (the official MCAP reader with its ROS 2 decoder, and
+/// rosbags) on `files`; returns each file's message count per topic.
+#[allow(dead_code)] // not every test binary reads recordings
+pub fn python_counts(files: &[PathBuf]) -> Vec<BTreeMap<String, u64>> {
+    let python = venv(
+        "bag-venv",
+        "import mcap, mcap_ros2, rosbags, yaml",
+        &["mcap", "mcap-ros2-support", "rosbags", "pyyaml"],
+    );
+    let out = Command::new(python)
+        .arg(root().join("tests/peers/mcap_peer.py"))
+        .args(files)
+        .output()
+        .expect("python runs");
+    assert!(
+        out.status.success(),
+        "the Python readers refused a recording:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|line| {
+            let v: serde_json::Value = serde_json::from_str(line).unwrap();
+            assert_eq!(v["mcap_counts"], v["rosbags_counts"]);
+            serde_json::from_value(v["mcap_counts"].clone()).unwrap()
+        })
+        .collect()
+}
