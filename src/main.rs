@@ -88,6 +88,12 @@ enum BenchCommand {
         #[arg(long, default_value_t = 77)]
         domain_id: u16,
     },
+    /// MCAP: the demo bag's replay speed (output recorded) and what recording adds to a 60 Hz
+    /// step of a 10k-point cloud.
+    Replay {
+        #[arg(long)]
+        json: bool,
+    },
     /// Reduced simulation against the FEM reference: step time next to error.
     Sim {
         /// Small meshes and fewer variants (fits in CI).
@@ -161,6 +167,7 @@ fn main() -> ExitCode {
         }) {
             BenchCommand::Sim { quick, json, plot } => run_bench_sim(quick, json, &plot),
             BenchCommand::Latency { json, domain_id } => run_bench_latency(json, domain_id),
+            BenchCommand::Replay { json } => run_bench_replay(json),
         },
     };
     match result {
@@ -214,6 +221,34 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
         "max displacement {:.4} m at the last step (FEM: {:.4} m)",
         summary.max_displacement_m, summary.fem_max_displacement_m
     );
+    Ok(())
+}
+
+fn run_bench_replay(json: bool) -> physskin::Result<()> {
+    let path = std::path::Path::new(physskin::demo::DEMO_BAG);
+    let bag = std::fs::read(path).map_err(|e| physskin::Error::Io {
+        path: path.into(),
+        source: e,
+    })?;
+    let r =
+        physskin::bench::run_replay_bench(&bag, std::path::Path::new("target/bench"), |line| {
+            eprintln!("{line}")
+        })?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&r).expect("serializable")
+        );
+    } else {
+        println!(
+            "demo bag replay, output recorded   {:6.1}x real time ({:.2} s simulated in {:.3} s)",
+            r.realtime_factor, r.replay_sim_s, r.replay_wall_s
+        );
+        println!(
+            "60 Hz tick, {} points               {:.3} ms without recording, {:.3} ms with: {:+.2} % ({} ticks each)",
+            r.points, r.tick_ms_without, r.tick_ms_with, r.record_overhead_pct, r.ticks_per_side
+        );
+    }
     Ok(())
 }
 

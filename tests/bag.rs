@@ -9,7 +9,10 @@ use std::time::{Duration, Instant};
 mod common;
 
 use common::{python_counts, root};
-use physskin::bag::{read_messages, replay, BagMessage, BagWriter, RecordOptions, ReplayOptions, TopicInfo, QosProfile};
+use physskin::bag::{
+    read_messages, replay, BagMessage, BagWriter, QosProfile, RecordOptions, ReplayOptions,
+    TopicInfo,
+};
 use physskin::ros::messages::{from_cdr, SkinningWeights, Status, SubspaceState};
 use physskin::skinning::NeuralModel;
 
@@ -69,7 +72,10 @@ fn the_demo_bag_is_what_its_script_writes() {
     let committed = read_messages(&demo_bag(), "bags/demo.mcap").unwrap();
     assert_eq!(fresh.len(), committed.len());
     for (a, b) in fresh.iter().zip(&committed) {
-        assert_eq!((&a.topic, a.log_time, &a.data), (&b.topic, b.log_time, &b.data));
+        assert_eq!(
+            (&a.topic, a.log_time, &a.data),
+            (&b.topic, b.log_time, &b.data)
+        );
     }
 }
 
@@ -81,12 +87,28 @@ fn python_readers_decode_every_message_of_our_recordings() {
     let summary = replay_to(&out, &[]);
     let recording = summary.recording.unwrap();
     let counts = python_counts(&[out, root().join("bags/demo.mcap")]);
-    assert_eq!(counts[0], recording.per_topic, "Python and our summary disagree");
+    assert_eq!(
+        counts[0], recording.per_topic,
+        "Python and our summary disagree"
+    );
     assert_eq!(counts[0].values().sum::<u64>(), recording.messages);
     assert_eq!(counts[1].values().sum::<u64>(), 12);
     // Every input and output topic is there.
-    for topic in ["points", "mesh", "mesh_stamped", "interaction", "deformed_points", "weights_cloud", "weights", "state", "status"] {
-        assert!(counts[0].contains_key(&format!("/physskin/{topic}")), "{topic} missing");
+    for topic in [
+        "points",
+        "mesh",
+        "mesh_stamped",
+        "interaction",
+        "deformed_points",
+        "weights_cloud",
+        "weights",
+        "state",
+        "status",
+    ] {
+        assert!(
+            counts[0].contains_key(&format!("/physskin/{topic}")),
+            "{topic} missing"
+        );
     }
 }
 
@@ -96,7 +118,14 @@ fn split_files_are_each_complete() {
     let dir = scratch("split");
     let out = dir.join("part.mcap");
     let path = out.display().to_string();
-    physskin(&["replay", "bags/demo.mcap", "--out", &path, "--split-duration", "2"]);
+    physskin(&[
+        "replay",
+        "bags/demo.mcap",
+        "--out",
+        &path,
+        "--split-duration",
+        "2",
+    ]);
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -105,7 +134,9 @@ fn split_files_are_each_complete() {
     assert!(files.len() >= 3, "7 s split every 2 s: {files:?}");
     let counts = python_counts(&files);
     let total: u64 = counts.iter().flat_map(|c| c.values()).sum();
-    let whole = replay_to(&dir.join("../split-whole.mcap"), &[]).recording.unwrap();
+    let whole = replay_to(&dir.join("../split-whole.mcap"), &[])
+        .recording
+        .unwrap();
     assert_eq!(total, whole.messages);
 }
 
@@ -162,34 +193,80 @@ fn replay_matches_the_golden_output() {
             ..Default::default()
         })
         .unwrap();
-        writer.add_topic(TopicInfo::of::<SubspaceState>(GOLDEN_TOPICS[0], QosProfile::reliable(10, false))).unwrap();
-        writer.add_topic(TopicInfo::of::<Status>(GOLDEN_TOPICS[1], QosProfile::reliable(50, true))).unwrap();
-        writer.add_topic(TopicInfo::of::<SkinningWeights>(GOLDEN_TOPICS[2], QosProfile::reliable(4, true))).unwrap();
+        writer
+            .add_topic(TopicInfo::of::<SubspaceState>(
+                GOLDEN_TOPICS[0],
+                QosProfile::reliable(10, false),
+            ))
+            .unwrap();
+        writer
+            .add_topic(TopicInfo::of::<Status>(
+                GOLDEN_TOPICS[1],
+                QosProfile::reliable(50, true),
+            ))
+            .unwrap();
+        writer
+            .add_topic(TopicInfo::of::<SkinningWeights>(
+                GOLDEN_TOPICS[2],
+                QosProfile::reliable(4, true),
+            ))
+            .unwrap();
         for m in &fresh {
-            writer.write(&m.topic, m.log_time, m.publish_time, &m.data).unwrap();
+            writer
+                .write(&m.topic, m.log_time, m.publish_time, &m.data)
+                .unwrap();
         }
         writer.finish().unwrap();
     }
-    let golden = read_messages(&std::fs::read(&golden_path).unwrap(), "bags/demo_golden.mcap").unwrap();
-    assert_eq!(fresh.len(), golden.len(), "message count against the golden output");
+    let golden = read_messages(
+        &std::fs::read(&golden_path).unwrap(),
+        "bags/demo_golden.mcap",
+    )
+    .unwrap();
+    assert_eq!(
+        fresh.len(),
+        golden.len(),
+        "message count against the golden output"
+    );
     let close = |a: &[f64], b: &[f64], tol: f64, what: &str| {
         assert_eq!(a.len(), b.len(), "{what} length");
-        let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        let worst = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
         assert!(worst <= tol, "{what}: off by {worst:e} (tolerance {tol:e})");
     };
     for (f, g) in fresh.iter().zip(&golden) {
         assert_eq!((&f.topic, f.log_time), (&g.topic, g.log_time));
         if f.topic.ends_with("/state") {
-            let (f, g): (SubspaceState, SubspaceState) = (from_cdr(&f.data).unwrap(), from_cdr(&g.data).unwrap());
+            let (f, g): (SubspaceState, SubspaceState) =
+                (from_cdr(&f.data).unwrap(), from_cdr(&g.data).unwrap());
             let at = format!("shape {} at {} ns", f.shape_id, f.header.stamp.nanos());
             close(&f.z, &g.z, 1e-4, &format!("z of {at}"));
-            close(&f.z_velocity, &g.z_velocity, 1e-4, &format!("z velocity of {at}"));
+            close(
+                &f.z_velocity,
+                &g.z_velocity,
+                1e-4,
+                &format!("z velocity of {at}"),
+            );
             let scale = g.elastic_energy.abs().max(g.kinetic_energy.abs()).max(1e-9);
-            close(&[f.elastic_energy / scale], &[g.elastic_energy / scale], 1e-3, &format!("elastic energy of {at}"));
+            close(
+                &[f.elastic_energy / scale],
+                &[g.elastic_energy / scale],
+                1e-3,
+                &format!("elastic energy of {at}"),
+            );
         } else if f.topic.ends_with("/weights") {
-            let (f, g): (SkinningWeights, SkinningWeights) = (from_cdr(&f.data).unwrap(), from_cdr(&g.data).unwrap());
+            let (f, g): (SkinningWeights, SkinningWeights) =
+                (from_cdr(&f.data).unwrap(), from_cdr(&g.data).unwrap());
             let as64 = |w: &[f32]| w.iter().map(|&x| x as f64).collect::<Vec<_>>();
-            close(&as64(&f.weights), &as64(&g.weights), 1e-4, &format!("weights of shape {}", f.shape_id));
+            close(
+                &as64(&f.weights),
+                &as64(&g.weights),
+                1e-4,
+                &format!("weights of shape {}", f.shape_id),
+            );
         } else {
             let (f, g): (Status, Status) = (from_cdr(&f.data).unwrap(), from_cdr(&g.data).unwrap());
             assert_eq!((f.event, f.message), (g.event, g.message));
@@ -207,7 +284,15 @@ fn a_killed_recording_loses_at_most_about_a_second() {
     // Only the small state topic: without the one-second flush its 4 MB chunk would take
     // several seconds to fill, so this checks the flush, not the chunk size.
     let mut child = Command::new(env!("CARGO_BIN_EXE_physskin"))
-        .args(["replay", "bags/demo.mcap", "--pace", "1", "--topic", "/physskin/state", "--out"])
+        .args([
+            "replay",
+            "bags/demo.mcap",
+            "--pace",
+            "1",
+            "--topic",
+            "/physskin/state",
+            "--out",
+        ])
         .arg(&cut)
         .current_dir(root())
         .stderr(std::process::Stdio::null())
@@ -218,11 +303,20 @@ fn a_killed_recording_loses_at_most_about_a_second() {
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
     let killed_after = started.elapsed().as_secs_f64();
-    assert!(read_messages(&std::fs::read(&cut).unwrap(), "cut").is_err(), "a killed file has no summary");
-    let out = physskin(&["recover", &cut.display().to_string(), "--out", &whole.display().to_string()]);
+    assert!(
+        read_messages(&std::fs::read(&cut).unwrap(), "cut").is_err(),
+        "a killed file has no summary"
+    );
+    let out = physskin(&[
+        "recover",
+        &cut.display().to_string(),
+        "--out",
+        &whole.display().to_string(),
+    ]);
     eprintln!("{}", String::from_utf8_lossy(&out.stdout));
     let messages = read_messages(&std::fs::read(&whole).unwrap(), "recovered").unwrap();
-    let span = (messages.last().unwrap().log_time - messages.first().unwrap().log_time) as f64 / 1e9;
+    let span =
+        (messages.last().unwrap().log_time - messages.first().unwrap().log_time) as f64 / 1e9;
     // The replay starts stepping within half a second of its launch (model, bag, first build).
     assert!(
         span >= killed_after - 0.5 - 1.2,
@@ -230,4 +324,3 @@ fn a_killed_recording_loses_at_most_about_a_second() {
     );
     python_counts(&[whole]);
 }
-

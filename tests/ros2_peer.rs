@@ -58,8 +58,19 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
     assert!(log.contains("shape_ready"), "{log}");
     // The node recorded what it received and sent; readers nobody here wrote agree.
     let counts = &common::python_counts(&[bag])[0];
-    for topic in ["points", "mesh", "deformed_points", "weights_cloud", "weights", "state", "status"] {
-        let n = counts.get(&format!("/physskin/{topic}")).copied().unwrap_or(0);
+    for topic in [
+        "points",
+        "mesh",
+        "deformed_points",
+        "weights_cloud",
+        "weights",
+        "state",
+        "status",
+    ] {
+        let n = counts
+            .get(&format!("/physskin/{topic}"))
+            .copied()
+            .unwrap_or(0);
         assert!(n > 0, "nothing recorded on /physskin/{topic}: {counts:?}");
     }
 }

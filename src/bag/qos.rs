@@ -56,7 +56,11 @@ impl QosProfile {
         let profile = Profile {
             history: "keep_last",
             depth: self.depth,
-            reliability: if self.reliable { "reliable" } else { "best_effort" },
+            reliability: if self.reliable {
+                "reliable"
+            } else {
+                "best_effort"
+            },
             durability: if self.transient_local {
                 "transient_local"
             } else {
@@ -82,6 +86,8 @@ mod tests {
         assert!(yaml.starts_with("- history: keep_last\n  depth: 4\n  reliability: reliable\n  durability: transient_local\n"), "{yaml}");
         let parsed: serde_yaml::Value = serde_yaml::from_str(&yaml).unwrap();
         assert_eq!(parsed[0]["deadline"]["sec"].as_i64(), Some(9_223_372_036));
-        assert!(QosProfile::sensor(5).to_yaml().contains("reliability: best_effort"));
+        assert!(QosProfile::sensor(5)
+            .to_yaml()
+            .contains("reliability: best_effort"));
     }
 }

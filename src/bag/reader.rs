@@ -87,9 +87,16 @@ pub fn recover(input: &Path, output: &Path) -> Result<Recovered, BagError> {
             }
         };
         let channel = &m.channel;
-        let (type_name, schema) = channel.schema.as_ref().map_or((String::new(), String::new()), |s| {
-            (s.name.clone(), String::from_utf8_lossy(&s.data).into_owned())
-        });
+        let (type_name, schema) =
+            channel
+                .schema
+                .as_ref()
+                .map_or((String::new(), String::new()), |s| {
+                    (
+                        s.name.clone(),
+                        String::from_utf8_lossy(&s.data).into_owned(),
+                    )
+                });
         writer.add_topic(TopicInfo {
             name: channel.topic.clone(),
             type_name,

@@ -7,7 +7,7 @@ use std::thread::JoinHandle;
 
 use super::writer::{BagWriter, RecordOptions, RecordSummary, TopicInfo};
 use super::BagError;
-use crate::ros::messages::{to_cdr, RosMessage};
+use crate::ros::messages::{encode, RosMessage};
 
 enum Command {
     Topic(TopicInfo),
@@ -98,7 +98,7 @@ impl Recorder {
             topic: topic.into(),
             log_time,
             publish_time,
-            data: to_cdr(message),
+            data: encode(message),
         })
     }
 
@@ -122,9 +122,7 @@ impl Recorder {
     }
 
     fn send(&self, command: Command) -> Result<(), BagError> {
-        self.sender
-            .send(command)
-            .map_err(|_| self.stopped_reason())
+        self.sender.send(command).map_err(|_| self.stopped_reason())
     }
 
     fn stopped_reason(&self) -> BagError {
@@ -146,7 +144,10 @@ impl Recorder {
     /// Writes what is queued, closes the file(s) and says what they hold.
     pub fn finish(&self) -> Result<RecordSummary, BagError> {
         let _ = self.sender.send(Command::Finish);
-        self.join()
-            .unwrap_or_else(|| Err(BagError::Stopped("the recording was already finished".into())))
+        self.join().unwrap_or_else(|| {
+            Err(BagError::Stopped(
+                "the recording was already finished".into(),
+            ))
+        })
     }
 }

@@ -3,6 +3,7 @@
 //! Everything runs on one thread in a fixed order, so two replays give identical messages.
 
 use std::collections::BTreeMap;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -105,8 +106,13 @@ pub fn replay(
     let inputs: Vec<BagMessage> = read_messages(bytes, source)?
         .into_iter()
         .filter(|m| {
-            [&topics.points, &topics.mesh, &topics.mesh_stamped, &topics.interaction]
-                .contains(&&m.topic)
+            [
+                &topics.points,
+                &topics.mesh,
+                &topics.mesh_stamped,
+                &topics.interaction,
+            ]
+            .contains(&&m.topic)
         })
         .collect();
     let recorder = match &options.record {
@@ -135,22 +141,27 @@ pub fn replay(
         summary.recording = finish(&outputs)?;
         return Ok(summary);
     };
-    let (start, end) = (first.log_time, last.log_time + (options.tail_s * 1e9) as i64);
+    let (start, end) = (
+        first.log_time,
+        last.log_time + (options.tail_s * 1e9) as i64,
+    );
     let period = (1e9 / params.rate_hz) as i64;
     let mut builder = Builder::default();
     let mut stage = Stage::default();
     let mut rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
     let mut shapes: BTreeMap<u32, ShapeSummary> = BTreeMap::new();
     let mut step_times: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
-    let mut next_input = inputs.iter().peekable();
+    let decoded: Vec<Result<Input, String>> =
+        inputs.iter().map(|m| input(m, source, params)).collect();
+    let mut next_input = inputs.iter().zip(&decoded).peekable();
     let wall = Instant::now();
     let mut tick_time = start;
     while tick_time <= end {
-        while let Some(m) = next_input.next_if(|m| m.log_time <= tick_time) {
+        while let Some((m, d)) = next_input.next_if(|(m, _)| m.log_time <= tick_time) {
             clock.set(&Time::from_nanos(m.log_time));
-            match input(m, source, params) {
+            match d {
                 Ok(Input::Geometry(request)) => {
-                    let outcome = builder.build(&request, params, model, &outputs);
+                    let outcome = builder.build(request, params, model, &outputs);
                     if let BuildOutcome::Ready(ready, announcement) = outcome {
                         let points: Vec<f32> = request
                             .points
@@ -176,10 +187,10 @@ pub fn replay(
                         summary.rejected += 1;
                     }
                 }
-                Ok(Input::Interaction(i)) => stage.interact(&i, &outputs),
+                Ok(Input::Interaction(i)) => stage.interact(i, &outputs),
                 Err(problem) => {
                     summary.rejected += 1;
-                    outputs.report(Status::ERROR, 0, "input_rejected", problem);
+                    outputs.report(Status::ERROR, 0, "input_rejected", problem.clone());
                 }
             }
             if let Some(recorder) = &outputs.recorder {
@@ -197,20 +208,15 @@ pub fn replay(
         summary.ticks += 1;
         for b in stage.bodies() {
             if let Some(report) = b.body.last_step() {
-                step_times.entry(b.id).or_default().push(report.seconds * 1e3);
+                step_times
+                    .entry(b.id)
+                    .or_default()
+                    .push(report.seconds * 1e3);
             }
             if let (Some(shape), Some(rest)) = (shapes.get_mut(&b.id), rest.get(&b.id)) {
-                let moved = b
-                    .body
-                    .deformed()
-                    .chunks(3)
-                    .zip(rest.chunks(3))
-                    .map(|(x, r)| {
-                        let d = [x[0] - r[0], x[1] - r[1], x[2] - r[2]];
-                        ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f64).sqrt()
-                    })
-                    .fold(0.0, f64::max);
-                shape.max_displacement_m = shape.max_displacement_m.max(moved);
+                shape.max_displacement_m = shape
+                    .max_displacement_m
+                    .max(max_distance(b.body.deformed(), rest));
             }
         }
         observe(&Tick {
@@ -235,6 +241,17 @@ pub fn replay(
     }
     summary.recording = finish(&outputs)?;
     Ok(summary)
+}
+
+/// The largest distance between corresponding points of two x, y, z arrays.
+fn max_distance(a: &[f32], b: &[f32]) -> f64 {
+    a.chunks(3)
+        .zip(b.chunks(3))
+        .map(|(x, r)| {
+            let d = [x[0] - r[0], x[1] - r[1], x[2] - r[2]];
+            ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f64).sqrt()
+        })
+        .fold(0.0, f64::max)
 }
 
 fn finish(outputs: &Outputs) -> Result<Option<RecordSummary>, BagError> {

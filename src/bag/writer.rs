@@ -171,7 +171,9 @@ impl BagWriter {
             .path
             .file_stem()
             .map_or("physskin".into(), |s| s.to_string_lossy().into_owned());
-        self.options.path.with_file_name(format!("{stem}_{index}.mcap"))
+        self.options
+            .path
+            .with_file_name(format!("{stem}_{index}.mcap"))
     }
 
     fn open(&mut self, index: usize) -> Result<(), BagError> {

@@ -3,6 +3,7 @@
 mod fields;
 mod latency;
 mod plot;
+mod replay;
 pub(crate) mod sim;
 mod stats;
 
@@ -11,6 +12,7 @@ pub use fields::{
     PreparedInput, ShapeEval,
 };
 pub use latency::{run_latency_bench, sample_cloud, LatencyReport};
+pub use replay::{run_replay_bench, ReplayBenchReport};
 pub use sim::{
     run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimRow, SimulateOptions,
     SimulateSummary,

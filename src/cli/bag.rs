@@ -92,7 +92,11 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
             summary.realtime_factor
         );
         if let Some(rec) = &summary.recording {
-            let files: Vec<String> = rec.files.iter().map(|f| f.path.display().to_string()).collect();
+            let files: Vec<String> = rec
+                .files
+                .iter()
+                .map(|f| f.path.display().to_string())
+                .collect();
             println!("recorded {} messages in {}", rec.messages, files.join(", "));
         }
     }

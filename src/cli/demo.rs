@@ -65,7 +65,16 @@ pub fn run(args: DemoArgs) -> physskin::Result<()> {
     let r = &summary.replay;
     println!(
         "{:<10} {:<6} {:>6} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9}",
-        "shape", "input", "points", "handles", "build ms", "step ms", "step p99", "max disp", "FEM ms", "error %"
+        "shape",
+        "input",
+        "points",
+        "handles",
+        "build ms",
+        "step ms",
+        "step p99",
+        "max disp",
+        "FEM ms",
+        "error %"
     );
     for s in &summary.shapes {
         let p = &s.replay;

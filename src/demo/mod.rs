@@ -12,7 +12,9 @@ use std::sync::Arc;
 use serde::Serialize;
 
 pub use reference::ReferenceError;
-pub use script::{cloud_points, write_demo_bag, DemoPoke, DemoScript, DemoShape, Delivery, DEMO_START_NS};
+pub use script::{
+    cloud_points, write_demo_bag, Delivery, DemoPoke, DemoScript, DemoShape, DEMO_START_NS,
+};
 
 use crate::bag::{replay, RecordOptions, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
 use crate::io::{render_strip_png, weight_colors, StripObject};
@@ -172,7 +174,11 @@ pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoS
                 .collect()
         })
         .collect();
-    if let Some(dir) = options.picture.parent().filter(|d| !d.as_os_str().is_empty()) {
+    if let Some(dir) = options
+        .picture
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+    {
         std::fs::create_dir_all(dir).map_err(|e| Error::Io {
             path: dir.into(),
             source: e,

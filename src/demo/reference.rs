@@ -92,12 +92,18 @@ fn fem_error(
     let mesh = &t.bench.mesh;
     let mut fem = FemSim::new(mesh.clone(), params.clone())?;
     fem.pin_vertices(&bottom_vertices(&mesh.vertices, &params.gravity));
-    let first = t.first_step_ns.expect("a trajectory with steps has a start");
+    let first = t
+        .first_step_ns
+        .expect("a trajectory with steps has a start");
     // The replay applies an interaction before the first tick at or after its log time; that
     // tick is step k of the body, whose simulated time is then k * dt.
     for poke in script.pokes.iter().filter(|p| p.frame == t.frame) {
         let late = DemoScript::time_ns(poke.at_s) - first;
-        let step = if late <= 0 { 0 } else { (late + period_ns - 1) / period_ns };
+        let step = if late <= 0 {
+            0
+        } else {
+            (late + period_ns - 1) / period_ns
+        };
         let start = step as f64 * params.dt;
         fem.add_poke(Poke {
             point: poke.point,

@@ -14,7 +14,8 @@ use crate::bag::{BagError, BagWriter, RecordOptions, RecordSummary};
 use crate::geometry::{bundled, sdf_mesh, Shape};
 use crate::ros::cloud::encode_cloud;
 use crate::ros::messages::{
-    to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time, Vector3 as RosVector3,
+    to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
+    Vector3 as RosVector3,
 };
 use crate::ros::{topic_table, NodeParams};
 
@@ -110,13 +111,31 @@ impl DemoScript {
             duration_s: 0.2,
         };
         let pokes = vec![
-            poke("creature", 0.8, &creature, [0.5, 0.0, 0.0], [0.0, 300.0, 0.0]),
+            poke(
+                "creature",
+                0.8,
+                &creature,
+                [0.5, 0.0, 0.0],
+                [0.0, 300.0, 0.0],
+            ),
             poke("ball", 1.3, &ball, [0.0; 3], [200.0, 0.0, 0.0]),
             poke("world", 1.8, &block, [0.1, 0.1, 0.0], [-150.0, 100.0, 0.0]),
-            poke("creature", 2.5, &creature, [-0.5, 0.0, 0.0], [0.0, -250.0, -100.0]),
+            poke(
+                "creature",
+                2.5,
+                &creature,
+                [-0.5, 0.0, 0.0],
+                [0.0, -250.0, -100.0],
+            ),
             poke("ball", 3.2, &ball, [0.2, 0.0, 0.0], [-150.0, 150.0, -50.0]),
             poke("world", 3.9, &block, [-0.1, 0.0, 0.0], [120.0, 0.0, 0.0]),
-            poke("creature", 4.6, &creature, [0.3, 0.2, 0.0], [200.0, 0.0, 150.0]),
+            poke(
+                "creature",
+                4.6,
+                &creature,
+                [0.3, 0.2, 0.0],
+                [200.0, 0.0, 150.0],
+            ),
             poke("ball", 5.3, &ball, [0.0, -0.2, 0.0], [0.0, 200.0, 0.0]),
             poke("world", 6.0, &block, [0.0, 0.1, 0.0], [0.0, -150.0, 0.0]),
         ];
@@ -216,7 +235,11 @@ pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary,
                 .shape
                 .positions
                 .iter()
-                .map(|p| Point { x: p.x, y: p.y, z: p.z })
+                .map(|p| Point {
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                })
                 .collect(),
         };
         let (topic, data) = match s.delivery {
@@ -225,7 +248,10 @@ pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary,
                     .iter()
                     .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
                     .collect();
-                (&t.points, to_cdr(&encode_cloud(header(s.frame, ns), &xyz, &[], &[])))
+                (
+                    &t.points,
+                    to_cdr(&encode_cloud(header(s.frame, ns), &xyz, &[], &[])),
+                )
             }
             Delivery::MeshStamped => (
                 &t.mesh_stamped,

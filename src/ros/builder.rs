@@ -39,8 +39,8 @@ impl BuildRequest {
     /// The geometry of a cloud (its frame from the header); why not, naming the problem.
     pub fn from_cloud(cloud: &PointCloud2, max_points: usize) -> Result<Self, String> {
         let frame = cloud.header.frame_id.clone();
-        let decoded =
-            decode_cloud(cloud, max_points).map_err(|e| format!("cloud in frame `{frame}`: {e}"))?;
+        let decoded = decode_cloud(cloud, max_points)
+            .map_err(|e| format!("cloud in frame `{frame}`: {e}"))?;
         Ok(Self {
             frame,
             source: "cloud",
@@ -103,7 +103,13 @@ pub struct Announcement {
 
 impl Announcement {
     pub fn publish(self, outputs: &Outputs) {
-        outputs.publish_weights(self.id, &self.frame, &self.rest, &self.weights, self.handles);
+        outputs.publish_weights(
+            self.id,
+            &self.frame,
+            &self.rest,
+            &self.weights,
+            self.handles,
+        );
         outputs.report(Status::INFO, self.id, "shape_ready", self.message);
     }
 }
@@ -132,11 +138,7 @@ impl Builder {
         }
         self.next_id += 1;
         let id = self.next_id;
-        let body = params.body_options().and_then(|options| {
-            let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
-            SoftBody::build(model, &shape, &request.points, &options)
-        });
-        let body = match body {
+        let body = match build_body(request, params, model) {
             Ok(body) => body,
             Err(e) => {
                 let message = format!("{} in frame `{}`: {e}", request.source, request.frame);
@@ -184,6 +186,17 @@ impl Builder {
         };
         BuildOutcome::Ready(Box::new(ready), announcement)
     }
+}
+
+/// The body of a request's geometry under `params`.
+fn build_body(
+    request: &BuildRequest,
+    params: &NodeParams,
+    model: &Arc<NeuralModel>,
+) -> crate::Result<SoftBody> {
+    let options = params.body_options()?;
+    let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
+    SoftBody::build(model, &shape, &request.points, &options)
 }
 
 /// Runs until `requests` closes. When requests arrive faster than inference, only the newest

@@ -38,7 +38,9 @@ impl<T: RosType, const N: usize> RosType for [T; N] {
 }
 
 /// A message type: its package, name and fields (name, ROS type) in wire order.
-pub trait RosMessage: Serialize + for<'de> Deserialize<'de> + Send + std::fmt::Debug + 'static {
+pub trait RosMessage:
+    Serialize + for<'de> Deserialize<'de> + Send + std::fmt::Debug + 'static
+{
     const PACKAGE: &'static str;
     const NAME: &'static str;
     fn fields() -> Vec<(&'static str, String)>;
@@ -229,6 +231,74 @@ pub fn to_cdr<M: Serialize>(message: &M) -> Vec<u8> {
             .expect("plain message structs always serialize"),
     );
     bytes
+}
+
+/// `to_cdr`, with a fast path for PointCloud2, whose data serde would write byte by byte.
+pub fn encode<M: RosMessage>(message: &M) -> Vec<u8> {
+    match (message as &dyn std::any::Any).downcast_ref::<PointCloud2>() {
+        Some(cloud) => cloud_to_cdr(cloud),
+        None => to_cdr(message),
+    }
+}
+
+/// CDR little-endian: primitives aligned to their size, counted from the end of the
+/// encapsulation header; strings and sequences prefixed by a u32 count (strings count their NUL).
+struct CdrWriter {
+    bytes: Vec<u8>,
+}
+
+impl CdrWriter {
+    fn align(&mut self, n: usize) {
+        while (self.bytes.len() - 4) % n != 0 {
+            self.bytes.push(0);
+        }
+    }
+
+    fn u32(&mut self, v: u32) {
+        self.align(4);
+        self.bytes.extend_from_slice(&v.to_le_bytes());
+    }
+
+    fn i32(&mut self, v: i32) {
+        self.align(4);
+        self.bytes.extend_from_slice(&v.to_le_bytes());
+    }
+
+    fn u8(&mut self, v: u8) {
+        self.bytes.push(v);
+    }
+
+    fn string(&mut self, s: &str) {
+        self.u32(s.len() as u32 + 1);
+        self.bytes.extend_from_slice(s.as_bytes());
+        self.bytes.push(0);
+    }
+}
+
+fn cloud_to_cdr(c: &PointCloud2) -> Vec<u8> {
+    let mut w = CdrWriter {
+        bytes: Vec::with_capacity(c.data.len() + 256),
+    };
+    w.bytes.extend_from_slice(&[0x00, 0x01, 0x00, 0x00]);
+    w.i32(c.header.stamp.sec);
+    w.u32(c.header.stamp.nanosec);
+    w.string(&c.header.frame_id);
+    w.u32(c.height);
+    w.u32(c.width);
+    w.u32(c.fields.len() as u32);
+    for f in &c.fields {
+        w.string(&f.name);
+        w.u32(f.offset);
+        w.u8(f.datatype);
+        w.u32(f.count);
+    }
+    w.u8(c.is_bigendian as u8);
+    w.u32(c.point_step);
+    w.u32(c.row_step);
+    w.u32(c.data.len() as u32);
+    w.bytes.extend_from_slice(&c.data);
+    w.u8(c.is_dense as u8);
+    w.bytes
 }
 
 /// Parses CDR with its encapsulation header (either byte order).

@@ -18,13 +18,11 @@ use ros2_client::{
 
 use super::builder::{run_builder, BuildRequest};
 use super::clock::NodeClock;
-use super::messages::{
-    Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
-};
+use super::messages::{Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, Status};
 use super::outputs::{topic_table, Outputs, Publishers};
-use crate::bag::{QosProfile, RecordOptions, Recorder};
 use super::params::NodeParams;
 use super::stepper::{run_stepper, StepperCommand, StepperStats};
+use crate::bag::{QosProfile, RecordOptions, Recorder};
 use crate::skinning::NeuralModel;
 
 /// Why the node could not start.
@@ -345,7 +343,11 @@ pub fn run_node(
         let stamped = stamped_sub.async_stream().for_each(|m| {
             if let Ok((m, _)) = m {
                 outputs.record_input(&t.mesh_stamped, Some(m.header.stamp.nanos()), &m);
-                submit(BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, max_points));
+                submit(BuildRequest::from_mesh(
+                    &m.mesh,
+                    &m.header.frame_id,
+                    max_points,
+                ));
             }
             async {}
         });

@@ -110,7 +110,11 @@ impl Outputs {
             event: event.into(),
             message,
         };
-        self.emit(&self.topics.status, self.dds.as_ref().map(|d| &d.status), status);
+        self.emit(
+            &self.topics.status,
+            self.dds.as_ref().map(|d| &d.status),
+            status,
+        );
     }
 
     /// The weights of a new shape, as physskin/SkinningWeights and as a PointCloud2 with one

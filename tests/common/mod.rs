@@ -19,8 +19,15 @@ pub fn venv(name: &str, check: &str, packages: &[&str]) -> PathBuf {
         .status()
         .is_ok_and(|s| s.success());
     if !ready {
-        let made = Command::new("python3").args(["-m", "venv"]).arg(&venv).status();
-        assert!(made.is_ok_and(|s| s.success()), "python3 -m venv {} failed", venv.display());
+        let made = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status();
+        assert!(
+            made.is_ok_and(|s| s.success()),
+            "python3 -m venv {} failed",
+            venv.display()
+        );
         let installed = Command::new(venv.join("bin/pip"))
             .args(["install", "-q"])
             .args(packages)
