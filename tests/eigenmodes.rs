@@ -73,8 +73,8 @@ fn evaluation_interpolates_nodal_values_and_gradients_match_finite_differences()
     let mut w = vec![0.0; k];
     for v in (0..mesh.vertices.len()).step_by(97) {
         field.evaluate(&[map.to_normalized(&mesh.vertices[v])], &mut w, None);
-        for h in 0..k {
-            assert!((w[h] - field.vertex_weights(v)[h]).abs() < 1e-9);
+        for (computed, stored) in w.iter().zip(field.vertex_weights(v)) {
+            assert!((computed - stored).abs() < 1e-9);
         }
     }
     // Inside a tetrahedron the field is linear: central differences are exact there.

@@ -44,7 +44,12 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
         Some(path) => NodeParams::from_yaml_file(path, "/physskin")?,
         None => NodeParams::default(),
     };
-    if args.pace.is_some_and(|p| !(p > 0.0 && p.is_finite())) || !(args.tail >= 0.0) {
+    if args
+        .pace
+        .is_some_and(|p| p.is_nan() || p <= 0.0 || p.is_infinite())
+        || args.tail.is_nan()
+        || args.tail < 0.0
+    {
         return Err(Error::InvalidParameter {
             name: "pace",
             reason: "--pace must be positive and --tail at least 0".into(),

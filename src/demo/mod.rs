@@ -188,7 +188,7 @@ pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoS
         path: options.picture.clone(),
         source: e,
     })?;
-    render_strip_png(&strip, 360, &mut file)
+    render_strip_png(&strip, 240, &mut file)
         .map_err(|e| Error::Geometry(format!("demo picture: {e}")))?;
     Ok(DemoSummary {
         shapes,

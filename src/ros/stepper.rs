@@ -5,6 +5,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::builder::ReadyBody;
 use super::messages::{Interaction, Status};
@@ -84,10 +85,14 @@ pub struct Stage {
 }
 
 impl Stage {
-    /// Steps every object once and publishes its outputs.
+    /// Steps every object once and publishes its outputs. Objects are independent: they step
+    /// in parallel, and publish one after another in a fixed order.
     pub fn tick(&mut self, outputs: &Outputs) {
-        for b in &mut self.bodies {
-            step(b, outputs);
+        self.bodies.par_iter_mut().for_each(|b| {
+            b.body.step();
+        });
+        for b in &self.bodies {
+            publish_last_step(b, outputs);
         }
     }
 
@@ -114,7 +119,15 @@ impl Stage {
 }
 
 fn step(b: &mut ReadyBody, outputs: &Outputs) {
-    let report = b.body.step();
+    b.body.step();
+    publish_last_step(b, outputs);
+}
+
+/// Publishes a body's last step (and a warning if it did not converge).
+fn publish_last_step(b: &ReadyBody, outputs: &Outputs) {
+    let Some(report) = b.body.last_step() else {
+        return;
+    };
     if !report.converged {
         let message = format!(
             "step did not converge ({} iterations, decrement {:e})",
