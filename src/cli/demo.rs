@@ -65,7 +65,7 @@ pub fn run(args: DemoArgs) -> physskin::Result<()> {
     let r = &summary.replay;
     println!(
         "{:<10} {:<6} {:>6} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9}",
-        "shape",
+        "frame",
         "input",
         "points",
         "handles",
