@@ -272,6 +272,10 @@ fn run_bench_latency(json: bool, domain_id: u16) -> physskin::Result<()> {
             "publish jitter at {} Hz while shapes are inferred   p99 {:.3} ms, max {:.3} ms ({} intervals)",
             r.rate_hz, r.jitter_p99_ms, r.jitter_max_ms, r.jitter_intervals
         );
+        println!(
+            "receive jitter (DDS delivery included)             p99 {:.3} ms, max {:.3} ms",
+            r.receive_jitter_p99_ms, r.receive_jitter_max_ms
+        );
     }
     Ok(())
 }

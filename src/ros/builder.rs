@@ -188,6 +188,16 @@ impl Builder {
     }
 }
 
+/// Lowers the calling thread's priority (nice 10), so that on a busy machine the step thread
+/// wins the CPU over inference and the 60 Hz beat holds.
+fn yield_to_stepping() {
+    // SAFETY: setpriority on this thread's own id has no memory effects; a failure (no
+    // permission) only leaves the priority as it was.
+    unsafe {
+        libc::setpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t, 10);
+    }
+}
+
 /// The body of a request's geometry under `params`.
 fn build_body(
     request: &BuildRequest,
@@ -213,6 +223,7 @@ pub fn run_builder(
     let pool = match rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("physskin-infer-{i}"))
+        .start_handler(|_| yield_to_stepping())
         .build()
     {
         Ok(pool) => pool,
@@ -226,6 +237,7 @@ pub fn run_builder(
             return;
         }
     };
+    yield_to_stepping();
     let mut builder = Builder::default();
     while let Ok(first) = requests.recv() {
         let mut newest: Vec<BuildRequest> = vec![first];

@@ -31,7 +31,7 @@ pub fn run_stepper(
     outputs: SharedOutputs,
 ) -> StepperStats {
     let period = (1e9 / rate_hz) as i64;
-    let mut stage = Stage::default();
+    let mut stage = Stage::on_the_beat();
     let mut stats = StepperStats::default();
     let mut next_tick: Option<i64> = None;
     loop {
@@ -82,17 +82,42 @@ pub fn run_stepper(
 #[derive(Default)]
 pub struct Stage {
     bodies: Vec<ReadyBody>,
+    /// Per body: its last step is computed but not yet published (on-the-beat mode).
+    unpublished: Vec<bool>,
+    on_the_beat: bool,
 }
 
 impl Stage {
+    /// A stage that publishes on the beat: each tick first publishes the steps computed in the
+    /// previous one, then computes the next. Publication then happens at the tick, whatever a
+    /// step costs (one period of added delay); the node runs this way.
+    pub fn on_the_beat() -> Self {
+        Self {
+            on_the_beat: true,
+            ..Self::default()
+        }
+    }
+
     /// Steps every object once and publishes its outputs. Objects are independent: they step
     /// in parallel, and publish one after another in a fixed order.
     pub fn tick(&mut self, outputs: &Outputs) {
+        if self.on_the_beat {
+            self.publish_pending(outputs);
+        }
         self.bodies.par_iter_mut().for_each(|b| {
             b.body.step();
         });
-        for b in &self.bodies {
-            publish_last_step(b, outputs);
+        self.unpublished.iter_mut().for_each(|u| *u = true);
+        if !self.on_the_beat {
+            self.publish_pending(outputs);
+        }
+    }
+
+    fn publish_pending(&mut self, outputs: &Outputs) {
+        for (b, unpublished) in self.bodies.iter().zip(&mut self.unpublished) {
+            if std::mem::take(unpublished) {
+                publish_last_step(b, outputs);
+            }
         }
     }
 
@@ -106,10 +131,12 @@ impl Stage {
         if step_now {
             step(&mut ready, outputs);
         }
-        if let Some(old) = self.bodies.iter_mut().find(|b| b.frame == ready.frame) {
-            *old = ready;
+        if let Some(i) = self.bodies.iter().position(|b| b.frame == ready.frame) {
+            self.bodies[i] = ready;
+            self.unpublished[i] = false;
         } else {
             self.bodies.push(ready);
+            self.unpublished.push(false);
         }
     }
 
