@@ -55,6 +55,8 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("ok: "), "{stdout}");
+    assert!(stdout.contains("set/get ok"), "parameters: {stdout}");
+    eprintln!("{stdout}");
     assert!(log.contains("shape_ready"), "{log}");
     // The node recorded what it received and sent; readers nobody here wrote agree.
     let counts = &common::python_counts(&[bag])[0];

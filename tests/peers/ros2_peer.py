@@ -115,10 +115,42 @@ def main():
     assert np.abs(xyz - pts).max() < 1e-5, "the weights cloud carries the rest points"
     mesh_frames = got["deformed"]["world"]
     assert read_xyz(mesh_frames[-1])[0].shape == (8, 3)
+    params = check_parameters(node)
     print(f"ok: {len(frames)} deformed clouds, max displacement {moved:.4f} m, "
-          f"{len(handles)} handles, mesh {len(mesh_frames)} frames")
+          f"{len(handles)} handles, mesh {len(mesh_frames)} frames, parameters: {params}")
     node.destroy_node()
     rclpy.shutdown()
+
+
+def check_parameters(node):
+    """What `ros2 param get/set` do, through rclpy's parameter client."""
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+
+    client = AsyncParameterClient(node, "/physskin")
+    if not client.wait_for_services(timeout_sec=20.0):
+        sys.exit("the node's parameter services did not appear")
+
+    def wait(future):
+        rclpy.spin_until_future_complete(node, future, timeout_sec=20.0)
+        if not future.done():
+            sys.exit("a parameter service did not answer")
+        return future.result()
+
+    names = wait(client.list_parameters()).result.names
+    for name in ["material.young", "rate_hz", "topics.points", "simulation.support"]:
+        assert name in names, f"{name} not declared: {names}"
+    young = wait(client.get_parameters(["material.young"])).values[0].double_value
+    assert young == 2e5, f"material.young is {young}"
+    ok = wait(client.set_parameters([Parameter("material.young", value=3e5)])).results[0]
+    assert ok.successful, f"setting material.young refused: {ok.reason}"
+    young = wait(client.get_parameters(["material.young"])).values[0].double_value
+    assert young == 3e5, f"material.young is {young} after the set"
+    bad = wait(client.set_parameters([Parameter("material.young", value="soft")])).results[0]
+    assert not bad.successful, "a string was accepted for material.young"
+    ro = wait(client.set_parameters([Parameter("rate_hz", value=30.0)])).results[0]
+    assert not ro.successful and "read-only" in ro.reason, f"rate_hz: {ro.successful} {ro.reason}"
+    return f"{len(names)} declared, set/get ok, bad type and read-only refused ({ro.reason!r})"
 
 
 if __name__ == "__main__":
