@@ -91,15 +91,7 @@ impl Recorder {
         publish_time: i64,
         message: &M,
     ) -> Result<(), BagError> {
-        if !self.wants(topic) {
-            return Ok(());
-        }
-        self.send(Command::Message {
-            topic: topic.into(),
-            log_time,
-            publish_time,
-            data: encode(message),
-        })
+        self.queue(topic, log_time, publish_time, || encode(message))
     }
 
     /// Records an already serialized (CDR) message of a declared topic.
@@ -110,6 +102,17 @@ impl Recorder {
         publish_time: i64,
         data: &[u8],
     ) -> Result<(), BagError> {
+        self.queue(topic, log_time, publish_time, || data.to_vec())
+    }
+
+    /// Hands a message to the writing thread; `data` is only made for wanted topics.
+    fn queue(
+        &self,
+        topic: &str,
+        log_time: i64,
+        publish_time: i64,
+        data: impl FnOnce() -> Vec<u8>,
+    ) -> Result<(), BagError> {
         if !self.wants(topic) {
             return Ok(());
         }
@@ -117,7 +120,7 @@ impl Recorder {
             topic: topic.into(),
             log_time,
             publish_time,
-            data: data.to_vec(),
+            data: data(),
         })
     }
 

@@ -366,3 +366,74 @@ fn add_channel(open: &mut OpenFile, topic: &TopicInfo) -> Result<(), BagError> {
     open.channels.insert(topic.name.clone(), id);
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bag::read_messages;
+    use crate::ros::messages::Status;
+
+    #[test]
+    fn files_split_by_size_are_each_complete() {
+        let dir = std::env::temp_dir().join(format!("physskin-split-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut writer = BagWriter::create(RecordOptions {
+            path: dir.join("run.mcap"),
+            split_size_mb: 0.05,
+            // Close a chunk after every message, so the size is seen as it grows.
+            flush_interval_s: 1e-9,
+            ..Default::default()
+        })
+        .unwrap();
+        writer
+            .add_topic(TopicInfo::of::<Status>(
+                "/text",
+                QosProfile::reliable(1, false),
+            ))
+            .unwrap();
+        // Incompressible payloads of 2 KB.
+        let mut state = 1u64;
+        for i in 0..100 {
+            let data: Vec<u8> = (0..2048)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    (state >> 56) as u8
+                })
+                .collect();
+            writer
+                .write("/text", i * 1_000_000, i * 1_000_000, &data)
+                .unwrap();
+        }
+        let summary = writer.finish().unwrap();
+        assert!(summary.files.len() >= 3, "{} files", summary.files.len());
+        assert_eq!(summary.files[1].path, dir.join("run_1.mcap"));
+        let mut total = 0;
+        for f in &summary.files {
+            let bytes = std::fs::read(&f.path).unwrap();
+            assert!(
+                bytes.len() < 80_000,
+                "{} is {} bytes",
+                f.path.display(),
+                bytes.len()
+            );
+            let messages = read_messages(&bytes, "split").unwrap();
+            assert_eq!(messages.len() as u64, f.messages);
+            total += messages.len();
+        }
+        assert_eq!(total, 100);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn bad_options_are_refused_by_name() {
+        let err = BagWriter::create(RecordOptions {
+            split_size_mb: -1.0,
+            ..Default::default()
+        })
+        .err()
+        .unwrap();
+        assert!(err.to_string().contains("split_size_mb"), "{err}");
+    }
+}

@@ -85,11 +85,21 @@ pub fn render_field_png(
             }
         }
     }
+    write_rgb_png(width, height, &image, out)
+}
+
+/// An 8-bit RGB image, row-major, as PNG.
+pub(crate) fn write_rgb_png(
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+    out: &mut impl Write,
+) -> Result<(), RenderError> {
     let mut encoder = png::Encoder::new(out, width, height);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
     let mut writer = encoder.write_header()?;
-    writer.write_image_data(&image)?;
+    writer.write_image_data(rgb)?;
     writer.finish()?;
     Ok(())
 }

@@ -3,7 +3,7 @@
 
 use std::io::Write;
 
-use super::field_image::RenderError;
+use super::field_image::{write_rgb_png, RenderError};
 
 /// One object in one frame: positions (x, y, z per point) and a colour per point.
 pub struct StripObject<'a> {
@@ -88,11 +88,5 @@ pub fn render_strip_png(
             }
         }
     }
-    let mut encoder = png::Encoder::new(out, width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header()?;
-    writer.write_image_data(&image)?;
-    writer.finish()?;
-    Ok(())
+    write_rgb_png(width, height, &image, out)
 }

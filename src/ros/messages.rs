@@ -106,11 +106,6 @@ ros_message!(
 );
 
 ros_message!(
-    /// std_msgs/msg/String.
-    RosString = "std_msgs" { data: String }
-);
-
-ros_message!(
     /// geometry_msgs/msg/Point.
     Point = "geometry_msgs" { x: f64, y: f64, z: f64 }
 );
