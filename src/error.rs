@@ -30,6 +30,8 @@ pub enum Error {
     #[error(transparent)]
     Bag(#[from] crate::bag::BagError),
     #[error(transparent)]
+    Shm(#[from] crate::shm::ShmError),
+    #[error(transparent)]
     Params(#[from] crate::ros::params::ParamError),
     #[error("i/o on {path}: {source}")]
     Io {

@@ -59,6 +59,7 @@ mod linalg;
 pub mod physics;
 pub mod pipeline;
 pub mod ros;
+pub mod shm;
 pub mod skinning;
 pub mod training;
 

@@ -34,6 +34,8 @@ pub struct ReplayOptions {
     pub tail_s: f64,
     /// Wall-clock timings in the messages (then replays are no longer byte-identical).
     pub timings: bool,
+    /// Hand the deformed points and weights to local programs over iceoryx2 as well.
+    pub shm: Option<crate::shm::ShmOptions>,
 }
 
 impl Default for ReplayOptions {
@@ -45,6 +47,7 @@ impl Default for ReplayOptions {
             pace: None,
             tail_s: 1.0,
             timings: false,
+            shm: None,
         }
     }
 }
@@ -126,6 +129,11 @@ pub fn replay(
     let outputs = Outputs {
         dds: None,
         recorder,
+        shm: options
+            .shm
+            .as_ref()
+            .map(crate::shm::ShmPublisher::create)
+            .transpose()?,
         topics: topics.clone(),
         publish: params.publish.clone(),
         clock: clock.clone(),

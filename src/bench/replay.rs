@@ -94,6 +94,7 @@ fn record_overhead(
     let outputs = |recorder: Option<Recorder>| Outputs {
         dds: None,
         recorder,
+        shm: None,
         topics: params.topics.clone(),
         publish: params.publish.clone(),
         clock: clock.clone(),

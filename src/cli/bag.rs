@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use physskin::bag::{recover, replay, RecordOptions, ReplayOptions};
 use physskin::ros::NodeParams;
+use physskin::shm::ShmOptions;
 use physskin::skinning::NeuralModel;
 use physskin::Error;
 
@@ -35,6 +36,10 @@ pub struct ReplayArgs {
     /// Put wall-clock timings into the messages (replays are then no longer byte-identical).
     #[arg(long)]
     timings: bool,
+    /// Also hand the deformed points and weights to local programs over iceoryx2, on the
+    /// services `<PREFIX>deformed_points` and `<PREFIX>weights`.
+    #[arg(long, value_name = "PREFIX", num_args = 0..=1, default_missing_value = "physskin/")]
+    shm: Option<String>,
     #[arg(long)]
     json: bool,
 }
@@ -72,6 +77,11 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
         pace: args.pace,
         tail_s: args.tail,
         timings: args.timings,
+        shm: args.shm.map(|prefix| ShmOptions {
+            deformed_service: format!("{prefix}deformed_points"),
+            weights_service: format!("{prefix}weights"),
+            ..Default::default()
+        }),
     };
     let summary = replay(
         &bytes,

@@ -23,6 +23,7 @@ use super::outputs::{topic_table, Outputs, Publishers};
 use super::params::NodeParams;
 use super::stepper::{run_stepper, StepperCommand, StepperStats};
 use crate::bag::{QosProfile, RecordOptions, Recorder};
+use crate::shm::{ShmOptions, ShmPublisher};
 use crate::skinning::NeuralModel;
 
 /// Why the node could not start.
@@ -248,9 +249,27 @@ pub fn run_node(
             .transpose()?,
         status: publisher(&mut node, &t.status, qos(&t.status))?,
     };
+    let shm = if p.shm.enabled {
+        let options = ShmOptions {
+            deformed_service: p.shm.deformed_service.clone(),
+            weights_service: p.shm.weights_service.clone(),
+            ..Default::default()
+        };
+        match ShmPublisher::create(&options) {
+            Ok(shm) => Some(shm),
+            Err(e) => {
+                // Local zero-copy consumers are optional: DDS and the recording go on.
+                eprintln!("[physskin] error: no iceoryx2 hand-off: {e}");
+                None
+            }
+        }
+    } else {
+        None
+    };
     let outputs = Arc::new(Outputs {
         dds: Some(dds),
         recorder,
+        shm,
         topics: t.clone(),
         publish: p.publish.clone(),
         clock: clock.clone(),

@@ -14,6 +14,7 @@ use super::messages::{
 use super::params::{PublishParams, Topics};
 use crate::bag::{QosProfile, Recorder, TopicInfo};
 use crate::pipeline::SoftBody;
+use crate::shm::ShmPublisher;
 
 /// The node's DDS publishers (absent when switched off in `publish.*`).
 pub struct Publishers {
@@ -45,6 +46,8 @@ pub fn topic_table(topics: &Topics) -> Vec<TopicInfo> {
 pub struct Outputs {
     pub dds: Option<Publishers>,
     pub recorder: Option<Recorder>,
+    /// Zero-copy hand-off to local programs.
+    pub shm: Option<ShmPublisher>,
     pub topics: Topics,
     pub publish: PublishParams,
     pub clock: NodeClock,
@@ -128,6 +131,12 @@ impl Outputs {
         handles: usize,
     ) {
         let header = self.header(frame);
+        if let Some(shm) = &self.shm {
+            let stamp = header.stamp.nanos();
+            if let Err(e) = shm.publish_weights(shape_id, stamp, handles, weights) {
+                eprintln!("[physskin] warn: weights not handed over on iceoryx2: {e}");
+            }
+        }
         if self.publish.weights_cloud {
             let channels: Vec<String> = (0..handles).map(|i| format!("w{i}")).collect();
             let cloud = encode_cloud(header.clone(), rest, &channels, weights);
@@ -150,6 +159,12 @@ impl Outputs {
     /// The deformed points and the state of a body after a step.
     pub fn publish_step(&self, shape_id: u32, frame: &str, body: &SoftBody) {
         let header = self.header(frame);
+        if let Some(shm) = &self.shm {
+            let stamp = header.stamp.nanos();
+            if let Err(e) = shm.publish_deformed(shape_id, stamp, body.handles(), body.deformed()) {
+                eprintln!("[physskin] warn: deformed points not handed over on iceoryx2: {e}");
+            }
+        }
         if self.publish.deformed_points {
             let cloud = encode_cloud(header.clone(), body.deformed(), &[], &[]);
             let publisher = self.dds.as_ref().and_then(|d| d.deformed_points.as_ref());

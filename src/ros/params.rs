@@ -188,6 +188,29 @@ impl Default for RecordParams {
     }
 }
 
+/// Zero-copy hand-off of the deformed points and weights to local programs (iceoryx2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ShmParams {
+    /// Publish on iceoryx2 besides DDS. Default true.
+    pub enabled: bool,
+    /// Default "physskin/deformed_points".
+    pub deformed_service: String,
+    /// Default "physskin/weights".
+    pub weights_service: String,
+}
+
+impl Default for ShmParams {
+    fn default() -> Self {
+        let o = crate::shm::ShmOptions::default();
+        Self {
+            enabled: true,
+            deformed_service: o.deformed_service,
+            weights_service: o.weights_service,
+        }
+    }
+}
+
 /// Every node parameter. Names in ROS are the dotted paths (`material.young`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -206,6 +229,7 @@ pub struct NodeParams {
     pub inference: InferenceParams,
     pub publish: PublishParams,
     pub record: RecordParams,
+    pub shm: ShmParams,
 }
 
 impl Default for NodeParams {
@@ -221,17 +245,19 @@ impl Default for NodeParams {
             inference: InferenceParams::default(),
             publish: PublishParams::default(),
             record: RecordParams::default(),
+            shm: ShmParams::default(),
         }
     }
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-const READ_ONLY: [&str; 5] = [
+const READ_ONLY: [&str; 6] = [
     "rate_hz",
     "use_sim_time",
     "topics.",
     "inference.threads",
     "record.",
+    "shm.",
 ];
 
 impl NodeParams {

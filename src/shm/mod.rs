@@ -1,0 +1,232 @@
+//! Zero-copy hand-off to local programs over iceoryx2 shared memory: per frame, the deformed
+//! points, and per shape, its weights, as f32 slices behind a `#[repr(C)]` header. Subscribers
+//! read the publisher's memory in place; nothing is serialized.
+//!
+//! Services (defaults): `physskin/deformed_points` (x, y, z per point) and `physskin/weights`
+//! (points x handles, row-major). Payload type `[f32]` (iceoryx2 type name "f32"), user header
+//! [`FrameHeader`] (type name "PhysskinFrameHeader"), so C, C++ and Python subscribers can open
+//! them too.
+
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::prelude::*;
+use iceoryx2::service::ipc_threadsafe;
+
+/// In front of every frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
+#[type_name("PhysskinFrameHeader")]
+#[repr(C)]
+pub struct FrameHeader {
+    /// The shape (as in the ROS messages' shape_id).
+    pub shape_id: u32,
+    pub point_count: u32,
+    /// Handles of the shape, the rigid one included (weights frames carry this many floats per
+    /// point; deformed frames carry 3).
+    pub handle_count: u32,
+    /// 0: deformed points, 1: weights.
+    pub kind: u32,
+    /// Time of the state, ns (the node's clock).
+    pub stamp_ns: i64,
+    /// Counts frames of this service from 0.
+    pub sequence: u64,
+}
+
+impl FrameHeader {
+    pub const DEFORMED: u32 = 0;
+    pub const WEIGHTS: u32 = 1;
+}
+
+/// Why the shared-memory transport could not start or send.
+#[derive(Debug, thiserror::Error)]
+pub enum ShmError {
+    #[error("iceoryx2 service name `{name}`: {reason}")]
+    Name { name: String, reason: String },
+    #[error("iceoryx2: {0}")]
+    Transport(String),
+}
+
+fn transport(e: impl std::fmt::Debug) -> ShmError {
+    ShmError::Transport(format!("{e:?}"))
+}
+
+/// Service names and sizes.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ShmOptions {
+    /// Default "physskin/deformed_points".
+    pub deformed_service: String,
+    /// Default "physskin/weights".
+    pub weights_service: String,
+    /// Floats a frame may hold before the publisher reallocates (it grows by powers of two).
+    /// Default 3,000,000 (1M points of x, y, z).
+    pub initial_max_floats: usize,
+}
+
+impl Default for ShmOptions {
+    fn default() -> Self {
+        Self {
+            deformed_service: "physskin/deformed_points".into(),
+            weights_service: "physskin/weights".into(),
+            initial_max_floats: 3_000_000,
+        }
+    }
+}
+
+type Service = ipc_threadsafe::Service;
+
+/// Publishes frames to local subscribers; shareable between threads.
+pub struct ShmPublisher {
+    deformed: Publisher<Service, [f32], FrameHeader>,
+    weights: Publisher<Service, [f32], FrameHeader>,
+    sequences: [std::sync::atomic::AtomicU64; 2],
+    // Dropped last: the ports above belong to it.
+    _node: Node<Service>,
+}
+
+/// Opens (or creates) a service of f32 frames.
+pub(crate) fn open_service(
+    node: &Node<Service>,
+    name: &str,
+) -> Result<
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<Service, [f32], FrameHeader>,
+    ShmError,
+> {
+    let service_name: ServiceName = name.try_into().map_err(|e| ShmError::Name {
+        name: name.into(),
+        reason: format!("{e:?}"),
+    })?;
+    node.service_builder(&service_name)
+        .publish_subscribe::<[f32]>()
+        .user_header::<FrameHeader>()
+        .history_size(1)
+        .subscriber_max_buffer_size(4)
+        .max_publishers(4)
+        .max_subscribers(16)
+        .open_or_create()
+        .map_err(transport)
+}
+
+impl ShmPublisher {
+    pub fn create(options: &ShmOptions) -> Result<Self, ShmError> {
+        let node = NodeBuilder::new()
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<Service>()
+            .map_err(transport)?;
+        let publisher = |name: &str, floats: usize| {
+            open_service(&node, name)?
+                .publisher_builder()
+                .initial_max_slice_len(floats.max(1))
+                .allocation_strategy(AllocationStrategy::PowerOfTwo)
+                .create()
+                .map_err(transport)
+        };
+        Ok(Self {
+            deformed: publisher(&options.deformed_service, options.initial_max_floats)?,
+            weights: publisher(&options.weights_service, options.initial_max_floats)?,
+            sequences: Default::default(),
+            _node: node,
+        })
+    }
+
+    /// The deformed points of a shape (x, y, z per point), copied once into shared memory.
+    pub fn publish_deformed(
+        &self,
+        shape_id: u32,
+        stamp_ns: i64,
+        handle_count: usize,
+        xyz: &[f32],
+    ) -> Result<(), ShmError> {
+        self.send(
+            &self.deformed,
+            FrameHeader::DEFORMED,
+            shape_id,
+            stamp_ns,
+            handle_count,
+            xyz,
+            3,
+        )
+    }
+
+    /// The weights of a shape (points x handles, row-major).
+    pub fn publish_weights(
+        &self,
+        shape_id: u32,
+        stamp_ns: i64,
+        handle_count: usize,
+        weights: &[f32],
+    ) -> Result<(), ShmError> {
+        let per_point = handle_count.max(1);
+        self.send(
+            &self.weights,
+            FrameHeader::WEIGHTS,
+            shape_id,
+            stamp_ns,
+            handle_count,
+            weights,
+            per_point,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn send(
+        &self,
+        publisher: &Publisher<Service, [f32], FrameHeader>,
+        kind: u32,
+        shape_id: u32,
+        stamp_ns: i64,
+        handle_count: usize,
+        values: &[f32],
+        per_point: usize,
+    ) -> Result<(), ShmError> {
+        let sequence =
+            self.sequences[kind as usize].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let mut sample = publisher
+            .loan_slice_uninit(values.len())
+            .map_err(transport)?;
+        *sample.user_header_mut() = FrameHeader {
+            shape_id,
+            point_count: (values.len() / per_point) as u32,
+            handle_count: handle_count as u32,
+            kind,
+            stamp_ns,
+            sequence,
+        };
+        let sample = sample.write_from_slice(values);
+        sample.send().map_err(transport)?;
+        Ok(())
+    }
+}
+
+/// Receives the frames of one service, reading the publisher's memory in place.
+pub struct ShmSubscriber {
+    subscriber: iceoryx2::port::subscriber::Subscriber<Service, [f32], FrameHeader>,
+    _node: Node<Service>,
+}
+
+impl ShmSubscriber {
+    /// Subscribes to `service` (created if no publisher has made it yet).
+    pub fn open(service: &str) -> Result<Self, ShmError> {
+        let node = NodeBuilder::new()
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<Service>()
+            .map_err(transport)?;
+        let subscriber = open_service(&node, service)?
+            .subscriber_builder()
+            .create()
+            .map_err(transport)?;
+        Ok(Self {
+            subscriber,
+            _node: node,
+        })
+    }
+
+    /// Calls `frame` with each frame received since the last call (its header and its floats,
+    /// still in shared memory); returns how many there were.
+    pub fn receive(&self, mut frame: impl FnMut(&FrameHeader, &[f32])) -> Result<usize, ShmError> {
+        let mut count = 0;
+        while let Some(sample) = self.subscriber.receive().map_err(transport)? {
+            frame(sample.user_header(), sample.payload());
+            count += 1;
+        }
+        Ok(count)
+    }
+}
