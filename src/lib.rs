@@ -2,8 +2,48 @@
 //!
 //! Geometry comes in (a mesh or a point cloud), a skinning weight field gives it a small set of
 //! affine handles, and an implicit elastic simulation runs over the 12 numbers per handle. Every
-//! stage is a plain library type without I/O; the CLI (and later the ROS 2 node and the
-//! recorders) are thin shells around them.
+//! stage is a plain library type without I/O; the CLI, the ROS 2 node, the MCAP replayer and
+//! the iceoryx2 publisher are thin shells around them.
+//!
+//! # Embedding
+//!
+//! [`SoftBody`] is the whole pipeline in one value: geometry in, stepped at the caller's rate,
+//! weights and deformed positions handed back as borrowed slices (no copy).
+//!
+//! ```
+//! use physskin::{BodyOptions, SoftBody};
+//!
+//! # fn main() -> physskin::Result<()> {
+//! // A cloud of 2000 points on a 30 cm ball (x, y, z per point, metres).
+//! let points: Vec<f32> = (0..2000)
+//!     .flat_map(|i| {
+//!         let (t, z) = (i as f32 * 2.39996, 1.0 - 2.0 * (i as f32 + 0.5) / 2000.0);
+//!         let r = (1.0 - z * z).sqrt();
+//!         [0.15 * r * t.cos(), 0.15 * r * t.sin(), 0.15 * z]
+//!     })
+//!     .collect();
+//! // The bundled network infers its skinning field in one pass; the default support pins its
+//! // lowest 10 % and lets gravity act.
+//! let mut body = SoftBody::from_points(&points, &[], &BodyOptions::default())?;
+//! for _ in 0..30 {
+//!     let report = body.step(); // one implicit Euler step of 1/60 s
+//!     assert!(report.converged);
+//! }
+//! let weights: &[f32] = body.weights(); // points x handles, row-major
+//! let deformed: &[f32] = body.deformed(); // x, y, z per point, after the last step
+//! assert_eq!(weights.len(), 2000 * body.handles());
+//! assert_eq!(deformed.len(), points.len());
+//! // The top of the ball sags under gravity; the pinned bottom stays.
+//! let top = (0..2000).max_by(|&a, &b| points[3 * a + 2].total_cmp(&points[3 * b + 2])).unwrap();
+//! assert!(deformed[3 * top + 2] < points[3 * top + 2]);
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! To hand the slices to other processes without a copy, publish them with
+//! [`shm::ShmPublisher`]; `examples/embed.rs` does both.
+//!
+//! # The layers underneath
 //!
 //! ```
 //! use std::sync::Arc;
@@ -64,3 +104,4 @@ pub mod skinning;
 pub mod training;
 
 pub use error::{Error, Result};
+pub use pipeline::{BodyOptions, SoftBody, Support};

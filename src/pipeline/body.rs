@@ -168,6 +168,28 @@ impl SoftBody {
         })
     }
 
+    /// The embedding entry point: a body from raw geometry with the bundled model. `points` holds
+    /// x, y, z per point (world units, as a cloud's or a mesh's vertices); `triangles` indexes
+    /// them (empty for a point cloud). The body then deforms exactly these points.
+    pub fn from_points(
+        points: &[f32],
+        triangles: &[[u32; 3]],
+        options: &BodyOptions,
+    ) -> Result<Self> {
+        if points.len() % 3 != 0 {
+            return Err(crate::Error::Geometry(format!(
+                "{} coordinates are not x, y, z triples",
+                points.len()
+            )));
+        }
+        let positions: Vec<Vector3<f64>> = points
+            .chunks_exact(3)
+            .map(|p| Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+            .collect();
+        let shape = Shape::new(positions.clone(), None, triangles.to_vec())?;
+        Self::build(&NeuralModel::bundled()?, &shape, &positions, options)
+    }
+
     /// Advances one time step and lifts the input points.
     pub fn step(&mut self) -> &StepReport {
         let report = self.sim.step();
