@@ -88,6 +88,14 @@ enum BenchCommand {
         #[arg(long, default_value_t = 77)]
         domain_id: u16,
     },
+    /// A 100k-point deformed cloud delivered each frame over iceoryx2 and over DDS (run it in a
+    /// private network namespace: `unshare -n tests/peers/private_net.sh`).
+    Transport {
+        #[arg(long)]
+        json: bool,
+        #[arg(long, default_value_t = 78)]
+        domain_id: u16,
+    },
     /// MCAP: the demo bag's replay speed (output recorded) and what recording adds to a 60 Hz
     /// step of a 10k-point cloud.
     Replay {
@@ -168,6 +176,7 @@ fn main() -> ExitCode {
             BenchCommand::Sim { quick, json, plot } => run_bench_sim(quick, json, &plot),
             BenchCommand::Latency { json, domain_id } => run_bench_latency(json, domain_id),
             BenchCommand::Replay { json } => run_bench_replay(json),
+            BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
         },
     };
     match result {
@@ -221,6 +230,30 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
         "max displacement {:.4} m at the last step (FEM: {:.4} m)",
         summary.max_displacement_m, summary.fem_max_displacement_m
     );
+    Ok(())
+}
+
+fn run_bench_transport(json: bool, domain_id: u16) -> physskin::Result<()> {
+    let r = physskin::bench::run_transport_bench(domain_id, |line| eprintln!("{line}"))?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&r).expect("serializable")
+        );
+    } else {
+        println!(
+            "{} points ({} bytes) per frame, {} frames   median      p99",
+            r.points, r.bytes, r.frames
+        );
+        println!(
+            "iceoryx2 (shared memory, one copy in)          {:8.4} ms {:8.4} ms",
+            r.iceoryx2_median_ms, r.iceoryx2_p99_ms
+        );
+        println!(
+            "DDS (ros2-client, PointCloud2, reliable)       {:8.3} ms {:8.3} ms ({} of {} frames)",
+            r.dds_median_ms, r.dds_p99_ms, r.dds_received, r.frames
+        );
+    }
     Ok(())
 }
 

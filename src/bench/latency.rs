@@ -63,7 +63,7 @@ pub fn sample_cloud(shape: &str, count: usize, frame: &str, seed: u64) -> PointC
 
 /// Network interfaces that would let DDS traffic leave this machine, if any. The bench runs only
 /// in a private namespace (tests/peers/private_net.sh), where lo and a closed veth pair exist.
-fn open_interfaces() -> Vec<String> {
+pub(crate) fn open_interfaces() -> Vec<String> {
     // /proc/self/net follows the network namespace (/sys/class/net does not without a remount).
     std::fs::read_to_string("/proc/self/net/dev")
         .unwrap_or_default()
@@ -229,6 +229,6 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
     result
 }
 
-fn dds(message: String) -> Error {
+pub(crate) fn dds(message: String) -> Error {
     Error::Node(crate::ros::NodeError::Dds(message))
 }

@@ -6,6 +6,7 @@ mod plot;
 mod replay;
 pub(crate) mod sim;
 mod stats;
+mod transport;
 
 pub use fields::{
     evaluate_fields, interior_points, prepare_input, EvalMean, EvalOptions, EvalReport,
@@ -18,3 +19,4 @@ pub use sim::{
     SimulateSummary,
 };
 pub use stats::median;
+pub use transport::{run_transport_bench, TransportReport};

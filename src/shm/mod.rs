@@ -73,6 +73,16 @@ impl Default for ShmOptions {
 
 type Service = ipc_threadsafe::Service;
 
+/// An iceoryx2 node; its own log is kept to errors (it would otherwise note on every start that
+/// no config file exists).
+fn new_node() -> Result<Node<Service>, ShmError> {
+    set_log_level(LogLevel::Error);
+    NodeBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<Service>()
+        .map_err(transport)
+}
+
 /// Publishes frames to local subscribers; shareable between threads.
 pub struct ShmPublisher {
     deformed: Publisher<Service, [f32], FrameHeader>,
@@ -107,10 +117,7 @@ pub(crate) fn open_service(
 
 impl ShmPublisher {
     pub fn create(options: &ShmOptions) -> Result<Self, ShmError> {
-        let node = NodeBuilder::new()
-            .signal_handling_mode(SignalHandlingMode::Disabled)
-            .create::<Service>()
-            .map_err(transport)?;
+        let node = new_node()?;
         let publisher = |name: &str, floats: usize| {
             open_service(&node, name)?
                 .publisher_builder()
@@ -205,10 +212,7 @@ pub struct ShmSubscriber {
 impl ShmSubscriber {
     /// Subscribes to `service` (created if no publisher has made it yet).
     pub fn open(service: &str) -> Result<Self, ShmError> {
-        let node = NodeBuilder::new()
-            .signal_handling_mode(SignalHandlingMode::Disabled)
-            .create::<Service>()
-            .map_err(transport)?;
+        let node = new_node()?;
         let subscriber = open_service(&node, service)?
             .subscriber_builder()
             .create()
