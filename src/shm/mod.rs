@@ -74,13 +74,16 @@ impl Default for ShmOptions {
 type Service = ipc_threadsafe::Service;
 
 /// An iceoryx2 node; its own log is kept to errors (it would otherwise note on every start that
-/// no config file exists).
+/// no config file exists). What processes killed with SIGKILL left behind (in /dev/shm and
+/// /tmp/iceoryx2) is cleaned up on the way.
 fn new_node() -> Result<Node<Service>, ShmError> {
     set_log_level(LogLevel::Error);
-    NodeBuilder::new()
+    let node = NodeBuilder::new()
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<Service>()
-        .map_err(transport)
+        .map_err(transport)?;
+    node.try_cleanup_dead_nodes();
+    Ok(node)
 }
 
 /// Publishes frames to local subscribers; shareable between threads.
