@@ -217,6 +217,17 @@ pub(crate) fn prepare_shape(
             r += 4;
         }
     };
+    shape_on_grid(shape, grid, young, modes)
+}
+
+/// The tetrahedral mesh of `grid` (a voxelization of `shape`) and, with `modes` > 0, its
+/// eigenmodes.
+pub(crate) fn shape_on_grid(
+    shape: Shape,
+    grid: VoxelGrid,
+    young: f64,
+    modes: usize,
+) -> Result<BenchShape> {
     let mesh = TetMesh::from_grid(&grid);
     let (lo, hi) = grid.solid_bounds();
     let eigen = if modes > 0 {

@@ -6,7 +6,8 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::script::{DemoScript, DemoShape};
-use crate::bench::sim::{prepare_shape, BenchShape};
+use crate::bench::sim::{shape_on_grid, BenchShape};
+use crate::geometry::{TetMesh, VoxelGrid};
 use crate::physics::{FemSim, Lifter, Poke, SimParams};
 use crate::Result;
 
@@ -50,14 +51,16 @@ impl Trajectory {
 /// The coarsest tetrahedral mesh of the shape's interior with REFERENCE_VERTICES vertices: the
 /// FEM's cost grows fast with vertices on compact shapes.
 fn reference_mesh(shape: &crate::geometry::Shape) -> Result<BenchShape> {
+    let fine = VoxelGrid::from_shape(shape, 128, None);
     let mut resolution = 8;
-    loop {
-        let bench = prepare_shape(shape.clone(), 0.0, resolution, 0, 0)?;
-        if bench.mesh.vertices.len() >= REFERENCE_VERTICES || resolution >= 64 {
-            return Ok(bench);
+    let grid = loop {
+        let grid = fine.resample(resolution);
+        if TetMesh::from_grid(&grid).vertices.len() >= REFERENCE_VERTICES || resolution >= 64 {
+            break grid;
         }
         resolution += 2;
-    }
+    };
+    shape_on_grid(shape.clone(), grid, 0.0, 0)
 }
 
 /// Per shape: the RMS distance between the replay and the FEM over all vertices and steps, in
