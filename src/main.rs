@@ -195,10 +195,7 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
     );
     let summary = simulate(&options)?;
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&summary).expect("serializable")
-        );
+        cli::print_json(&summary);
         return Ok(());
     }
     let r = &summary.row;
@@ -236,10 +233,7 @@ fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
 fn run_bench_transport(json: bool, domain_id: u16) -> physskin::Result<()> {
     let r = physskin::bench::run_transport_bench(domain_id, |line| eprintln!("{line}"))?;
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&r).expect("serializable")
-        );
+        cli::print_json(&r);
     } else {
         println!(
             "{} points ({} bytes) per frame, {} frames   median      p99",
@@ -268,10 +262,7 @@ fn run_bench_replay(json: bool) -> physskin::Result<()> {
             eprintln!("{line}")
         })?;
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&r).expect("serializable")
-        );
+        cli::print_json(&r);
     } else {
         println!(
             "demo bag replay, output recorded   {:6.1}x real time ({:.2} s simulated in {:.3} s)",
@@ -288,10 +279,7 @@ fn run_bench_replay(json: bool) -> physskin::Result<()> {
 fn run_bench_latency(json: bool, domain_id: u16) -> physskin::Result<()> {
     let r = physskin::bench::run_latency_bench(domain_id, |line| eprintln!("{line}"))?;
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&r).expect("serializable")
-        );
+        cli::print_json(&r);
     } else {
         println!(
             "first deformed cloud after a new 10k-point cloud   {:8.1} ms",
@@ -317,10 +305,7 @@ fn run_bench_sim(quick: bool, json: bool, plot: &std::path::Path) -> physskin::R
     let report = run_sim_bench(&SimBenchOptions { quick }, |line| eprintln!("{line}"))?;
     write_plot(&report, plot)?;
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("serializable")
-        );
+        cli::print_json(&report);
     } else {
         print_table(&report);
         println!("plot: {}", plot.display());

@@ -91,8 +91,6 @@ pub struct Tick<'a> {
     /// Log time, ns.
     pub time_ns: i64,
     pub stage: &'a Stage,
-    /// Rest positions (x, y, z per point) of each shape id.
-    pub rest: &'a BTreeMap<u32, Vec<f32>>,
 }
 
 /// Replays the recording in `bytes` (named `source` in messages).
@@ -230,7 +228,6 @@ pub fn replay(
         observe(&Tick {
             time_ns: tick_time,
             stage: &stage,
-            rest: &rest,
         });
         tick_time += period;
     }

@@ -91,10 +91,7 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
         &mut |_| {},
     )?;
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&summary).expect("plain data serializes")
-        );
+        super::print_json(&summary);
     } else {
         println!(
             "{} inputs ({} rejected), {} shapes, {} ticks: {:.2} s simulated in {:.2} s ({:.1}x real time)",

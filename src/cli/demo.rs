@@ -56,10 +56,7 @@ pub fn run(args: DemoArgs) -> physskin::Result<()> {
     );
     let summary = run_demo(&options, &model)?;
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&summary).expect("plain data serializes")
-        );
+        super::print_json(&summary);
         return Ok(());
     }
     let r = &summary.replay;

@@ -60,10 +60,7 @@ pub fn run(args: EvalArgs) -> Result<()> {
     };
     let report = evaluate_fields(&model, &shapes, &options, |line| eprintln!("{line}"))?;
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("serializable")
-        );
+        super::print_json(&report);
     } else {
         print_table(&report);
     }

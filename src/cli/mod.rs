@@ -6,3 +6,11 @@ pub mod eval;
 pub mod infer;
 pub mod node;
 pub mod train;
+
+/// Prints a report as pretty JSON on stdout (what every `--json` flag does).
+pub fn print_json(report: &impl serde::Serialize) {
+    println!(
+        "{}",
+        serde_json::to_string_pretty(report).expect("reports are plain data")
+    );
+}

@@ -12,9 +12,7 @@ use std::sync::Arc;
 use serde::Serialize;
 
 pub use reference::ReferenceError;
-pub use script::{
-    cloud_points, write_demo_bag, Delivery, DemoPoke, DemoScript, DemoShape, DEMO_START_NS,
-};
+pub use script::{write_demo_bag, Delivery, DemoPoke, DemoScript, DemoShape, DEMO_START_NS};
 
 use crate::bag::{replay, RecordOptions, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
 use crate::io::{render_strip_png, weight_colors, StripObject};
