@@ -51,7 +51,15 @@ pub fn run_stepper(
                 _ => Duration::from_millis(1),
             };
             match commands.recv_timeout(wait) {
-                Ok(StepperCommand::Add(ready)) => stage.add(*ready, &outputs, true),
+                Ok(StepperCommand::Add(ready)) => {
+                    // A new body's first step and frame go out at once, unless the tick is
+                    // less than half a period away: they would then delay the beat, so the
+                    // body waits for the tick like the others.
+                    let now = outputs.clock.now_nanos();
+                    let beat_is_near =
+                        matches!((now, next_tick), (Some(now), Some(t)) if t - now < period / 2);
+                    stage.add(*ready, &outputs, !beat_is_near)
+                }
                 Ok(StepperCommand::Interact(i)) => stage.interact(&i, &outputs),
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => return stats,
