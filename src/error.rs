@@ -32,6 +32,8 @@ pub enum Error {
     #[error(transparent)]
     Shm(#[from] crate::shm::ShmError),
     #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    #[error(transparent)]
     Params(#[from] crate::ros::params::ParamError),
     #[error("i/o on {path}: {source}")]
     Io {

@@ -99,6 +99,7 @@ mod linalg;
 pub mod physics;
 pub mod pipeline;
 pub mod ros;
+pub mod scene;
 pub mod shm;
 pub mod skinning;
 pub mod training;

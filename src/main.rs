@@ -68,6 +68,9 @@ enum Command {
     Infer(cli::infer::InferArgs),
     /// Evaluate the learned fields on unseen shapes: metrics, inference time, simulation error.
     Eval(cli::eval::EvalArgs),
+    /// Run a scene file (robots, several objects) offline: what was decided for each object,
+    /// step time, error against the FEM.
+    Scene(cli::scene::SceneArgs),
     /// The ROS 2 node: clouds and meshes in, skinning weights and deformed clouds out.
     Node(cli::node::NodeArgs),
     /// Benchmarks; with no name, all of them.
@@ -101,6 +104,15 @@ enum BenchCommand {
     Replay {
         #[arg(long)]
         json: bool,
+    },
+    /// The bundled robot cell: the 2 objects the robot moves alone, the 10-object scene with
+    /// its decisions (error-budget sizes, sleeping) and without; step time next to FEM error.
+    Scene {
+        #[arg(long)]
+        json: bool,
+        /// Simulated seconds of motion.
+        #[arg(long, default_value_t = 3.5)]
+        seconds: f64,
     },
     /// Reduced simulation against the FEM reference: step time next to error.
     Sim {
@@ -168,6 +180,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => cli::eval::run(args),
         Command::Infer(args) => cli::infer::run(args),
         Command::Node(args) => cli::node::run(args),
+        Command::Scene(args) => cli::scene::run(args),
         Command::Bench { which } => match which.unwrap_or(BenchCommand::Sim {
             quick: false,
             json: false,
@@ -176,6 +189,7 @@ fn main() -> ExitCode {
             BenchCommand::Sim { quick, json, plot } => run_bench_sim(quick, json, &plot),
             BenchCommand::Latency { json, domain_id } => run_bench_latency(json, domain_id),
             BenchCommand::Replay { json } => run_bench_replay(json),
+            BenchCommand::Scene { json, seconds } => cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
         },
     };

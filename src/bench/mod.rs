@@ -4,6 +4,7 @@ mod fields;
 mod latency;
 mod plot;
 mod replay;
+mod scene;
 pub(crate) mod sim;
 mod stats;
 mod transport;
@@ -14,6 +15,10 @@ pub use fields::{
 };
 pub use latency::{run_latency_bench, sample_cloud, LatencyReport};
 pub use replay::{run_replay_bench, ReplayBenchReport};
+pub use scene::{
+    run_scene, run_scene_bench, SceneBenchReport, SceneRun, SceneRunOptions, WORKCELL,
+    WORKCELL_ACTIVE,
+};
 pub use sim::{
     run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimRow, SimulateOptions,
     SimulateSummary,

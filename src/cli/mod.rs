@@ -5,6 +5,7 @@ pub mod demo;
 pub mod eval;
 pub mod infer;
 pub mod node;
+pub mod scene;
 pub mod train;
 
 /// Prints a report as pretty JSON on stdout (what every `--json` flag does).

@@ -2,7 +2,7 @@
 //! stamped mesh and a mesh, then pokes) replayed through the node's pipeline, recorded to MCAP,
 //! checked against the full-space FEM, and drawn as a strip of frames.
 
-mod reference;
+pub(crate) mod reference;
 mod script;
 
 use std::collections::BTreeMap;

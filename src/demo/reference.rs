@@ -50,7 +50,7 @@ impl Trajectory {
 
 /// The coarsest tetrahedral mesh of the shape's interior with REFERENCE_VERTICES vertices: the
 /// FEM's cost grows fast with vertices on compact shapes.
-fn reference_mesh(shape: &crate::geometry::Shape) -> Result<BenchShape> {
+pub(crate) fn reference_mesh(shape: &crate::geometry::Shape) -> Result<BenchShape> {
     let fine = VoxelGrid::from_shape(shape, 128, None);
     let mut resolution = 8;
     let grid = loop {
@@ -137,7 +137,7 @@ fn fem_error(
 }
 
 /// The vertices in the lowest 10% along gravity: the FEM's counterpart of `pin_bottom`.
-fn bottom_vertices(vertices: &[Vector3<f64>], gravity: &Vector3<f64>) -> Vec<usize> {
+pub(crate) fn bottom_vertices(vertices: &[Vector3<f64>], gravity: &Vector3<f64>) -> Vec<usize> {
     let up = if gravity.norm() > 0.0 {
         -gravity.normalize()
     } else {

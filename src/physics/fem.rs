@@ -9,7 +9,7 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 use rayon::prelude::*;
 
 use super::material::Material;
-use super::obstacle::{Obstacle, Penetration};
+use super::obstacle::{Obstacle, Penetration, Stick};
 use super::reduced::{is_descent, StepReport};
 use super::scene::{Poke, SimParams};
 use crate::error::Result;
@@ -32,7 +32,15 @@ pub struct FemSim {
     rest: Vec<f64>,
     time: f64,
     fixed: Vec<bool>,
+    /// Where the fixed coordinates are held: their rest positions unless moved.
+    targets: Vec<f64>,
     obstacles: Vec<Obstacle>,
+    /// Moving obstacles (robot links), replaced before each step.
+    colliders: Vec<Obstacle>,
+    /// This step's friction: boundary vertices touching at its start.
+    sticks: Vec<Stick>,
+    /// Friction anchors of vertices resting on static obstacles, kept while they touch.
+    anchors: std::collections::HashMap<(usize, usize), Vector3<f64>>,
     pokes: Vec<(usize, Poke)>,
     pattern: ElementPattern,
     cholesky: SparseCholesky,
@@ -89,9 +97,13 @@ impl FemSim {
             x: rest.clone(),
             x_prev: rest.clone(),
             fixed: vec![false; rest.len()],
+            targets: rest.clone(),
             rest,
             time: 0.0,
             obstacles: Vec::new(),
+            colliders: Vec::new(),
+            sticks: Vec::new(),
+            anchors: std::collections::HashMap::new(),
             pokes: Vec::new(),
             pattern,
             cholesky,
@@ -130,8 +142,22 @@ impl FemSim {
         }
     }
 
+    /// Holds these vertices at `motion` applied to their rest positions (and fixes them).
+    pub fn move_pinned(&mut self, vertices: &[usize], motion: &nalgebra::Isometry3<f64>) {
+        self.pin_vertices(vertices);
+        for &v in vertices {
+            let target = motion.transform_point(&self.mesh.vertices[v].into());
+            self.targets[3 * v..3 * v + 3].copy_from_slice(target.coords.as_slice());
+        }
+    }
+
     pub fn add_obstacle(&mut self, obstacle: Obstacle) {
         self.obstacles.push(obstacle);
+    }
+
+    /// Replaces the moving obstacles for the next step.
+    pub fn set_colliders(&mut self, colliders: Vec<Obstacle>) {
+        self.colliders = colliders;
     }
 
     /// Applies the poke at the vertex nearest its point.
@@ -157,11 +183,12 @@ impl FemSim {
         let previous = self.x.clone();
         let mut x: Vec<f64> = predicted
             .iter()
-            .zip(&self.rest)
+            .zip(&self.targets)
             .zip(&self.fixed)
-            .map(|((p, r), f)| if *f { *r } else { *p })
+            .map(|((p, t), f)| if *f { *t } else { *p })
             .collect();
         let mut report = StepReport::default();
+        self.find_sticks();
         let mut current = self.evaluate(&x, &predicted, &previous);
         for iteration in 0..=self.params.max_iterations {
             let mut direction: Vec<f64> = current.gradient.iter().map(|g| -g).collect();
@@ -275,6 +302,15 @@ impl FemSim {
                 gradient[3 * v + d] -= kc * area * pen.depth * pen.normal[d];
             }
         }
+        for stick in &self.sticks {
+            let v = stick.point;
+            let (e, g) =
+                stick.energy_and_gradient(&Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]));
+            energy += e;
+            for d in 0..3 {
+                gradient[3 * v + d] += g[d];
+            }
+        }
         for (v, poke) in &self.pokes {
             if poke.start <= self.time && self.time < poke.end {
                 for d in 0..3 {
@@ -295,6 +331,43 @@ impl FemSim {
         }
     }
 
+    /// Friction for this step, as the reduced simulator does it: anchors kept on static
+    /// obstacles while a vertex touches, fresh on moving ones.
+    fn find_sticks(&mut self) {
+        self.sticks.clear();
+        let (kc, mu) = (self.params.contact_stiffness, self.params.friction);
+        if mu == 0.0 {
+            return;
+        }
+        let statics = self.obstacles.len();
+        let mut anchors = std::collections::HashMap::new();
+        let mut sticks = Vec::new();
+        for (&v, &area) in self
+            .mesh
+            .boundary_vertices
+            .iter()
+            .zip(&self.mesh.boundary_areas)
+        {
+            let v = v as usize;
+            let x = Vector3::new(self.x[3 * v], self.x[3 * v + 1], self.x[3 * v + 2]);
+            for (o, obstacle) in self.obstacles.iter().chain(&self.colliders).enumerate() {
+                let Some(p) = obstacle.penetration(&x) else {
+                    continue;
+                };
+                let anchor = match self.anchors.get(&(v, o)) {
+                    Some(previous) if o < statics => Stick::carried_anchor(previous, &x, &p.normal),
+                    _ => x,
+                };
+                if o < statics {
+                    anchors.insert((v, o), anchor);
+                }
+                sticks.extend(Stick::new(v, anchor, &p, area, kc, mu));
+            }
+        }
+        self.sticks = sticks;
+        self.anchors = anchors;
+    }
+
     /// Boundary vertices inside an obstacle at positions `x`: (vertex, area, penetration).
     fn contacts<'a>(
         &'a self,
@@ -310,6 +383,7 @@ impl FemSim {
             let p = Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
             self.obstacles
                 .iter()
+                .chain(&self.colliders)
                 .filter_map(move |o| o.penetration(&p))
                 .map(move |pen| (v, area, pen))
         })
@@ -348,6 +422,20 @@ impl FemSim {
             for d in 0..3 {
                 for f in d..3 {
                     let value = kc * area * pen.normal[d] * pen.normal[f];
+                    self.pattern
+                        .add_at(&mut values, 3 * v + d, 3 * v + f, value);
+                }
+            }
+        }
+        for stick in &self.sticks {
+            let v = stick.point;
+            for d in 0..3 {
+                for f in d..3 {
+                    let value: f64 = stick
+                        .tangents
+                        .iter()
+                        .map(|t| stick.stiffness * t[d] * t[f])
+                        .sum();
                     self.pattern
                         .add_at(&mut values, 3 * v + d, 3 * v + f, value);
                 }

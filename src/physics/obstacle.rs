@@ -31,6 +31,20 @@ impl Obstacle {
         }
     }
 
+    /// The obstacle's bounding box grown by `margin` (min and max corners); `None` for a plane,
+    /// which has none.
+    pub fn bounds(&self, margin: f64) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        match self {
+            Obstacle::Plane { .. } => None,
+            Obstacle::Shape { shape, pose } => {
+                let aabb = shape.compute_aabb(pose);
+                let v = |c: Vector| Vector3::new(c.x as f64, c.y as f64, c.z as f64);
+                let m = Vector3::repeat(margin);
+                Some((v(aabb.mins) - m, v(aabb.maxs) + m))
+            }
+        }
+    }
+
     /// Penetration of `p`, or `None` when `p` is outside.
     pub fn penetration(&self, p: &Vector3<f64>) -> Option<Penetration> {
         match self {
@@ -58,5 +72,87 @@ impl Obstacle {
                 })
             }
         }
+    }
+}
+
+/// Slip (m) at which a sticking contact's tangential spring reaches the Coulomb limit.
+pub const STICK_SLIP: f64 = 1e-3;
+
+/// Friction of one contact point over one step, lagged: the point is tied tangentially to where
+/// it was at the step's start by a spring whose force reaches `friction` times the normal force
+/// after a slip of [`STICK_SLIP`]. Quadratic within the step, so Newton handles it exactly; it
+/// holds resting objects still and drags what a moving link presses on. It does not model
+/// sliding past the Coulomb limit.
+#[derive(Clone, Copy, Debug)]
+pub struct Stick {
+    /// The contact point (or vertex) it belongs to.
+    pub point: usize,
+    pub anchor: Vector3<f64>,
+    pub tangents: [Vector3<f64>; 2],
+    /// N/m.
+    pub stiffness: f64,
+}
+
+impl Stick {
+    /// For a point at `anchor` with penetration `p`, standing for `area`; None without friction.
+    pub fn new(
+        point: usize,
+        anchor: Vector3<f64>,
+        p: &Penetration,
+        area: f64,
+        contact_stiffness: f64,
+        friction: f64,
+    ) -> Option<Self> {
+        let normal_force = contact_stiffness * area * p.depth;
+        let stiffness = friction * normal_force / STICK_SLIP;
+        // NaN (from a NaN depth) gets no spring either.
+        if stiffness.is_nan() || stiffness <= 0.0 {
+            return None;
+        }
+        let n = p.normal;
+        let helper = if n.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let t1 = n.cross(&helper).normalize();
+        let t2 = n.cross(&t1);
+        Some(Self {
+            point,
+            anchor,
+            tangents: [t1, t2],
+            stiffness,
+        })
+    }
+
+    /// Where a contact that kept touching a static obstacle is tied now: its previous anchor,
+    /// dragged along when the point has slipped farther than [`STICK_SLIP`] from it (the
+    /// Coulomb limit: beyond it the point slides and friction stays at its limit).
+    pub fn carried_anchor(
+        previous: &Vector3<f64>,
+        x: &Vector3<f64>,
+        normal: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        let d = x - previous;
+        let slip = d - normal * normal.dot(&d);
+        let length = slip.norm();
+        if length > STICK_SLIP {
+            x - slip * (STICK_SLIP / length)
+        } else {
+            previous - normal * normal.dot(&(previous - x))
+        }
+    }
+
+    /// Energy and force direction at `x`: (energy, k T (x - anchor)).
+    pub fn energy_and_gradient(&self, x: &Vector3<f64>) -> (f64, Vector3<f64>) {
+        let d = x - self.anchor;
+        let mut g = Vector3::zeros();
+        let mut e = 0.0;
+        for t in &self.tangents {
+            let s = t.dot(&d);
+            e += 0.5 * self.stiffness * s * s;
+            g += t * (self.stiffness * s);
+        }
+        (e, g)
     }
 }

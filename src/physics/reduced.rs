@@ -7,12 +7,12 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::material::{Material, Matrix9};
-use super::obstacle::Obstacle;
+use super::obstacle::{Obstacle, Stick};
 use super::scene::{Poke, SimParams};
 use super::subspace::Subspace;
 use crate::error::{Error, Result};
@@ -48,6 +48,8 @@ pub struct StepReport {
     pub fallback: bool,
     /// Times the quasi-Newton solver refactored its held Hessian during the step.
     pub refreshes: usize,
+    /// Contact points inside an obstacle at the end of the step.
+    pub contacts: usize,
     /// |dz . g| when the solver stopped (J).
     pub decrement: f64,
     pub elastic_energy: f64,
@@ -64,6 +66,8 @@ struct ReducedPoint {
     /// Mass for pins (kg), area for contacts (m^2).
     weight: f64,
     target: Vector3<f64>,
+    /// Pins moved together (an attachment); 0 for pins that stay where they were put.
+    group: u32,
 }
 
 /// The part of one step's objective that is quadratic or linear in z.
@@ -79,6 +83,8 @@ struct Evaluation {
     elastic: f64,
     nonquadratic_gradient: DMatrix<f64>,
     gradient: DMatrix<f64>,
+    /// Contact points inside an obstacle.
+    touching: usize,
 }
 
 const LBFGS_PAIRS: usize = 8;
@@ -103,6 +109,18 @@ pub struct ReducedSim {
     pin_offset: DMatrix<f64>,
     contacts: Vec<ReducedPoint>,
     obstacles: Vec<Obstacle>,
+    /// Obstacles that move (robot links), replaced before each step.
+    colliders: Vec<Obstacle>,
+    /// This step's broad phase: (contact, obstacle) pairs close enough to touch, obstacles
+    /// indexed over `obstacles` then `colliders`.
+    candidates: Vec<(usize, usize)>,
+    /// This step's friction: contact points touching at its start.
+    sticks: Vec<Stick>,
+    /// Friction anchors of contacts resting on static obstacles, kept while they touch:
+    /// (contact, obstacle) to anchor.
+    anchors: std::collections::HashMap<(usize, usize), Vector3<f64>>,
+    /// The object's bounding-box diagonal, m.
+    diagonal: f64,
     pokes: Vec<(DVector<f64>, Poke)>,
     rest_hessian: Option<DMatrix<f64>>,
     history: VecDeque<(DVector<f64>, DVector<f64>)>,
@@ -133,6 +151,11 @@ impl ReducedSim {
             pin_offset: DMatrix::zeros(3, 4 * k),
             contacts: Vec::new(),
             obstacles: Vec::new(),
+            colliders: Vec::new(),
+            candidates: Vec::new(),
+            sticks: Vec::new(),
+            anchors: std::collections::HashMap::new(),
+            diagonal,
             pokes: Vec::new(),
             rest_hessian: None,
             history: VecDeque::new(),
@@ -177,6 +200,12 @@ impl ReducedSim {
     /// Holds these material points (rest positions, masses in kg) at their rest positions by
     /// penalty springs.
     pub fn add_pins(&mut self, points: &[Vector3<f64>], masses: &[f64]) {
+        self.add_pin_group(points, masses, 0);
+    }
+
+    /// Pins that move together: `move_pin_group` later carries their targets along a rigid
+    /// motion (an attachment to a robot link). Group 0 is the ordinary pins.
+    pub fn add_pin_group(&mut self, points: &[Vector3<f64>], masses: &[f64], group: u32) {
         for (phi, (x, m)) in self
             .subspace
             .phis(points)
@@ -189,10 +218,26 @@ impl ReducedSim {
                 phi,
                 weight: *m,
                 target: *x,
+                group,
             });
         }
         self.update_pin_offsets();
         self.preconditioner = None;
+    }
+
+    /// Moves the targets of a pin group to `motion` applied to their rest positions; returns
+    /// how far the farthest target moved (m).
+    pub fn move_pin_group(&mut self, group: u32, motion: &Isometry3<f64>) -> f64 {
+        let mut moved: f64 = 0.0;
+        for pin in self.pins.iter_mut().filter(|p| p.group == group) {
+            let target = motion.transform_point(&pin.rest.into()).coords;
+            moved = moved.max((target - pin.target).norm());
+            pin.target = target;
+        }
+        if moved > 0.0 {
+            self.update_pin_offsets();
+        }
+        moved
     }
 
     /// Pins these material points where they are now (not at rest), e.g. a grasp.
@@ -261,12 +306,107 @@ impl ReducedSim {
                 phi,
                 weight: *a,
                 target: *x,
+                group: 0,
             });
         }
     }
 
     pub fn add_obstacle(&mut self, obstacle: Obstacle) {
         self.obstacles.push(obstacle);
+    }
+
+    /// Replaces the moving obstacles (robot links at their current poses) for the next step.
+    pub fn set_colliders(&mut self, colliders: Vec<Obstacle>) {
+        self.colliders = colliders;
+    }
+
+    /// Bounds of the moving obstacles, in their order (`None` for a plane).
+    pub fn collider_bounds(&self) -> Vec<Option<(Vector3<f64>, Vector3<f64>)>> {
+        self.colliders.iter().map(|c| c.bounds(0.0)).collect()
+    }
+
+    /// Whether a poke acts now or later.
+    pub fn has_active_pokes(&self) -> bool {
+        self.pokes.iter().any(|(_, p)| p.end > self.time)
+    }
+
+    pub fn has_contact_points(&self) -> bool {
+        !self.contacts.is_empty()
+    }
+
+    /// The broad phase: the (contact, obstacle) pairs to test during a step from state `z`.
+    /// A point farther from an obstacle's bounding box than a tenth of the object's size plus
+    /// twice its predicted move is taken not to reach it within the step.
+    fn find_candidates(&mut self, z: &DMatrix<f64>) {
+        self.candidates.clear();
+        if self.contacts.is_empty() {
+            return;
+        }
+        let positions: Vec<Vector3<f64>> =
+            self.contacts.iter().map(|c| c.rest + z * &c.phi).collect();
+        let reach = self
+            .contacts
+            .iter()
+            .zip(&positions)
+            .map(|(c, x)| (x - (c.rest + &self.z * &c.phi)).norm())
+            .fold(0.0, f64::max);
+        let margin = 0.1 * self.diagonal + 2.0 * reach;
+        let bounds: Vec<_> = self
+            .obstacles
+            .iter()
+            .chain(&self.colliders)
+            .map(|o| o.bounds(margin))
+            .collect();
+        for (c, x) in positions.iter().enumerate() {
+            for (o, b) in bounds.iter().enumerate() {
+                let near = match b {
+                    None => true,
+                    Some((lo, hi)) => (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]),
+                };
+                if near {
+                    self.candidates.push((c, o));
+                }
+            }
+        }
+    }
+
+    /// Friction for this step: the candidate contacts that touch at the step's start.
+    fn find_sticks(&mut self) {
+        self.sticks.clear();
+        let (kc, mu) = (self.params.contact_stiffness, self.params.friction);
+        if mu == 0.0 {
+            return;
+        }
+        let statics = self.obstacles.len();
+        let mut anchors = std::collections::HashMap::new();
+        for &(c, o) in &self.candidates {
+            let contact = &self.contacts[c];
+            let x = contact.rest + &self.z * &contact.phi;
+            if let Some(p) = self.obstacle(o).penetration(&x) {
+                // On a static obstacle the anchor stays while the point touches, so friction
+                // holds a resting object instead of letting it creep; on a moving link it is
+                // where the point is (the link's motion drags it).
+                let anchor = match self.anchors.get(&(c, o)) {
+                    Some(previous) if o < statics => Stick::carried_anchor(previous, &x, &p.normal),
+                    _ => x,
+                };
+                if o < statics {
+                    anchors.insert((c, o), anchor);
+                }
+                self.sticks
+                    .extend(Stick::new(c, anchor, &p, contact.weight, kc, mu));
+            }
+        }
+        self.anchors = anchors;
+    }
+
+    fn obstacle(&self, index: usize) -> &Obstacle {
+        let statics = self.obstacles.len();
+        if index < statics {
+            &self.obstacles[index]
+        } else {
+            &self.colliders[index - statics]
+        }
     }
 
     pub fn add_poke(&mut self, poke: Poke) {
@@ -294,6 +434,8 @@ impl ReducedSim {
         let mut z = predicted.clone();
         let mut report = StepReport::default();
         self.prepare();
+        self.find_candidates(&predicted);
+        self.find_sticks();
         let objective = self.step_objective(&predicted, &previous);
         let mut current = self.evaluate(&z, &objective);
         // Curvature pairs carry over from the previous steps: the Hessian changes little between
@@ -370,6 +512,7 @@ impl ReducedSim {
         self.z_prev = std::mem::replace(&mut self.z, z);
         self.time += self.params.dt;
         report.elastic_energy = current.elastic;
+        report.contacts = current.touching;
         let velocity = self.velocity();
         report.kinetic_energy = 0.5 * quadratic(&velocity, self.subspace.mass_phi());
         report.gravity_energy = -(&self.z * self.subspace.mass_moment()).dot(&self.params.gravity);
@@ -413,16 +556,22 @@ impl ReducedSim {
     fn evaluate(&self, z: &DMatrix<f64>, objective: &StepObjective) -> Evaluation {
         let (elastic, mut gradient) = self.subspace.elastic_forces(z, &self.material);
         let mut energy = elastic;
+        let mut touching = 0;
         let kc = self.params.contact_stiffness;
-        for contact in &self.contacts {
+        for &(c, o) in &self.candidates {
+            let contact = &self.contacts[c];
             let x = contact.rest + z * &contact.phi;
-            for obstacle in &self.obstacles {
-                if let Some(p) = obstacle.penetration(&x) {
-                    energy += 0.5 * kc * contact.weight * p.depth * p.depth;
-                    gradient -=
-                        (p.normal * (kc * contact.weight * p.depth)) * contact.phi.transpose();
-                }
+            if let Some(p) = self.obstacle(o).penetration(&x) {
+                energy += 0.5 * kc * contact.weight * p.depth * p.depth;
+                gradient -= (p.normal * (kc * contact.weight * p.depth)) * contact.phi.transpose();
+                touching += 1;
             }
+        }
+        for stick in &self.sticks {
+            let contact = &self.contacts[stick.point];
+            let (e, g) = stick.energy_and_gradient(&(contact.rest + z * &contact.phi));
+            energy += e;
+            gradient += g * contact.phi.transpose();
         }
         let total = &gradient + times_symmetric(z, &objective.quadratic) - &objective.linear;
         Evaluation {
@@ -430,6 +579,7 @@ impl ReducedSim {
             elastic,
             nonquadratic_gradient: gradient,
             gradient: total,
+            touching,
         }
     }
 
@@ -485,13 +635,19 @@ impl ReducedSim {
         let mut hessian = self.subspace.elastic_hessian(&hessians);
         add_kron_identity(&mut hessian, &self.quadratic_part());
         let kc = self.params.contact_stiffness;
-        for contact in &self.contacts {
+        for &(c, o) in &self.candidates {
+            let contact = &self.contacts[c];
             let x = contact.rest + z * &contact.phi;
-            for obstacle in &self.obstacles {
-                if let Some(p) = obstacle.penetration(&x) {
-                    let a = point_jacobian(&contact.phi, &p.normal);
-                    hessian.ger(kc * contact.weight, &a, &a, 1.0);
-                }
+            if let Some(p) = self.obstacle(o).penetration(&x) {
+                let a = point_jacobian(&contact.phi, &p.normal);
+                hessian.ger(kc * contact.weight, &a, &a, 1.0);
+            }
+        }
+        for stick in &self.sticks {
+            let phi = &self.contacts[stick.point].phi;
+            for t in &stick.tangents {
+                let a = point_jacobian(phi, t);
+                hessian.ger(stick.stiffness, &a, &a, 1.0);
             }
         }
         hessian

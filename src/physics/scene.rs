@@ -29,6 +29,9 @@ pub struct SimParams {
     pub pin_stiffness: f64,
     /// Floor penalty, N/m^3 (pressure per metre of penetration). Default 1e7.
     pub contact_stiffness: f64,
+    /// Coulomb friction coefficient of contacts (lagged stick friction, see `Stick`). Default 0.
+    #[serde(default)]
+    pub friction: f64,
     /// Newton stops when the step's mass-weighted RMS length is below this fraction of the
     /// bounding-box diagonal. Default 1e-5.
     pub tolerance: f64,
@@ -49,6 +52,7 @@ impl Default for SimParams {
             damping: 0.0,
             pin_stiffness: 1e8,
             contact_stiffness: 1e7,
+            friction: 0.0,
             tolerance: 1e-5,
             max_iterations: 20,
         }
@@ -93,6 +97,11 @@ impl SimParams {
             self.contact_stiffness.is_finite() && self.contact_stiffness >= 0.0,
             "contact_stiffness",
             || format!("must be >= 0, got {}", self.contact_stiffness),
+        )?;
+        ensure(
+            self.friction.is_finite() && self.friction >= 0.0,
+            "friction",
+            || format!("must be >= 0, got {}", self.friction),
         )?;
         ensure(self.tolerance > 0.0, "tolerance", || {
             "must be positive".into()

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, Isometry3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -13,7 +13,7 @@ use crate::geometry::{
     sample_surface, Cubature, Normalization, Shape, SurfaceSamples, SurfaceSampling, VoxelGrid,
 };
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, StepReport, Subspace};
-use crate::skinning::{NeuralModel, SkinningField};
+use crate::skinning::{NeuralModel, SkinningField, TruncatedField};
 use crate::Result;
 
 /// What holds an object in place.
@@ -46,6 +46,40 @@ pub struct BodyOptions {
     pub solver: Solver,
     /// Default pin_bottom.
     pub support: Support,
+    /// Handles kept, the constant one included: the smoothest of the field's. Default all.
+    pub handles: Option<usize>,
+    /// When the body may sleep. Default never.
+    pub sleep: Option<SleepRule>,
+}
+
+/// A body sleeps once its RMS speed has stayed below `speed` for `after` seconds with no force
+/// on it; it is then not stepped until a force, a pin, a moving attachment or a collider near
+/// it wakes it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SleepRule {
+    /// m/s. Default 1e-3.
+    #[serde(default = "default_sleep_speed")]
+    pub speed: f64,
+    /// s. Default 0.5.
+    #[serde(default = "default_sleep_after")]
+    pub after: f64,
+}
+
+fn default_sleep_speed() -> f64 {
+    1e-3
+}
+fn default_sleep_after() -> f64 {
+    0.5
+}
+
+impl Default for SleepRule {
+    fn default() -> Self {
+        Self {
+            speed: default_sleep_speed(),
+            after: default_sleep_after(),
+        }
+    }
 }
 
 impl Default for BodyOptions {
@@ -62,6 +96,8 @@ impl Default for BodyOptions {
             },
             solver: Solver::QuasiNewton,
             support: Support::PinBottom,
+            handles: None,
+            sleep: None,
         }
     }
 }
@@ -87,8 +123,30 @@ pub struct SoftBody {
     weights: Vec<f32>,
     deformed: Vec<f32>,
     cubature: Cubature,
+    /// Surface samples (world) and their areas: the points that collide.
+    surface: SurfaceSamples,
     timings: BuildTimings,
     last: Option<StepReport>,
+    sleep: Option<SleepRule>,
+    activity: Activity,
+    /// Bounds of the deformed input points after the last step (min, max).
+    bounds: (Vector3<f64>, Vector3<f64>),
+    decision: String,
+}
+
+/// Whether the body steps, and what it needs to go to sleep or wake.
+#[derive(Clone, Debug, Default)]
+struct Activity {
+    /// Simulated seconds the body has been still.
+    still_for: f64,
+    asleep: bool,
+    /// It fell asleep in the last call to `step`.
+    fell_asleep: bool,
+    /// Something happened to it (force, pin, attachment, collider) since the last step.
+    disturbed: bool,
+    /// The colliders' bounds when it fell asleep: the same colliders standing still beside it do
+    /// not wake it.
+    colliders_when_asleep: Vec<Option<(Vector3<f64>, Vector3<f64>)>>,
 }
 
 impl SoftBody {
@@ -100,33 +158,86 @@ impl SoftBody {
         points: &[Vector3<f64>],
         options: &BodyOptions,
     ) -> Result<Self> {
-        options.sim.validate()?;
         let started = Instant::now();
-        let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
-        let map = shape.normalization();
-        let grid = VoxelGrid::from_shape(shape, options.voxel_resolution, None);
-        if grid.solid_volume() <= 0.0 {
-            return Err(crate::Error::Geometry(
-                "the shape encloses no volume at this voxel resolution".into(),
-            ));
+        let input = NetworkInput::new(shape, options)?;
+        let t = Instant::now();
+        let field: Arc<dyn SkinningField> =
+            Arc::new(model.field(&input.surface, &input.reference, input.map)?);
+        let infer_ms = t.elapsed().as_secs_f64() * 1e3;
+        Self::assemble(input, field, points, options, started, infer_ms)
+    }
+
+    /// Builds the body of `shape` with a field already inferred for the same geometry (up to
+    /// a translation: fields live in the normalized frame), e.g. from a cache.
+    pub fn with_field(
+        field: Arc<dyn SkinningField>,
+        shape: &Shape,
+        points: &[Vector3<f64>],
+        options: &BodyOptions,
+    ) -> Result<Self> {
+        let started = Instant::now();
+        let input = NetworkInput::new(shape, options)?;
+        Self::assemble(input, field, points, options, started, 0.0)
+    }
+
+    /// `field` cut to `handles` for `shape` (as `BodyOptions::handles` does): for callers that
+    /// cache fields, so that copies of a shape share their columns exactly.
+    pub fn truncated_field(
+        field: Arc<dyn SkinningField>,
+        shape: &Shape,
+        options: &BodyOptions,
+        handles: usize,
+    ) -> Result<Arc<dyn SkinningField>> {
+        if handles >= field.handle_count() {
+            return Ok(field);
         }
-        let (world, surface, reference) = network_input(
-            shape,
-            &grid,
-            options.surface_points,
-            options.reference_points,
-        );
+        let input = NetworkInput::new(shape, options)?;
+        Ok(truncate(field, &input.grid, &input.map, handles))
+    }
+
+    /// The network's input of `shape`, for [`SoftBody::with_field`]'s callers that infer
+    /// themselves. The same geometry always gives the same input.
+    pub fn infer(
+        model: &Arc<NeuralModel>,
+        shape: &Shape,
+        options: &BodyOptions,
+    ) -> Result<Arc<dyn SkinningField>> {
+        let input = NetworkInput::new(shape, options)?;
+        Ok(Arc::new(model.field(
+            &input.surface,
+            &input.reference,
+            input.map,
+        )?))
+    }
+
+    fn assemble(
+        input: NetworkInput,
+        field: Arc<dyn SkinningField>,
+        points: &[Vector3<f64>],
+        options: &BodyOptions,
+        started: Instant,
+        infer_ms: f64,
+    ) -> Result<Self> {
+        let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
+        let NetworkInput {
+            map,
+            grid,
+            world,
+            voxelize_ms,
+            ..
+        } = input;
         let mut timings = BuildTimings {
-            voxelize_ms: ms(started),
+            voxelize_ms,
+            infer_ms,
             ..Default::default()
         };
 
         let t = Instant::now();
-        let field: Arc<dyn SkinningField> = Arc::new(model.field(&surface, &reference, map)?);
-        timings.infer_ms = ms(t);
-
-        let t = Instant::now();
         let cubature = Cubature::stratified(&grid, options.cubature, grid.solid_volume());
+        let field = match options.handles {
+            Some(m) if m < field.handle_count() => truncate(field, &grid, &map, m),
+            _ => field,
+        };
         let subspace = Arc::new(Subspace::build(
             field.clone(),
             map,
@@ -148,12 +259,16 @@ impl SoftBody {
         let handles = field.handle_count();
         let (weights, _) = crate::physics::sample(field.as_ref(), &map, points, false);
         let lifter = Lifter::from_weights(handles, &weights, points);
-        let deformed = points
+        let deformed: Vec<f32> = points
             .iter()
             .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
             .collect();
         timings.weights_ms = ms(t);
         timings.total_ms = ms(started);
+        let decision = format!(
+            "{handles} handles, {} cubature points (fixed)",
+            cubature.len()
+        );
         Ok(Self {
             sim,
             field,
@@ -161,10 +276,15 @@ impl SoftBody {
             lifter,
             handles,
             weights: weights.into_iter().map(|w| w as f32).collect(),
+            bounds: bounds_of(&deformed),
             deformed,
             cubature,
+            surface: world,
             timings,
             last: None,
+            sleep: options.sleep,
+            activity: Activity::default(),
+            decision,
         })
     }
 
@@ -190,16 +310,149 @@ impl SoftBody {
         Self::build(&NeuralModel::bundled()?, &shape, &positions, options)
     }
 
-    /// Advances one time step and lifts the input points.
+    /// Advances one time step and lifts the input points; a sleeping body stays as it is and
+    /// reports its last step again.
     pub fn step(&mut self) -> &StepReport {
+        let activity = &mut self.activity;
+        activity.fell_asleep = false;
+        if activity.asleep {
+            if !std::mem::take(&mut activity.disturbed) {
+                return self.last.get_or_insert_with(StepReport::default);
+            }
+            // Asleep means still: wake at rest velocity.
+            activity.asleep = false;
+            activity.still_for = 0.0;
+            self.sim.set_state(self.sim.state().clone(), None);
+        }
+        let disturbed = std::mem::take(&mut self.activity.disturbed);
         let report = self.sim.step();
         self.lifter.lift(self.sim.state(), &mut self.deformed);
+        self.bounds = bounds_of(&self.deformed);
+        if let Some(rule) = self.sleep {
+            self.update_sleep(&rule, &report, disturbed);
+        }
         self.last.insert(report)
+    }
+
+    fn update_sleep(&mut self, rule: &SleepRule, report: &StepReport, disturbed: bool) {
+        let mass = self.sim.subspace().total_mass();
+        let speed = (2.0 * report.kinetic_energy / mass).sqrt();
+        let forced = self.sim.has_active_pokes();
+        let activity = &mut self.activity;
+        if disturbed || forced || speed.is_nan() || speed >= rule.speed {
+            activity.still_for = 0.0;
+            return;
+        }
+        activity.still_for += self.sim.params().dt;
+        if activity.still_for >= rule.after {
+            activity.asleep = true;
+            activity.fell_asleep = true;
+            activity.colliders_when_asleep = self.sim.collider_bounds();
+        }
+    }
+
+    /// Whether the body sleeps (is not being stepped).
+    pub fn is_sleeping(&self) -> bool {
+        self.activity.asleep
+    }
+
+    /// Whether the body fell asleep in the last step: its last frame before sleeping.
+    pub fn fell_asleep(&self) -> bool {
+        self.activity.fell_asleep
+    }
+
+    /// Replaces the moving obstacles (robot links at their current poses). A collider that
+    /// moved to within reach of a sleeping body wakes it.
+    pub fn set_colliders(&mut self, colliders: Vec<Obstacle>) {
+        if self.activity.asleep {
+            let margin = 0.1 * self.diagonal();
+            let (lo, hi) = self.bounds;
+            let before = &self.activity.colliders_when_asleep;
+            let woken = colliders.iter().enumerate().any(|(i, c)| {
+                let Some((clo, chi)) = c.bounds(0.0) else {
+                    return false;
+                };
+                let overlaps = (0..3).all(|d| clo[d] - margin <= hi[d] && chi[d] + margin >= lo[d]);
+                let moved = match before.get(i) {
+                    Some(Some((blo, bhi))) => {
+                        (blo - clo).amax().max((bhi - chi).amax()) > 1e-6 * margin
+                    }
+                    _ => true,
+                };
+                overlaps && moved
+            });
+            self.activity.disturbed |= woken;
+        }
+        self.sim.set_colliders(colliders);
+    }
+
+    /// The bounding-box diagonal of the deformed points, m.
+    fn diagonal(&self) -> f64 {
+        (self.bounds.1 - self.bounds.0).norm()
+    }
+
+    /// Makes the surface collide with obstacles and colliders (floors, robot links).
+    pub fn enable_contacts(&mut self) {
+        if !self.sim.has_contact_points() {
+            self.sim
+                .add_contact_points(&self.surface.points, &self.surface.areas);
+        }
+    }
+
+    /// An obstacle that stays put (a static object); the surface collides with it.
+    pub fn add_obstacle(&mut self, obstacle: Obstacle) {
+        self.enable_contacts();
+        self.sim.add_obstacle(obstacle);
+    }
+
+    /// A floor at height `z`, solid below; the surface collides with it.
+    pub fn add_floor(&mut self, z: f64) {
+        self.enable_contacts();
+        self.sim.add_obstacle(Obstacle::floor(z));
+    }
+
+    /// Pins the material within `radius` of `rest` to where it is at rest; returns the points
+    /// pinned.
+    pub fn pin(&mut self, rest: &Vector3<f64>, radius: f64) -> usize {
+        self.attach(rest, radius, 0)
+    }
+
+    /// Attaches the material within `radius` of `rest` to a moving frame: `move_attachment` with
+    /// the same `group` (> 0) carries it along. Returns the points attached. The surface samples
+    /// in the region are held with the cubature points: a few cubature points alone would
+    /// leave the region free to turn about them.
+    pub fn attach(&mut self, rest: &Vector3<f64>, radius: f64, group: u32) -> usize {
+        let (points, masses) = self.material_within(rest, radius);
+        self.sim.add_pin_group(&points, &masses, group);
+        self.sim.prepare();
+        self.activity.disturbed = true;
+        points.len()
+    }
+
+    /// Moves attachment `group` to `motion` of its rest pose; a move wakes the body.
+    pub fn move_attachment(&mut self, group: u32, motion: &Isometry3<f64>) {
+        let moved = self.sim.move_pin_group(group, motion);
+        // Sub-micrometre moves are joint-state noise, not motion.
+        self.activity.disturbed |= moved > 1e-6;
+    }
+
+    /// What was chosen for this body (handles, cubature) and why, for the state topic and log.
+    pub fn decision(&self) -> &str {
+        &self.decision
+    }
+
+    pub fn set_decision(&mut self, decision: String) {
+        self.decision = decision;
+    }
+
+    pub fn cubature_len(&self) -> usize {
+        self.cubature.len()
     }
 
     /// A force on the material point at `rest` (world, rest frame) for `duration` seconds from now.
     pub fn push(&mut self, rest: Vector3<f64>, force: Vector3<f64>, duration: f64) {
         let start = self.sim.time();
+        self.activity.disturbed = true;
         self.sim.add_poke(Poke {
             point: rest,
             force,
@@ -213,6 +466,7 @@ impl SoftBody {
         let (points, masses) = self.cubature_within(rest, radius);
         self.sim.hold(&points, &masses);
         self.sim.prepare();
+        self.activity.disturbed = true;
         points.len()
     }
 
@@ -220,7 +474,28 @@ impl SoftBody {
     pub fn release(&mut self, rest: &Vector3<f64>, radius: f64) -> usize {
         let released = self.sim.release_pins_within(rest, radius);
         self.sim.prepare();
+        self.activity.disturbed |= released > 0;
         released
+    }
+
+    /// Cubature points and surface samples within `radius` of `center`, sharing the region's
+    /// mass (its cubature mass, or its volume's share of the ball when no cubature point lies
+    /// in it).
+    fn material_within(&self, center: &Vector3<f64>, radius: f64) -> (Vec<Vector3<f64>>, Vec<f64>) {
+        let (mut points, masses) = self.cubature_within(center, radius);
+        let mut mass: f64 = masses.iter().sum();
+        points.extend(
+            self.surface
+                .points
+                .iter()
+                .filter(|p| (*p - center).norm() <= radius),
+        );
+        if mass <= 0.0 {
+            mass = self.sim.params().density * 2.0 * std::f64::consts::PI / 3.0 * radius.powi(3);
+        }
+        let each = mass / points.len().max(1) as f64;
+        let masses = vec![each; points.len()];
+        (points, masses)
     }
 
     fn cubature_within(&self, center: &Vector3<f64>, radius: f64) -> (Vec<Vector3<f64>>, Vec<f64>) {
@@ -289,6 +564,45 @@ impl SoftBody {
 /// What the network reads from a shape: `surface_points` surface samples (in world units, and
 /// in the normalized frame) and `reference_points` stratified interior points (normalized) that
 /// fix the output normalization. A fixed seed: the same geometry always gives the same input.
+struct NetworkInput {
+    map: Normalization,
+    grid: VoxelGrid,
+    world: SurfaceSamples,
+    surface: SurfaceSamples,
+    reference: Vec<Vector3<f64>>,
+    voxelize_ms: f64,
+}
+
+impl NetworkInput {
+    fn new(shape: &Shape, options: &BodyOptions) -> Result<Self> {
+        options.sim.validate()?;
+        let started = Instant::now();
+        let grid = VoxelGrid::from_shape(shape, options.voxel_resolution, None);
+        if grid.solid_volume() <= 0.0 {
+            return Err(crate::Error::Geometry(
+                "the shape encloses no volume at this voxel resolution".into(),
+            ));
+        }
+        let (world, surface, reference) = network_input(
+            shape,
+            &grid,
+            options.surface_points,
+            options.reference_points,
+        );
+        Ok(Self {
+            map: shape.normalization(),
+            grid,
+            world,
+            surface,
+            reference,
+            voxelize_ms: started.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+}
+
+/// What the network reads from a shape: `surface_points` surface samples (in world units, and
+/// in the normalized frame) and `reference_points` stratified interior points (normalized) that
+/// fix the output normalization. A fixed seed: the same geometry always gives the same input.
 pub(crate) fn network_input(
     shape: &Shape,
     grid: &VoxelGrid,
@@ -317,6 +631,37 @@ pub(crate) fn network_input(
         .map(|p| map.to_normalized(p))
         .collect();
     (world, surface, reference)
+}
+
+/// Points on which the smoothest columns are chosen: a fixed number, whatever the body's own
+/// cubature, so that every size of one shape keeps the same columns.
+const TRUNCATION_POINTS: usize = 512;
+
+fn truncate(
+    field: Arc<dyn SkinningField>,
+    grid: &VoxelGrid,
+    map: &Normalization,
+    handles: usize,
+) -> Arc<dyn SkinningField> {
+    let points = Cubature::stratified(grid, TRUNCATION_POINTS, grid.solid_volume());
+    let normalized: Vec<_> = points.points.iter().map(|p| map.to_normalized(p)).collect();
+    Arc::new(TruncatedField::smoothest(
+        field,
+        &normalized,
+        &points.volumes,
+        handles,
+    ))
+}
+
+fn bounds_of(xyz: &[f32]) -> (Vector3<f64>, Vector3<f64>) {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for p in xyz.chunks_exact(3) {
+        let p = Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+        lo = lo.inf(&p);
+        hi = hi.sup(&p);
+    }
+    (lo, hi)
 }
 
 /// Pins a slab of the cubature points or adds a floor, per `options.support`.

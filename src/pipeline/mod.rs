@@ -4,4 +4,4 @@
 mod body;
 
 pub(crate) use body::network_input;
-pub use body::{BodyOptions, BuildTimings, SoftBody, Support};
+pub use body::{BodyOptions, BuildTimings, SleepRule, SoftBody, Support};

@@ -430,6 +430,7 @@ impl NodeParams {
             sim: self.sim_params(),
             solver: self.solver()?,
             support: self.simulation.support,
+            ..BodyOptions::default()
         })
     }
 

@@ -3,6 +3,7 @@
 mod eigenmodes;
 mod metrics;
 mod neural;
+mod truncated;
 
 pub(crate) use eigenmodes::linear_gradients;
 pub use eigenmodes::{EigenmodeField, EigenmodeOptions};
@@ -11,6 +12,7 @@ pub(crate) use neural::{inverse_sqrt, load_tensors, save_tensors};
 pub use neural::{
     ColumnNormalization, Network, NetworkConfig, NeuralField, NeuralModel, ShapeCode,
 };
+pub use truncated::TruncatedField;
 
 use nalgebra::Vector3;
 

@@ -1,0 +1,220 @@
+//! Running a scene for a while, timed, with its error against the full-space FEM; and the
+//! bench that asks what a scene's decisions (model sizes from an error budget, sleeping) save:
+//! the objects that act alone, the full scene with the decisions, and without them.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::scene::{
+    reference_errors, FieldCache, ObjectError, ObjectReport, Recorder, Scene, SceneFile,
+    SceneOptions,
+};
+use crate::skinning::NeuralModel;
+use crate::Result;
+
+/// The bundled scene.
+pub const WORKCELL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/scenes/workcell.yaml");
+/// The objects of the bundled scene that the robot moves.
+pub const WORKCELL_ACTIVE: [&str; 2] = ["sponge", "column"];
+
+/// How a scene is run.
+#[derive(Clone, Debug)]
+pub struct SceneRunOptions {
+    pub scene: SceneOptions,
+    /// Simulated seconds of motion after settling.
+    pub seconds: f64,
+    /// Before the motion, objects settle under gravity with the robots still: until all sleep
+    /// (at most this many steps), or exactly this many when `settle_exactly`.
+    pub settle_steps: usize,
+    pub settle_exactly: bool,
+    /// Objects compared with the FEM (none: no reference run).
+    pub compare: Vec<String>,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneRun {
+    pub objects: Vec<ObjectReport>,
+    pub build_ms: f64,
+    pub inferences: usize,
+    pub inferences_reused: usize,
+    pub settle_steps: usize,
+    pub steps: usize,
+    /// Wall time of one scene step (robots, colliders, every awake object), ms.
+    pub step_ms: f64,
+    pub step_ms_p99: f64,
+    /// Deformable objects awake, averaged over the steps.
+    pub awake_mean: f64,
+    pub deformable: usize,
+    pub errors: Vec<ObjectError>,
+}
+
+impl SceneRun {
+    /// The largest error among the objects named, %.
+    pub fn error_of(&self, names: &[&str]) -> f64 {
+        self.errors
+            .iter()
+            .filter(|e| names.contains(&e.name.as_str()))
+            .map(|e| e.error_pct)
+            .fold(f64::NAN, f64::max)
+    }
+}
+
+pub fn run_scene(
+    file: &SceneFile,
+    model: &Arc<NeuralModel>,
+    cache: &FieldCache,
+    options: &SceneRunOptions,
+) -> Result<SceneRun> {
+    use std::sync::atomic::Ordering::Relaxed;
+    let (hits, misses) = (cache.hits.load(Relaxed), cache.misses.load(Relaxed));
+    let started = Instant::now();
+    let mut scene = Scene::build(file, model, cache, &options.scene)?;
+    let build_ms = started.elapsed().as_secs_f64() * 1e3;
+    let mut recorder = Recorder::new(&scene, &options.compare)?;
+    let mut settle_steps = 0;
+    while settle_steps < options.settle_steps {
+        if !options.settle_exactly && scene.awake() == 0 {
+            break;
+        }
+        scene.settle(1);
+        recorder.record(&scene, false);
+        settle_steps += 1;
+    }
+    let steps = (options.seconds * file.rate_hz).round() as usize;
+    let mut times = Vec::with_capacity(steps);
+    let mut awake = 0usize;
+    for _ in 0..steps {
+        let t = Instant::now();
+        scene.step();
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        awake += scene.awake();
+        recorder.record(&scene, true);
+    }
+    let errors = if options.compare.is_empty() {
+        Vec::new()
+    } else {
+        reference_errors(&recorder)?
+    };
+    let objects = scene.report();
+    let mean = times.iter().sum::<f64>() / times.len().max(1) as f64;
+    times.sort_by(f64::total_cmp);
+    Ok(SceneRun {
+        deformable: objects.iter().filter(|o| o.handles > 0).count(),
+        objects,
+        build_ms,
+        inferences: cache.misses.load(Relaxed) - misses,
+        inferences_reused: cache.hits.load(Relaxed) - hits,
+        settle_steps,
+        steps,
+        step_ms: mean,
+        step_ms_p99: times
+            .get((times.len() * 99) / 100)
+            .copied()
+            .unwrap_or(f64::NAN),
+        awake_mean: awake as f64 / steps.max(1) as f64,
+        errors,
+    })
+}
+
+/// `bench scene`: the bundled scene three ways.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneBenchReport {
+    pub active_alone_step_ms: f64,
+    pub full_scene_step_ms: f64,
+    pub active_alone_error_pct: f64,
+    pub full_scene_error_pct: f64,
+    /// full_scene_step_ms / active_alone_step_ms (target 1.3 or less).
+    pub step_ratio: f64,
+    pub no_decisions_step_ms: f64,
+    pub no_decisions_error_pct: f64,
+    /// The largest error of the objects that sat still, with the decisions (they sleep).
+    pub idle_error_pct: f64,
+    pub idle_error_pct_no_decisions: f64,
+    pub active: Vec<String>,
+    pub active_alone: SceneRun,
+    pub full_scene: SceneRun,
+    pub no_decisions: SceneRun,
+}
+
+/// Settling lasts at most 8 s: every object of the bundled scene sleeps well before.
+const SETTLE_STEPS: usize = 480;
+
+pub fn run_scene_bench(seconds: f64, log: impl Fn(&str)) -> Result<SceneBenchReport> {
+    let file = SceneFile::load(std::path::Path::new(WORKCELL))?;
+    let model = NeuralModel::bundled()?;
+    let cache = FieldCache::default();
+    let active: Vec<String> = WORKCELL_ACTIVE.iter().map(|s| s.to_string()).collect();
+    let every: Vec<String> = file
+        .objects
+        .iter()
+        .filter(|o| o.kind == crate::scene::ObjectKind::Deformable)
+        .map(|o| o.name.clone())
+        .collect();
+    let run = |scene: SceneOptions, compare: &[String], settle: usize, exactly: bool| {
+        run_scene(
+            &file,
+            &model,
+            &cache,
+            &SceneRunOptions {
+                scene,
+                seconds,
+                settle_steps: settle,
+                settle_exactly: exactly,
+                compare: compare.to_vec(),
+            },
+        )
+    };
+    log("full scene with decisions (sizes from the error budget, sleeping) ...");
+    let full_scene = run(SceneOptions::default(), &every, SETTLE_STEPS, false)?;
+    let settle = full_scene.settle_steps;
+    log(&format!(
+        "  settled in {settle} steps; {:.3} ms a step; now the active objects alone ...",
+        full_scene.step_ms
+    ));
+    let active_alone = run(
+        SceneOptions {
+            decisions: true,
+            only: active.clone(),
+        },
+        &active,
+        settle,
+        true,
+    )?;
+    log(&format!(
+        "  {:.3} ms a step; now the full scene without decisions ...",
+        active_alone.step_ms
+    ));
+    let no_decisions = run(
+        SceneOptions {
+            decisions: false,
+            only: Vec::new(),
+        },
+        &every,
+        settle,
+        true,
+    )?;
+    let names: Vec<&str> = active.iter().map(|s| s.as_str()).collect();
+    let idle: Vec<&str> = every
+        .iter()
+        .map(|s| s.as_str())
+        .filter(|n| !names.contains(n))
+        .collect();
+    Ok(SceneBenchReport {
+        active_alone_step_ms: active_alone.step_ms,
+        full_scene_step_ms: full_scene.step_ms,
+        active_alone_error_pct: active_alone.error_of(&names),
+        full_scene_error_pct: full_scene.error_of(&names),
+        step_ratio: full_scene.step_ms / active_alone.step_ms,
+        no_decisions_step_ms: no_decisions.step_ms,
+        no_decisions_error_pct: no_decisions.error_of(&names),
+        idle_error_pct: full_scene.error_of(&idle),
+        idle_error_pct_no_decisions: no_decisions.error_of(&idle),
+        active,
+        active_alone,
+        full_scene,
+        no_decisions,
+    })
+}

@@ -1,0 +1,415 @@
+//! Robots from URDF: the kinematic tree, forward kinematics from joint positions, and each
+//! link's collision geometry as parry3d shapes that push soft objects.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+use parry3d::math::{Pose, Rotation, Vector};
+use parry3d::shape::SharedShape;
+
+use super::SceneError;
+use crate::physics::Obstacle;
+
+/// A robot: links, the joints between them, and the joints' current positions.
+pub struct Robot {
+    name: String,
+    base: Isometry3<f64>,
+    links: Vec<Link>,
+    /// Joints ordered parents first, so one pass computes every link pose.
+    joints: Vec<Joint>,
+    root: usize,
+    link_index: HashMap<String, usize>,
+}
+
+struct Link {
+    name: String,
+    /// Collision shapes and their poses in the link frame.
+    shapes: Vec<(SharedShape, Isometry3<f64>)>,
+}
+
+struct Joint {
+    name: String,
+    motion: JointMotion,
+    origin: Isometry3<f64>,
+    axis: Unit<Vector3<f64>>,
+    parent: usize,
+    child: usize,
+    lower: f64,
+    upper: f64,
+    position: f64,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum JointMotion {
+    Fixed,
+    Revolute,
+    Prismatic,
+}
+
+impl Robot {
+    /// Reads a URDF file; meshes are looked up beside it. `base` places the root link.
+    pub fn from_urdf(path: &Path, base: Isometry3<f64>) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            path: path.into(),
+            source,
+        })?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        Self::from_urdf_text(&text, dir, base).map_err(|reason| SceneError::Urdf {
+            path: path.into(),
+            reason,
+        })
+    }
+
+    /// Parses URDF text; `dir` resolves mesh file names.
+    pub fn from_urdf_text(text: &str, dir: &Path, base: Isometry3<f64>) -> Result<Self, String> {
+        let urdf = urdf_rs::read_from_string(text).map_err(|e| e.to_string())?;
+        let mut link_index = HashMap::new();
+        let mut links = Vec::new();
+        for link in &urdf.links {
+            if link_index.insert(link.name.clone(), links.len()).is_some() {
+                return Err(format!("link `{}` is defined twice", link.name));
+            }
+            let shapes = link
+                .collision
+                .iter()
+                .map(|c| {
+                    let shape = collision_shape(&c.geometry, dir)
+                        .map_err(|e| format!("link `{}`: {e}", link.name))?;
+                    Ok((shape, pose_of(&c.origin)))
+                })
+                .collect::<Result<_, String>>()?;
+            links.push(Link {
+                name: link.name.clone(),
+                shapes,
+            });
+        }
+        if links.is_empty() {
+            return Err("the robot has no links".into());
+        }
+        let mut joints = Vec::new();
+        let mut has_parent = vec![false; links.len()];
+        for j in &urdf.joints {
+            let find = |name: &str| {
+                link_index
+                    .get(name)
+                    .copied()
+                    .ok_or_else(|| format!("joint `{}` names an unknown link `{name}`", j.name))
+            };
+            let (parent, child) = (find(&j.parent.link)?, find(&j.child.link)?);
+            if std::mem::replace(&mut has_parent[child], true) {
+                return Err(format!("link `{}` has two parent joints", j.child.link));
+            }
+            use urdf_rs::JointType as T;
+            let motion = match j.joint_type {
+                T::Fixed => JointMotion::Fixed,
+                T::Revolute | T::Continuous => JointMotion::Revolute,
+                T::Prismatic => JointMotion::Prismatic,
+                ref other => {
+                    return Err(format!(
+                        "joint `{}` is {other:?}: only fixed, revolute, continuous and \
+                         prismatic joints are supported",
+                        j.name
+                    ))
+                }
+            };
+            let axis = Vector3::from(j.axis.xyz.0);
+            let axis = Unit::try_new(axis, 1e-9).unwrap_or(Vector3::x_axis());
+            let (lower, upper) = match j.joint_type {
+                T::Revolute | T::Prismatic if j.limit.lower <= j.limit.upper => {
+                    (j.limit.lower, j.limit.upper)
+                }
+                _ => (f64::NEG_INFINITY, f64::INFINITY),
+            };
+            joints.push(Joint {
+                name: j.name.clone(),
+                motion,
+                origin: pose_of(&j.origin),
+                axis,
+                parent,
+                child,
+                lower,
+                upper,
+                position: 0.0_f64.clamp(lower, upper),
+            });
+        }
+        let roots: Vec<usize> = (0..links.len()).filter(|&l| !has_parent[l]).collect();
+        let [root] = roots[..] else {
+            let names: Vec<_> = roots.iter().map(|&l| links[l].name.as_str()).collect();
+            return Err(format!("the robot needs one root link, found {names:?}"));
+        };
+        // Parents first: a breadth-first walk from the root (a cycle leaves joints unvisited).
+        let mut ordered = Vec::with_capacity(joints.len());
+        let mut frontier = vec![root];
+        while let Some(link) = frontier.pop() {
+            for (i, j) in joints.iter().enumerate().filter(|(_, j)| j.parent == link) {
+                ordered.push(i);
+                frontier.push(j.child);
+            }
+        }
+        if ordered.len() != joints.len() {
+            return Err("the joints form a cycle".into());
+        }
+        let mut slots: Vec<Option<Joint>> = joints.into_iter().map(Some).collect();
+        let joints = ordered
+            .into_iter()
+            .map(|i| slots[i].take().expect("each joint once"))
+            .collect();
+        Ok(Self {
+            name: urdf.name,
+            base,
+            links,
+            joints,
+            root,
+            link_index,
+        })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn link(&self, name: &str) -> Option<usize> {
+        self.link_index.get(name).copied()
+    }
+
+    /// Names of the joints that move.
+    pub fn moving_joints(&self) -> Vec<&str> {
+        self.joints
+            .iter()
+            .filter(|j| j.motion != JointMotion::Fixed)
+            .map(|j| j.name.as_str())
+            .collect()
+    }
+
+    /// Sets joint positions by name (rad or m), as a JointState carries them; positions outside
+    /// a joint's limits are clamped. Names this robot lacks are an error (naming them), but the
+    /// known ones are still applied.
+    pub fn set_joint_positions(
+        &mut self,
+        names: &[String],
+        positions: &[f64],
+    ) -> Result<(), String> {
+        if names.len() != positions.len() {
+            return Err(format!(
+                "{} joint names but {} positions",
+                names.len(),
+                positions.len()
+            ));
+        }
+        let mut unknown = Vec::new();
+        for (name, &q) in names.iter().zip(positions) {
+            match self.joints.iter_mut().find(|j| j.name == *name) {
+                Some(j) if q.is_finite() => j.position = q.clamp(j.lower, j.upper),
+                Some(_) => unknown.push(format!("{name} (non-finite position {q})")),
+                None => unknown.push(name.clone()),
+            }
+        }
+        if unknown.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "robot `{}` has no joint {}",
+                self.name,
+                unknown.join(", ")
+            ))
+        }
+    }
+
+    /// World pose of every link (indexed like `link`), from the current joint positions.
+    pub fn link_poses(&self) -> Vec<Isometry3<f64>> {
+        let mut poses = vec![Isometry3::identity(); self.links.len()];
+        poses[self.root] = self.base;
+        for j in &self.joints {
+            let motion = match j.motion {
+                JointMotion::Fixed => Isometry3::identity(),
+                JointMotion::Revolute => Isometry3::from_parts(
+                    Translation3::identity(),
+                    UnitQuaternion::from_axis_angle(&j.axis, j.position),
+                ),
+                JointMotion::Prismatic => Isometry3::from_parts(
+                    Translation3::from(j.axis.into_inner() * j.position),
+                    UnitQuaternion::identity(),
+                ),
+            };
+            poses[j.child] = poses[j.parent] * j.origin * motion;
+        }
+        poses
+    }
+
+    /// Every link's collision shapes at the link poses, as obstacles.
+    pub fn colliders(&self, poses: &[Isometry3<f64>]) -> Vec<Obstacle> {
+        self.links
+            .iter()
+            .zip(poses)
+            .flat_map(|(link, pose)| {
+                link.shapes
+                    .iter()
+                    .map(move |(shape, local)| Obstacle::Shape {
+                        shape: shape.clone(),
+                        pose: to_parry(&(pose * local)),
+                    })
+            })
+            .collect()
+    }
+}
+
+/// A URDF pose (xyz, then roll-pitch-yaw about fixed x, y, z).
+fn pose_of(p: &urdf_rs::Pose) -> Isometry3<f64> {
+    let [r, pitch, y] = p.rpy.0;
+    Isometry3::from_parts(
+        Translation3::from(Vector3::from(p.xyz.0)),
+        UnitQuaternion::from_euler_angles(r, pitch, y),
+    )
+}
+
+pub(crate) fn to_parry(pose: &Isometry3<f64>) -> Pose {
+    let t = pose.translation.vector;
+    let q = pose.rotation.quaternion();
+    Pose::from_parts(
+        Vector::new(t.x as f32, t.y as f32, t.z as f32),
+        Rotation::from_xyzw(q.i as f32, q.j as f32, q.k as f32, q.w as f32).normalize(),
+    )
+}
+
+/// A URDF geometry as a parry3d shape in the geometry's own frame (URDF cylinders and capsules
+/// run along z; parry's cylinder runs along y, so it is turned). Meshes collide as their convex
+/// hull: parry's inside test on a triangle mesh needs a closed, consistently wound surface,
+/// which robot meshes often are not.
+fn collision_shape(geometry: &urdf_rs::Geometry, dir: &Path) -> Result<SharedShape, String> {
+    use urdf_rs::Geometry as G;
+    let positive = |what: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(v as f32)
+        } else {
+            Err(format!("{what} must be positive, got {v}"))
+        }
+    };
+    Ok(match geometry {
+        G::Box { size } => {
+            let [x, y, z] = size.0;
+            SharedShape::cuboid(
+                positive("box size", x)? / 2.0,
+                positive("box size", y)? / 2.0,
+                positive("box size", z)? / 2.0,
+            )
+        }
+        G::Sphere { radius } => SharedShape::ball(positive("sphere radius", *radius)?),
+        G::Capsule { radius, length } => SharedShape::capsule_z(
+            positive("capsule length", *length)? / 2.0,
+            positive("capsule radius", *radius)?,
+        ),
+        G::Cylinder { radius, length } => {
+            let cylinder = SharedShape::cylinder(
+                positive("cylinder length", *length)? / 2.0,
+                positive("cylinder radius", *radius)?,
+            );
+            let y_to_z = Isometry3::rotation(Vector3::x() * std::f64::consts::FRAC_PI_2);
+            SharedShape::compound(vec![(to_parry(&y_to_z), cylinder)])
+        }
+        G::Mesh { filename, scale } => {
+            let path = mesh_path(filename, dir)?;
+            let raw = crate::geometry::load_geometry(&path)
+                .map_err(|e| format!("mesh {}: {e}", path.display()))?;
+            let s = scale.as_ref().map(|s| s.0).unwrap_or([1.0; 3]);
+            let points: Vec<Vector> = raw
+                .positions
+                .iter()
+                .map(|p| {
+                    Vector::new(
+                        (p[0] * s[0]) as f32,
+                        (p[1] * s[1]) as f32,
+                        (p[2] * s[2]) as f32,
+                    )
+                })
+                .collect();
+            SharedShape::convex_hull(&points)
+                .ok_or_else(|| format!("mesh {}: no convex hull (flat?)", path.display()))?
+        }
+    })
+}
+
+/// A mesh file name as URDF writes it: a path relative to the URDF, `file://` or
+/// `package://pkg/rest` (looked up beside the URDF and one directory up, as a package's
+/// `urdf/` and `meshes/` usually sit).
+fn mesh_path(filename: &str, dir: &Path) -> Result<PathBuf, String> {
+    if let Some(path) = filename.strip_prefix("file://") {
+        return Ok(PathBuf::from(path));
+    }
+    let Some(rest) = filename.strip_prefix("package://") else {
+        return Ok(dir.join(filename));
+    };
+    let inner = rest.split_once('/').map(|(_, r)| r).unwrap_or(rest);
+    [dir.join(inner), dir.join("..").join(inner)]
+        .into_iter()
+        .find(|p| p.exists())
+        .ok_or_else(|| {
+            format!(
+                "mesh `{filename}` not found beside {} (no ROS package path here)",
+                dir.display()
+            )
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ARM: &str = r#"<robot name="arm">
+      <link name="base"><collision><geometry><cylinder radius="0.1" length="0.2"/></geometry></collision></link>
+      <link name="upper"><collision><origin xyz="0 0 0.25"/><geometry><box size="0.05 0.05 0.5"/></geometry></collision></link>
+      <link name="tool"><collision><geometry><sphere radius="0.05"/></geometry></collision></link>
+      <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+        <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <joint name="wrist" type="fixed"><parent link="upper"/><child link="tool"/><origin xyz="0 0 0.5"/></joint>
+    </robot>"#;
+
+    #[test]
+    fn forward_kinematics_follows_the_joints() {
+        let mut arm = Robot::from_urdf_text(ARM, Path::new("."), Isometry3::identity()).unwrap();
+        let tool = arm.link("tool").unwrap();
+        let at_zero = arm.link_poses()[tool].translation.vector;
+        assert!((at_zero - Vector3::new(0.0, 0.0, 0.6)).norm() < 1e-12);
+        arm.set_joint_positions(&["shoulder".into()], &[std::f64::consts::FRAC_PI_4 * 2.0])
+            .unwrap();
+        // Clamped to the upper limit, 1 rad about y: the tool swings toward +x.
+        let p = arm.link_poses()[tool].translation.vector;
+        let expected = Vector3::new(0.5 * 1f64.sin(), 0.0, 0.1 + 0.5 * 1f64.cos());
+        assert!((p - expected).norm() < 1e-12, "{p}");
+        let err = arm
+            .set_joint_positions(&["elbow".into()], &[0.0])
+            .unwrap_err();
+        assert!(err.contains("no joint elbow"), "{err}");
+    }
+
+    #[test]
+    fn link_colliders_push_points_out() {
+        let arm = Robot::from_urdf_text(ARM, Path::new("."), Isometry3::identity()).unwrap();
+        let colliders = arm.colliders(&arm.link_poses());
+        assert_eq!(colliders.len(), 3);
+        // The base cylinder stands along z: a point 0.09 up its axis is inside, 0.09 along y
+        // at mid-height is inside near the side, and one above its top is not.
+        let base = &colliders[0];
+        assert!(base.penetration(&Vector3::new(0.0, 0.0, 0.09)).is_some());
+        assert!(base.penetration(&Vector3::new(0.0, 0.09, 0.0)).is_some());
+        assert!(base.penetration(&Vector3::new(0.0, 0.0, 0.11)).is_none());
+        let tool = colliders[2]
+            .penetration(&Vector3::new(0.0, 0.0, 0.64))
+            .unwrap();
+        assert!((tool.depth - 0.01).abs() < 1e-5 && tool.normal.z > 0.99);
+    }
+
+    #[test]
+    fn unsupported_joints_and_unknown_links_are_named() {
+        let floating = ARM.replace(r#"type="fixed""#, r#"type="floating""#);
+        let err = Robot::from_urdf_text(&floating, Path::new("."), Isometry3::identity())
+            .err()
+            .unwrap();
+        assert!(err.contains("joint `wrist` is Floating"), "{err}");
+        let orphan = ARM.replace(r#"<child link="tool"/>"#, r#"<child link="hand"/>"#);
+        let err = Robot::from_urdf_text(&orphan, Path::new("."), Isometry3::identity())
+            .err()
+            .unwrap();
+        assert!(err.contains("unknown link `hand`"), "{err}");
+    }
+}

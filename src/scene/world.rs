@@ -1,0 +1,773 @@
+//! A scene running: robots moved by joint states (or their scripted motion), deformable
+//! objects stepped in parallel, static and rigid objects only colliding.
+
+use std::collections::hash_map::DefaultHasher;
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use parry3d::math::Vector;
+use parry3d::shape::SharedShape;
+use rayon::prelude::*;
+
+use super::budget::{choose_resolution, Choice};
+use super::file::{
+    Keyframe, ObjectKind, ObjectSpec, Region, Resolution, SceneFile, ShapeSpec, Source,
+};
+use super::robot::{to_parry, Robot};
+use super::SceneError;
+use crate::geometry::{self, Shape};
+use crate::physics::{Obstacle, SimParams};
+use crate::pipeline::{BodyOptions, SoftBody, Support};
+use crate::skinning::{NeuralModel, SkinningField};
+use crate::Result;
+
+/// Attachments to robot links move pin group 1.
+const ATTACHMENT_GROUP: u32 = 1;
+
+/// How a scene is built.
+#[derive(Clone, Debug)]
+pub struct SceneOptions {
+    /// Apply the scene's decisions: sizes from the error budget, sleeping. Without them every
+    /// deformable object gets all handles and 256 cubature points and steps every tick (the
+    /// baseline `bench scene` compares against); fixed sizes in the file are kept either way.
+    pub decisions: bool,
+    /// Build only the objects with these names; every object when empty.
+    pub only: Vec<String>,
+}
+
+impl Default for SceneOptions {
+    fn default() -> Self {
+        Self {
+            decisions: true,
+            only: Vec::new(),
+        }
+    }
+}
+
+/// Inferred fields and budget choices by geometry content, shared by every scene and build of
+/// a process: identical geometry (the same file twice, or the same primitive at two places) is
+/// inferred once.
+#[derive(Default)]
+pub struct FieldCache {
+    fields: Mutex<HashMap<u64, Arc<dyn SkinningField>>>,
+    /// Fields cut to a handle count, by (geometry, handles).
+    truncated: Mutex<HashMap<(u64, usize), Arc<dyn SkinningField>>>,
+    choices: Mutex<HashMap<u64, Choice>>,
+    /// Inferences saved and done.
+    pub hits: std::sync::atomic::AtomicUsize,
+    pub misses: std::sync::atomic::AtomicUsize,
+}
+
+impl FieldCache {
+    /// The field of `shape` (whose local geometry hashes to `key`), inferred on a miss.
+    pub fn field(
+        &self,
+        key: u64,
+        model: &Arc<NeuralModel>,
+        shape: &Shape,
+        options: &BodyOptions,
+    ) -> Result<(Arc<dyn SkinningField>, bool)> {
+        use std::sync::atomic::Ordering::Relaxed;
+        if let Some(f) = self.fields.lock().expect("cache lock").get(&key) {
+            self.hits.fetch_add(1, Relaxed);
+            return Ok((f.clone(), true));
+        }
+        let field = SoftBody::infer(model, shape, options)?;
+        self.misses.fetch_add(1, Relaxed);
+        self.fields
+            .lock()
+            .expect("cache lock")
+            .insert(key, field.clone());
+        Ok((field, false))
+    }
+}
+
+impl FieldCache {
+    /// The field of `key` cut to `handles`, cut once per geometry.
+    fn truncated(
+        &self,
+        key: u64,
+        field: Arc<dyn SkinningField>,
+        shape: &Shape,
+        options: &BodyOptions,
+        handles: usize,
+    ) -> Result<Arc<dyn SkinningField>> {
+        if let Some(f) = self
+            .truncated
+            .lock()
+            .expect("cache lock")
+            .get(&(key, handles))
+        {
+            return Ok(f.clone());
+        }
+        let cut = SoftBody::truncated_field(field, shape, options, handles)?;
+        self.truncated
+            .lock()
+            .expect("cache lock")
+            .insert((key, handles), cut.clone());
+        Ok(cut)
+    }
+}
+
+/// Content hash of geometry: positions (bit patterns) and triangles.
+pub(crate) fn geometry_hash(shape: &Shape) -> u64 {
+    let mut h = DefaultHasher::new();
+    for p in &shape.positions {
+        p.iter().for_each(|c| c.to_bits().hash(&mut h));
+    }
+    shape.triangles.hash(&mut h);
+    h.finish()
+}
+
+/// A scene: its robots and objects, at one time.
+pub struct Scene {
+    dt: f64,
+    time: f64,
+    robots: Vec<SceneRobot>,
+    pub(crate) objects: Vec<SceneObject>,
+}
+
+struct SceneRobot {
+    name: String,
+    robot: Robot,
+    motion: Vec<Keyframe>,
+    joint_states: String,
+    poses: Vec<Isometry3<f64>>,
+    /// Link poses when the scene was built: attachments hold what they held then.
+    start: Vec<Isometry3<f64>>,
+}
+
+/// How a deformable object is set up, kept so that a reference can set up the same.
+#[derive(Clone)]
+pub(crate) struct Setup {
+    pub shape: Shape,
+    pub sim: SimParams,
+    pub support: Support,
+    pub floor: Option<f64>,
+    pub pins: Vec<Region>,
+    pub attach: Option<Region>,
+    pub obstacles: Vec<Obstacle>,
+}
+
+pub(crate) struct SceneObject {
+    pub name: String,
+    pub kind: ObjectKind,
+    pub body: Option<SoftBody>,
+    pub setup: Option<Setup>,
+    /// Robot and link that carry it.
+    held: Option<(usize, usize)>,
+    /// Static and rigid objects: their convex hull at rest.
+    hull: Option<SharedShape>,
+    /// Rest points (world) of static and rigid objects.
+    rest: Vec<Vector3<f64>>,
+    decision: String,
+}
+
+/// One object's state, for tables and the log.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ObjectReport {
+    pub name: String,
+    pub kind: ObjectKind,
+    pub handles: usize,
+    pub cubature: usize,
+    pub sleeping: bool,
+    pub decision: String,
+}
+
+impl Scene {
+    /// Builds every object of `file` that has geometry (objects that arrive on a topic are the
+    /// node's to build) and places the robots at their first pose.
+    pub fn build(
+        file: &SceneFile,
+        model: &Arc<NeuralModel>,
+        cache: &FieldCache,
+        options: &SceneOptions,
+    ) -> Result<Self> {
+        let dt = 1.0 / file.rate_hz;
+        let mut robots = Vec::new();
+        for spec in &file.robots {
+            let base = Isometry3::from_parts(
+                Translation3::from(Vector3::from(spec.base.xyz)),
+                UnitQuaternion::from_euler_angles(
+                    spec.base.rpy[0],
+                    spec.base.rpy[1],
+                    spec.base.rpy[2],
+                ),
+            );
+            let mut robot = Robot::from_urdf(&spec.urdf, base)?;
+            if let Some(first) = spec.motion.first() {
+                apply_keyframe(&mut robot, first, &spec.name)?;
+            }
+            let poses = robot.link_poses();
+            robots.push(SceneRobot {
+                name: spec.name.clone(),
+                robot,
+                motion: spec.motion.clone(),
+                joint_states: spec.joint_states.clone(),
+                start: poses.clone(),
+                poses,
+            });
+        }
+        let wanted = |o: &ObjectSpec| options.only.is_empty() || options.only.contains(&o.name);
+        let mut objects = Vec::new();
+        // Static and rigid objects first: deformable ones collide with them.
+        for spec in file.objects.iter().filter(|o| wanted(o)) {
+            if spec.kind == ObjectKind::Deformable {
+                continue;
+            }
+            let Some((shape, _)) = world_shape(spec)? else {
+                continue;
+            };
+            objects.push(kinematic_object(spec, shape, &robots)?);
+        }
+        let fixed_obstacles: Vec<Obstacle> = objects
+            .iter()
+            .filter(|o| o.kind == ObjectKind::Static || o.held.is_none())
+            .filter_map(|o| o.hull.clone())
+            .map(|shape| Obstacle::Shape {
+                shape,
+                pose: to_parry(&Isometry3::identity()),
+            })
+            .collect();
+        let collides = !robots.is_empty() || !objects.is_empty();
+        for spec in file.objects.iter().filter(|o| wanted(o)) {
+            if spec.kind != ObjectKind::Deformable {
+                continue;
+            }
+            let Some((shape, key)) = world_shape(spec)? else {
+                continue;
+            };
+            let object = deformable_object(
+                spec,
+                shape,
+                key,
+                file,
+                model,
+                cache,
+                options,
+                &robots,
+                collides.then_some(&fixed_obstacles),
+            )
+            .map_err(|e| SceneError::Object {
+                object: spec.name.clone(),
+                reason: e.to_string(),
+            })?;
+            objects.push(object);
+        }
+        Ok(Self {
+            dt,
+            time: 0.0,
+            robots,
+            objects,
+        })
+    }
+
+    /// Simulated time since the motion's start, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// Steps with the robots held at their first pose until every deformable object sleeps,
+    /// or `max_steps`; returns the steps taken. The scene clock stays at 0: motion starts after.
+    pub fn settle(&mut self, max_steps: usize) -> usize {
+        for taken in 0..max_steps {
+            if self.bodies().all(|b| b.is_sleeping()) {
+                return taken;
+            }
+            self.step_objects();
+        }
+        max_steps
+    }
+
+    /// Advances one step: robots to their scripted pose at the new time (when they have a
+    /// motion), then every awake deformable object, in parallel.
+    pub fn step(&mut self) {
+        self.time += self.dt;
+        let time = self.time;
+        for r in &mut self.robots {
+            if !r.motion.is_empty() {
+                let frame = interpolate(&r.motion, time);
+                // Names come from the file and were checked when the scene was built.
+                let _ = apply_keyframe(&mut r.robot, &frame, &r.name);
+                r.poses = r.robot.link_poses();
+            }
+        }
+        self.step_objects();
+    }
+
+    fn step_objects(&mut self) {
+        let colliders = self.colliders();
+        let motions: Vec<Option<Isometry3<f64>>> = self
+            .objects
+            .iter()
+            .map(|o| o.held.map(|(r, l)| self.link_motion(r, l)))
+            .collect();
+        self.objects
+            .par_iter_mut()
+            .zip(motions)
+            .for_each(|(o, motion)| {
+                if let Some(body) = &mut o.body {
+                    body.set_colliders(colliders.clone());
+                    if let Some(m) = motion {
+                        body.move_attachment(ATTACHMENT_GROUP, &m);
+                    }
+                    body.step();
+                }
+            });
+    }
+
+    /// Sets a robot's joints from a JointState (names and positions). Unknown joint names are
+    /// an error naming them; the known ones are applied.
+    pub fn set_joint_positions(
+        &mut self,
+        robot: &str,
+        names: &[String],
+        positions: &[f64],
+    ) -> std::result::Result<(), String> {
+        let r = self
+            .robots
+            .iter_mut()
+            .find(|r| r.name == robot)
+            .ok_or_else(|| format!("the scene has no robot `{robot}`"))?;
+        let result = r.robot.set_joint_positions(names, positions);
+        r.poses = r.robot.link_poses();
+        result
+    }
+
+    /// A force on the material point at `rest` of a deformable object for `duration` seconds
+    /// from now (it wakes the object).
+    pub fn push(
+        &mut self,
+        name: &str,
+        rest: Vector3<f64>,
+        force: Vector3<f64>,
+        duration: f64,
+    ) -> std::result::Result<(), String> {
+        let body = self
+            .objects
+            .iter_mut()
+            .find(|o| o.name == name)
+            .and_then(|o| o.body.as_mut())
+            .ok_or_else(|| format!("the scene has no deformable object `{name}`"))?;
+        body.push(rest, force, duration);
+        Ok(())
+    }
+
+    /// (robot name, joint-state topic) of every robot.
+    pub fn joint_state_topics(&self) -> Vec<(String, String)> {
+        self.robots
+            .iter()
+            .map(|r| (r.name.clone(), r.joint_states.clone()))
+            .collect()
+    }
+
+    /// The motion of a link since the scene was built.
+    fn link_motion(&self, robot: usize, link: usize) -> Isometry3<f64> {
+        let r = &self.robots[robot];
+        r.poses[link] * r.start[link].inverse()
+    }
+
+    /// What moves now: every robot link and every rigid object carried by one.
+    pub(crate) fn colliders(&self) -> Vec<Obstacle> {
+        let mut colliders: Vec<Obstacle> = self
+            .robots
+            .iter()
+            .flat_map(|r| r.robot.colliders(&r.poses))
+            .collect();
+        for o in &self.objects {
+            if let (Some((r, l)), Some(hull)) = (o.held, &o.hull) {
+                colliders.push(Obstacle::Shape {
+                    shape: hull.clone(),
+                    pose: to_parry(&self.link_motion(r, l)),
+                });
+            }
+        }
+        colliders
+    }
+
+    /// The motion of an object's attachment since the scene was built, if it has one.
+    pub(crate) fn attachment_motion(&self, object: usize) -> Option<Isometry3<f64>> {
+        self.objects[object]
+            .held
+            .map(|(r, l)| self.link_motion(r, l))
+    }
+
+    fn bodies(&self) -> impl Iterator<Item = &SoftBody> {
+        self.objects.iter().filter_map(|o| o.body.as_ref())
+    }
+
+    /// Deformable objects awake now.
+    pub fn awake(&self) -> usize {
+        self.bodies().filter(|b| !b.is_sleeping()).count()
+    }
+
+    /// The body of a deformable object, by name.
+    pub fn body(&self, name: &str) -> Option<&SoftBody> {
+        self.objects
+            .iter()
+            .find(|o| o.name == name)
+            .and_then(|o| o.body.as_ref())
+    }
+
+    /// Points of an object now (x, y, z per point): deformed for a deformable object, carried
+    /// along for a rigid one, at rest for a static one.
+    pub fn points(&self, name: &str) -> Option<Vec<f32>> {
+        let (i, o) = self
+            .objects
+            .iter()
+            .enumerate()
+            .find(|(_, o)| o.name == name)?;
+        if let Some(b) = &o.body {
+            return Some(b.deformed().to_vec());
+        }
+        let motion = self
+            .attachment_motion(i)
+            .unwrap_or_else(Isometry3::identity);
+        Some(
+            o.rest
+                .iter()
+                .flat_map(|p| {
+                    let q = motion.transform_point(&(*p).into());
+                    [q.x as f32, q.y as f32, q.z as f32]
+                })
+                .collect(),
+        )
+    }
+
+    /// Every object: kind, size, whether it sleeps, and why it was modelled so.
+    pub fn report(&self) -> Vec<ObjectReport> {
+        self.objects
+            .iter()
+            .map(|o| ObjectReport {
+                name: o.name.clone(),
+                kind: o.kind,
+                handles: o.body.as_ref().map_or(0, |b| b.handles()),
+                cubature: o.body.as_ref().map_or(0, |b| b.cubature_len()),
+                sleeping: o.body.as_ref().is_some_and(|b| b.is_sleeping()),
+                decision: o.decision.clone(),
+            })
+            .collect()
+    }
+}
+
+/// Joint positions at `time`: linear between the keyframes around it, the last one after.
+fn interpolate(motion: &[Keyframe], time: f64) -> Keyframe {
+    let mut positions = std::collections::BTreeMap::new();
+    for (i, k) in motion.iter().enumerate() {
+        if k.at <= time {
+            positions.extend(k.positions.clone());
+            continue;
+        }
+        // Between keyframe i-1 (applied above) and i: blend the joints i names.
+        if i > 0 {
+            let before = &motion[i - 1];
+            let s = (time - before.at) / (k.at - before.at);
+            for (name, &q) in &k.positions {
+                let from = positions.get(name).copied().unwrap_or(0.0);
+                positions.insert(name.clone(), from + s * (q - from));
+            }
+        }
+        break;
+    }
+    Keyframe {
+        at: time,
+        positions,
+    }
+}
+
+fn apply_keyframe(robot: &mut Robot, frame: &Keyframe, name: &str) -> Result<()> {
+    let names: Vec<String> = frame.positions.keys().cloned().collect();
+    let positions: Vec<f64> = frame.positions.values().copied().collect();
+    robot
+        .set_joint_positions(&names, &positions)
+        .map_err(|reason| {
+            SceneError::Object {
+                object: format!("robot {name}"),
+                reason: format!("motion: {reason}"),
+            }
+            .into()
+        })
+}
+
+/// The object's geometry placed in the world and the content hash of its geometry before the
+/// placement (what identical objects at different places share); `None` for an object that
+/// arrives on a topic.
+fn world_shape(spec: &ObjectSpec) -> Result<Option<(Shape, u64)>> {
+    let named = |e: crate::Error| SceneError::Object {
+        object: spec.name.clone(),
+        reason: e.to_string(),
+    };
+    let local = match spec.source() {
+        Source::Topic(_) => return Ok(None),
+        Source::File(path) => geometry::load_geometry(path)
+            .map_err(crate::Error::from)
+            .and_then(Shape::from_raw)
+            .map_err(named)?,
+        Source::Shape(s) => match s {
+            ShapeSpec::Box(size) => geometry::box_mesh(Vector3::from(*size)),
+            ShapeSpec::Sphere(r) => {
+                let r = *r;
+                geometry::sdf_mesh(&move |p: &Vector3<f64>| p.norm() - r, 1.2 * r, 40)
+            }
+            ShapeSpec::Capsule([length, r]) => geometry::capsule_mesh(*length, *r),
+            ShapeSpec::Bundled(name) => {
+                geometry::bundled(name).ok_or_else(|| SceneError::Object {
+                    object: spec.name.clone(),
+                    reason: format!(
+                        "no bundled shape `{name}` (there are {:?})",
+                        geometry::BUNDLED
+                    ),
+                })?
+            }
+        },
+    };
+    let offset = Vector3::from(spec.position);
+    let positions = local.positions.iter().map(|p| p + offset).collect();
+    let placed =
+        Shape::new(positions, local.normals.clone(), local.triangles.clone()).map_err(named)?;
+    Ok(Some((placed, geometry_hash(&local))))
+}
+
+fn find_link(
+    robots: &[SceneRobot],
+    robot: &str,
+    link: &str,
+    object: &str,
+) -> std::result::Result<(usize, usize), SceneError> {
+    let r = robots
+        .iter()
+        .position(|r| r.name == robot)
+        .expect("checked when the file was read");
+    let l = robots[r]
+        .robot
+        .link(link)
+        .ok_or_else(|| SceneError::Object {
+            object: object.into(),
+            reason: format!("robot `{robot}` has no link `{link}`"),
+        })?;
+    Ok((r, l))
+}
+
+fn kinematic_object(spec: &ObjectSpec, shape: Shape, robots: &[SceneRobot]) -> Result<SceneObject> {
+    let points: Vec<Vector> = shape
+        .positions
+        .iter()
+        .map(|p| Vector::new(p.x as f32, p.y as f32, p.z as f32))
+        .collect();
+    let hull = SharedShape::convex_hull(&points).ok_or_else(|| SceneError::Object {
+        object: spec.name.clone(),
+        reason: "its points are flat: no convex hull to collide with".into(),
+    })?;
+    let held = match (&spec.attach, spec.kind) {
+        (Some(a), ObjectKind::Rigid) => Some(find_link(robots, &a.robot, &a.link, &spec.name)?),
+        _ => None,
+    };
+    let decision = match (spec.kind, held) {
+        (ObjectKind::Static, _) => "static: not simulated, collides as its convex hull".into(),
+        (_, Some(_)) => {
+            "rigid: carried by its link, not simulated, collides as its convex hull".into()
+        }
+        _ => "rigid and not attached: stays put, not simulated, collides as its convex hull".into(),
+    };
+    Ok(SceneObject {
+        name: spec.name.clone(),
+        kind: spec.kind,
+        body: None,
+        setup: None,
+        held,
+        hull: Some(hull),
+        rest: shape.positions,
+        decision,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn deformable_object(
+    spec: &ObjectSpec,
+    shape: Shape,
+    key: u64,
+    file: &SceneFile,
+    model: &Arc<NeuralModel>,
+    cache: &FieldCache,
+    options: &SceneOptions,
+    robots: &[SceneRobot],
+    obstacles: Option<&Vec<Obstacle>>,
+) -> Result<SceneObject> {
+    let sim = SimParams {
+        young: spec.material.young,
+        poisson: spec.material.poisson,
+        density: spec.material.density,
+        dt: 1.0 / file.rate_hz,
+        gravity: Vector3::from(file.gravity),
+        damping: file.damping,
+        friction: file.friction,
+        ..SimParams::default()
+    };
+    let support = spec.support.unwrap_or(if file.floor.is_some() {
+        Support::Floor
+    } else {
+        Support::PinBottom
+    });
+    let floor = match (file.floor, support) {
+        (Some(z), _) => Some(z),
+        (None, Support::Floor) => Some(shape.bounds().0.z),
+        _ => None,
+    };
+    let mut body_options = BodyOptions {
+        sim: sim.clone(),
+        // The floor is added below at the scene's height, not at the object's lowest point.
+        support: if support == Support::Floor {
+            Support::Free
+        } else {
+            support
+        },
+        sleep: if options.decisions { file.sleep } else { None },
+        ..BodyOptions::default()
+    };
+    let (field, cached) = cache.field(key, model, &shape, &body_options)?;
+    let full = field.handle_count();
+    let (handles, cubature, why) = match (spec.handles, spec.cubature, options.decisions) {
+        (Resolution::Fixed(h), Resolution::Fixed(c), _) => {
+            (h.min(full), c, "fixed in the scene file".to_string())
+        }
+        (h, c, false) => (
+            match h {
+                Resolution::Fixed(h) => h.min(full),
+                Resolution::Auto => full,
+            },
+            match c {
+                Resolution::Fixed(c) => c,
+                Resolution::Auto => 256,
+            },
+            "no budget: all handles, 256 cubature points".to_string(),
+        ),
+        (h, c, true) => {
+            let mut choice_key = DefaultHasher::new();
+            key.hash(&mut choice_key);
+            for v in [
+                sim.young,
+                sim.poisson,
+                sim.density,
+                sim.dt,
+                sim.damping,
+                sim.friction,
+                file.error_budget_pct,
+            ] {
+                v.to_bits().hash(&mut choice_key);
+            }
+            sim.gravity
+                .iter()
+                .for_each(|g| g.to_bits().hash(&mut choice_key));
+            format!("{h:?}{c:?}").hash(&mut choice_key);
+            let choice_key = choice_key.finish();
+            let known = cache
+                .choices
+                .lock()
+                .expect("cache lock")
+                .get(&choice_key)
+                .cloned();
+            let choice = match known {
+                Some(c) => c,
+                None => {
+                    let c = choose_resolution(
+                        &field,
+                        &shape,
+                        &body_options,
+                        h,
+                        c,
+                        file.error_budget_pct,
+                    )?;
+                    cache
+                        .choices
+                        .lock()
+                        .expect("cache lock")
+                        .insert(choice_key, c.clone());
+                    c
+                }
+            };
+            (
+                choice.handles,
+                choice.cubature,
+                choice.describe(file.error_budget_pct),
+            )
+        }
+    };
+    body_options.cubature = cubature;
+    let field = cache.truncated(key, field, &shape, &body_options, handles)?;
+    let mut body = SoftBody::with_field(field, &shape, &shape.positions, &body_options)?;
+    if let Some(z) = floor {
+        body.add_floor(z);
+    }
+    if let Some(obstacles) = obstacles {
+        body.enable_contacts();
+        for o in obstacles {
+            body.add_obstacle(o.clone());
+        }
+    }
+    for pin in &spec.pins {
+        if body.pin(&Vector3::from(pin.center), pin.radius) == 0 {
+            return Err(SceneError::Object {
+                object: spec.name.clone(),
+                reason: format!(
+                    "no material within {} m of pin {:?}",
+                    pin.radius, pin.center
+                ),
+            }
+            .into());
+        }
+    }
+    let mut held = None;
+    let mut attach = None;
+    if let Some(a) = &spec.attach {
+        held = Some(find_link(robots, &a.robot, &a.link, &spec.name)?);
+        let region = a.region.expect("checked when the file was read");
+        if body.attach(
+            &Vector3::from(region.center),
+            region.radius,
+            ATTACHMENT_GROUP,
+        ) == 0
+        {
+            return Err(SceneError::Object {
+                object: spec.name.clone(),
+                reason: format!(
+                    "no material within {} m of the attachment at {:?}",
+                    region.radius, region.center
+                ),
+            }
+            .into());
+        }
+        attach = Some(region);
+    }
+    let inference = if cached {
+        "inference reused (same geometry)"
+    } else {
+        "inferred"
+    };
+    let decision =
+        format!("{handles} of {full} handles, {cubature} cubature points: {why}; {inference}");
+    body.set_decision(decision.clone());
+    Ok(SceneObject {
+        name: spec.name.clone(),
+        kind: spec.kind,
+        body: Some(body),
+        setup: Some(Setup {
+            shape,
+            sim,
+            support: body_options.support,
+            floor,
+            pins: spec.pins.clone(),
+            attach,
+            obstacles: obstacles.cloned().unwrap_or_default(),
+        }),
+        held,
+        hull: None,
+        rest: Vec::new(),
+        decision,
+    })
+}

@@ -1,0 +1,354 @@
+//! Scenes: robot links that push, attachments that carry, friction, sleeping and waking,
+//! cached inference, static objects, and sizes from the error budget, each checked against the
+//! full-space FEM or a plain physical expectation.
+
+use std::path::PathBuf;
+
+use nalgebra::Vector3;
+use physskin::bench::{run_scene, SceneRunOptions};
+use physskin::scene::{FieldCache, Scene, SceneFile, SceneOptions};
+use physskin::skinning::NeuralModel;
+
+/// A one-joint robot: a prismatic joint moving a 0.1 m cube (`pusher`) along -z from 0.5 m up,
+/// and a revolute joint (about y, at 0.6 m up) turning a bare `hand` link 0.3 m out along x.
+const ROBOT: &str = r#"<robot name="rig">
+  <link name="base"/>
+  <link name="pusher"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="hand"/>
+  <joint name="lift" type="prismatic"><parent link="base"/><child link="pusher"/>
+    <origin xyz="0 0 0.5"/><axis xyz="0 0 -1"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="swing" type="revolute"><parent link="base"/><child link="hand"/>
+    <origin xyz="0.3 0 0.6"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+</robot>"#;
+
+/// Writes the robot and a scene (YAML, `{urdf}` replaced by the robot's path) to a directory
+/// of their own and loads the scene.
+fn scene_file(name: &str, yaml: &str) -> SceneFile {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("scene-{name}"));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("rig.urdf"), ROBOT).unwrap();
+    let path = dir.join("scene.yaml");
+    std::fs::write(&path, yaml.replace("{urdf}", "rig.urdf")).unwrap();
+    SceneFile::load(&path).unwrap()
+}
+
+fn build(file: &SceneFile, cache: &FieldCache) -> Scene {
+    Scene::build(
+        file,
+        &NeuralModel::bundled().unwrap(),
+        cache,
+        &SceneOptions::default(),
+    )
+    .unwrap()
+}
+
+/// Lowest and highest z of an object's points now.
+fn z_range(scene: &Scene, name: &str) -> (f64, f64) {
+    let points = scene.points(name).unwrap();
+    points
+        .chunks(3)
+        .map(|p| p[2] as f64)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
+            (lo.min(z), hi.max(z))
+        })
+}
+
+#[test]
+fn a_link_dents_a_soft_block_as_the_fem_does() {
+    // The pusher comes down 0.17 m onto a 0.3 m block standing on the floor, holds, and goes
+    // back up.
+    let file = scene_file(
+        "dent",
+        "floor: 0\nrobots:\n  - name: rig\n    urdf: '{urdf}'\n    motion:\n      \
+         - {at: 0, positions: {lift: 0}}\n      - {at: 0.6, positions: {lift: 0.17}}\n      \
+         - {at: 1.0, positions: {lift: 0.17}}\n      - {at: 1.4, positions: {lift: 0}}\n\
+         objects:\n  - name: block\n    shape: {box: [0.3, 0.3, 0.3]}\n    position: [0, 0, 0.15]\n    \
+         material: {young: 1.0e5}\n    handles: 17\n    cubature: 128\n",
+    );
+    let cache = FieldCache::default();
+    let mut scene = build(&file, &cache);
+    // The middle of the block's top, where the pusher lands.
+    let top_middle = |scene: &Scene| {
+        let body = scene.body("block").unwrap();
+        let mut x = [0.0f32; 3];
+        body.lifter_for(&[Vector3::new(0.0, 0.0, 0.3)])
+            .lift(body.state(), &mut x);
+        x[2] as f64
+    };
+    scene.settle(120);
+    let at_rest = top_middle(&scene);
+    let mut lowest = f64::INFINITY;
+    for _ in 0..60 {
+        scene.step();
+        lowest = lowest.min(top_middle(&scene));
+    }
+    // The cube's bottom reaches 0.5 - 0.17 - 0.05 = 0.28 m: 2 cm into the block's top.
+    assert!(
+        (0.27..0.29).contains(&lowest),
+        "the middle of the block's top went down to {lowest:.4} m, the pusher to 0.28"
+    );
+    for _ in 0..60 {
+        scene.step();
+    }
+    let after = top_middle(&scene);
+    assert!(
+        (after - at_rest).abs() < 0.002,
+        "the block did not spring back: the middle of its top at {after:.4} m, {at_rest:.4} \
+         at rest (sagging under its weight)"
+    );
+
+    // The same motion in the full-space FEM, compared step by step.
+    let run = run_scene(
+        &file,
+        &NeuralModel::bundled().unwrap(),
+        &cache,
+        &SceneRunOptions {
+            scene: SceneOptions::default(),
+            seconds: 1.6,
+            settle_steps: 120,
+            settle_exactly: true,
+            compare: vec!["block".into()],
+        },
+    )
+    .unwrap();
+    let error = run.errors[0].error_pct;
+    assert!(error < 2.0, "block against the FEM: {error:.3} %");
+}
+
+#[test]
+fn an_attached_object_follows_its_link_as_the_fem_does() {
+    // A bar held at one end by the hand, which turns 0.6 rad: the held end follows the hand's
+    // arc, the free end swings after it.
+    let file = scene_file(
+        "attach",
+        "robots:\n  - name: rig\n    urdf: '{urdf}'\n    motion:\n      \
+         - {at: 0, positions: {swing: 0}}\n      - {at: 0.5, positions: {swing: 0.6}}\n\
+         objects:\n  - name: bar\n    shape: {box: [0.06, 0.06, 0.4]}\n    position: [0.3, 0, 0.38]\n    \
+         support: free\n    handles: 17\n    cubature: 256\n    \
+         attach: {robot: rig, link: hand, center: [0.3, 0, 0.56], radius: 0.04}\n",
+    );
+    let cache = FieldCache::default();
+    let mut scene = build(&file, &cache);
+    for _ in 0..30 {
+        scene.step();
+    }
+    // The hand turned 0.6 rad about y through (0.3, 0, 0.6): the held point (0.3, 0, 0.56)
+    // is now at 0.04 (sin 0.6 * -1, ...) from the pivot: x = 0.3 - 0.04 sin(0.6).
+    let body = scene.body("bar").unwrap();
+    let held = body.lifter_for(&[Vector3::new(0.3, 0.0, 0.56)]);
+    let mut x = [0.0f32; 3];
+    held.lift(body.state(), &mut x);
+    let expected = Vector3::new(0.3 - 0.04 * 0.6f64.sin(), 0.0, 0.6 - 0.04 * 0.6f64.cos());
+    let got = Vector3::new(x[0] as f64, x[1] as f64, x[2] as f64);
+    assert!(
+        (got - expected).norm() < 0.01,
+        "held point at {got:?}, the link holds it at {expected:?}"
+    );
+    let run = run_scene(
+        &file,
+        &NeuralModel::bundled().unwrap(),
+        &cache,
+        &SceneRunOptions {
+            scene: SceneOptions::default(),
+            seconds: 1.0,
+            settle_steps: 30,
+            settle_exactly: true,
+            compare: vec!["bar".into()],
+        },
+    )
+    .unwrap();
+    let error = run.errors[0].error_pct;
+    assert!(error < 3.0, "bar against the FEM: {error:.3} %");
+}
+
+#[test]
+fn friction_holds_a_block_a_frictionless_floor_lets_slide() {
+    let yaml = |friction: f64| {
+        format!(
+            "floor: 0\nfriction: {friction}\nsleep: null\nobjects:\n  - name: block\n    \
+             shape: {{box: [0.2, 0.2, 0.1]}}\n    position: [0, 0, 0.05]\n    handles: 5\n    \
+             cubature: 64\n"
+        )
+    };
+    let slide = |friction: f64| {
+        let file = SceneFile::parse(&yaml(friction)).unwrap();
+        let mut scene = build(&file, &FieldCache::default());
+        for _ in 0..30 {
+            scene.step();
+        }
+        // A sideways push of a fifth of the block's weight (4 kg) for 0.5 s, at mid-height.
+        scene
+            .push(
+                "block",
+                Vector3::new(0.0, 0.0, 0.05),
+                Vector3::new(7.8, 0.0, 0.0),
+                0.5,
+            )
+            .unwrap();
+        for _ in 0..30 {
+            scene.step();
+        }
+        let points = scene.points("block").unwrap();
+        points.chunks(3).map(|p| p[0] as f64).sum::<f64>() / (points.len() / 3) as f64
+    };
+    let held = slide(0.5);
+    let free = slide(0.0);
+    // Frictionless: a = F/m = 1.95 m/s^2 for 0.5 s, 0.24 m (less the damping).
+    assert!(free > 0.1, "frictionless block moved {free:.4} m");
+    assert!(
+        held.abs() < 0.005,
+        "block on a floor with friction 0.5 moved {held:.4} m"
+    );
+}
+
+#[test]
+fn still_objects_sleep_cost_nothing_and_wake_on_a_link_or_a_push() {
+    let file = scene_file(
+        "sleep",
+        "floor: 0\nsleep: {speed: 0.001, after: 0.3}\nrobots:\n  - name: rig\n    urdf: '{urdf}'\n    \
+         motion:\n      - {at: 0, positions: {lift: 0}}\n      - {at: 1.0, positions: {lift: 0}}\n      \
+         - {at: 1.5, positions: {lift: 0.27}}\n\
+         objects:\n  - name: under\n    shape: {box: [0.2, 0.2, 0.2]}\n    position: [0, 0, 0.1]\n    \
+         handles: 5\n    cubature: 64\n  - name: aside\n    shape: {box: [0.2, 0.2, 0.2]}\n    \
+         position: [1.0, 0, 0.1]\n    handles: 5\n    cubature: 64\n",
+    );
+    let mut scene = build(&file, &FieldCache::default());
+    let settled = scene.settle(240);
+    assert!(settled < 240, "still awake after 4 s: {:?}", scene.report());
+    assert_eq!(scene.awake(), 0);
+    let asleep = scene.points("under").unwrap();
+    for _ in 0..30 {
+        scene.step();
+    }
+    assert_eq!(
+        scene.points("under").unwrap(),
+        asleep,
+        "a sleeping body moved"
+    );
+    // The pusher comes down on `under` from t = 1 s (2 cm into it at 1.5 s): `under` wakes,
+    // `aside` sleeps on.
+    for _ in 0..60 {
+        scene.step();
+    }
+    let report = scene.report();
+    let sleeping = |name: &str| report.iter().find(|o| o.name == name).unwrap().sleeping;
+    assert!(
+        !sleeping("under"),
+        "the pusher came down on `under`, which slept on"
+    );
+    assert!(sleeping("aside"), "`aside` woke with nothing near it");
+    scene
+        .push(
+            "aside",
+            Vector3::new(1.0, 0.0, 0.2),
+            Vector3::new(0.0, 0.0, -50.0),
+            0.1,
+        )
+        .unwrap();
+    scene.step();
+    assert_eq!(scene.awake(), 2, "a push did not wake `aside`");
+    let err = scene.push("nobody", Vector3::zeros(), Vector3::zeros(), 0.1);
+    assert!(err.unwrap_err().contains("no deformable object `nobody`"));
+}
+
+#[test]
+fn identical_geometry_is_inferred_once_and_static_objects_hold_what_rests_on_them() {
+    let file = SceneFile::parse(
+        "floor: 0\nobjects:\n  - {name: a, shape: {box: [0.2, 0.2, 0.2]}, position: [0, 0, 0.3], handles: 5, cubature: 64}\n  \
+         - {name: b, shape: {box: [0.2, 0.2, 0.2]}, position: [1, 0, 0.1], handles: 5, cubature: 64}\n  \
+         - {name: table, kind: static, shape: {box: [0.4, 0.4, 0.2]}, position: [0, 0, 0.1]}\n",
+    )
+    .unwrap();
+    let cache = FieldCache::default();
+    let mut scene = build(&file, &cache);
+    use std::sync::atomic::Ordering::Relaxed;
+    assert_eq!(
+        (cache.misses.load(Relaxed), cache.hits.load(Relaxed)),
+        (1, 1)
+    );
+    let (a, b) = (scene.body("a").unwrap(), scene.body("b").unwrap());
+    let largest = a
+        .weights()
+        .iter()
+        .zip(b.weights())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        largest < 1e-5,
+        "the same geometry, weights apart by {largest}"
+    );
+    assert!(
+        scene.body("table").is_none(),
+        "a static object was simulated"
+    );
+    for _ in 0..90 {
+        scene.step();
+    }
+    // `a` rests on the table's top (z = 0.2), not on the floor 0.2 m below.
+    let (bottom, _) = z_range(&scene, "a");
+    assert!(
+        bottom > 0.19,
+        "`a` sank into the static table: bottom at {bottom:.4} m"
+    );
+    let report = scene.report();
+    assert!(report[0].decision.starts_with("static: not simulated"));
+}
+
+#[test]
+fn auto_sizes_are_the_smallest_within_the_budget() {
+    let yaml = |budget: f64| {
+        format!(
+            "error_budget_pct: {budget}\nobjects:\n  - name: post\n    shape: {{box: [0.1, 0.1, 0.5]}}\n    \
+             position: [0, 0, 0.25]\n    support: pin_bottom\n"
+        )
+    };
+    let cache = FieldCache::default();
+    let loose = build(&SceneFile::parse(&yaml(5.0)).unwrap(), &cache);
+    let strict = build(&SceneFile::parse(&yaml(0.001)).unwrap(), &cache);
+    let (loose, strict) = (&loose.report()[0], &strict.report()[0]);
+    assert!(
+        loose.decision.contains("within the 5 % budget"),
+        "{}",
+        loose.decision
+    );
+    assert!(
+        strict.decision.contains("no size meets the 0.001 % budget"),
+        "{}",
+        strict.decision
+    );
+    assert!(
+        loose.handles * loose.handles * loose.cubature
+            <= strict.handles * strict.handles * strict.cubature,
+        "a looser budget chose a larger model: {loose:?} against {strict:?}"
+    );
+    // Inference ran once for both scenes; the budget's probe runs once per budget.
+    use std::sync::atomic::Ordering::Relaxed;
+    assert_eq!(cache.misses.load(Relaxed), 1);
+}
+
+#[test]
+fn scene_mistakes_name_the_object_and_the_problem() {
+    let file = scene_file(
+        "mistakes",
+        "robots:\n  - name: rig\n    urdf: '{urdf}'\nobjects:\n  - name: bar\n    \
+         shape: {box: [0.06, 0.06, 0.4]}\n    attach: {robot: rig, link: wrist, center: [0, 0, 0], radius: 0.04}\n",
+    );
+    let err = Scene::build(
+        &file,
+        &NeuralModel::bundled().unwrap(),
+        &FieldCache::default(),
+        &SceneOptions::default(),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(
+        err.contains("`bar`") && err.contains("no link `wrist`"),
+        "{err}"
+    );
+    let missing = SceneFile::load(std::path::Path::new("no/such/scene.yaml"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(missing.contains("no/such/scene.yaml"), "{missing}");
+}
