@@ -2,7 +2,8 @@
 //! (transitively), each after a line of 80 `=` and `MSG: pkg/msg/Name`, as rosbag2 writes them.
 
 use crate::ros::messages::{
-    Clock, Header, Mesh, MeshTriangle, Point, PointCloud2, PointField, RosMessage, Time, Vector3,
+    Clock, Header, JointState, Mesh, MeshTriangle, Point, PointCloud2, PointField, RosMessage,
+    Time, Vector3,
 };
 
 /// The fields of a known message type ("pkg/Name", as in .msg files) and its own text.
@@ -25,6 +26,7 @@ fn definition(ros_type: &str) -> Option<String> {
             generated(PointField::fields())
         ),
         "sensor_msgs/PointCloud2" => generated(PointCloud2::fields()),
+        "sensor_msgs/JointState" => generated(JointState::fields()),
         "shape_msgs/MeshTriangle" => generated(MeshTriangle::fields()),
         "shape_msgs/Mesh" => generated(Mesh::fields()),
         "physskin/MeshStamped" => include_str!("../../msg/MeshStamped.msg").into(),
@@ -106,6 +108,7 @@ mod tests {
             schema_text::<Interaction>(),
             schema_text::<Status>(),
             schema_text::<Clock>(),
+            schema_text::<JointState>(),
         ] {
             assert!(text.contains("\n") && !text.contains("MSG: physskin/msg/Interaction"));
         }

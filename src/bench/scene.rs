@@ -178,6 +178,7 @@ pub fn run_scene_bench(seconds: f64, log: impl Fn(&str)) -> Result<SceneBenchRep
         SceneOptions {
             decisions: true,
             only: active.clone(),
+            scripted: true,
         },
         &active,
         settle,
@@ -191,6 +192,7 @@ pub fn run_scene_bench(seconds: f64, log: impl Fn(&str)) -> Result<SceneBenchRep
         SceneOptions {
             decisions: false,
             only: Vec::new(),
+            scripted: true,
         },
         &every,
         settle,

@@ -27,6 +27,10 @@ pub struct NodeArgs {
     /// Record every input and output topic to this MCAP file (overrides `record.path`).
     #[arg(long)]
     record: Option<PathBuf>,
+    /// Scene file to run (overrides `scene`): its objects are simulated and its robots follow
+    /// their joint-state topics.
+    #[arg(long)]
+    scene: Option<PathBuf>,
     /// Model weights (default: the bundled model).
     #[arg(long)]
     model: Option<PathBuf>,
@@ -48,6 +52,9 @@ pub fn run(args: NodeArgs) -> physskin::Result<()> {
     }
     if let Some(path) = &args.record {
         config.params.record.path = path.display().to_string();
+    }
+    if let Some(path) = &args.scene {
+        config.params.scene = path.display().to_string();
     }
     let model = match &args.model {
         Some(path) => Arc::new(NeuralModel::load(path)?),

@@ -45,6 +45,7 @@ pub fn run(args: SceneArgs) -> physskin::Result<()> {
             scene: SceneOptions {
                 decisions: !args.no_decisions,
                 only: Vec::new(),
+                scripted: true,
             },
             seconds: args.seconds,
             settle_steps: (8.0 * file.rate_hz) as usize,

@@ -12,7 +12,7 @@ mod voxel;
 
 pub use cubature::{stratified_subset, Cubature};
 pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
-pub use primitives::{box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
+pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
 pub use sampling::{median_spacing, sample_surface, SurfaceSamples, SurfaceSampling};
 pub use shape::{Normalization, Shape};
 pub use tetmesh::{TetLocation, TetMesh};

@@ -49,6 +49,62 @@ pub fn box_mesh(size: Vector3<f64>) -> Shape {
     Shape::new(positions, None, triangles).expect("a box is valid")
 }
 
+/// An axis-aligned box centered at the origin with its faces divided into squares of about
+/// `spacing` (vertices shared along the edges), outward-wound: a box whose vertices are worth
+/// publishing, not just its 8 corners.
+pub fn box_grid_mesh(size: Vector3<f64>, spacing: f64) -> Shape {
+    let h = size / 2.0;
+    let mut index: HashMap<[i64; 3], u32> = HashMap::new();
+    let mut positions: Vec<Vector3<f64>> = Vec::new();
+    let mut triangles = Vec::new();
+    let quantum = spacing.min(size.min()) * 1e-6;
+    let mut vertex = |p: Vector3<f64>| -> u32 {
+        let key = [0, 1, 2].map(|a| (p[a] / quantum).round() as i64);
+        *index.entry(key).or_insert_with(|| {
+            positions.push(p);
+            (positions.len() - 1) as u32
+        })
+    };
+    // Each face: the axis it faces along, its sign, and two in-plane axes ordered so that
+    // u x v points outward.
+    for (axis, sign) in [
+        (0, 1.0),
+        (0, -1.0),
+        (1, 1.0),
+        (1, -1.0),
+        (2, 1.0),
+        (2, -1.0),
+    ] {
+        let (mut u, mut v) = ((axis + 1) % 3, (axis + 2) % 3);
+        if sign < 0.0 {
+            std::mem::swap(&mut u, &mut v);
+        }
+        let cells = |a: usize| ((size[a] / spacing).ceil() as usize).clamp(1, 64);
+        let (nu, nv) = (cells(u), cells(v));
+        let mut ids = vec![0u32; (nu + 1) * (nv + 1)];
+        for j in 0..=nv {
+            for i in 0..=nu {
+                let mut p = Vector3::zeros();
+                p[axis] = sign * h[axis];
+                p[u] = -h[u] + size[u] * i as f64 / nu as f64;
+                p[v] = -h[v] + size[v] * j as f64 / nv as f64;
+                ids[j * (nu + 1) + i] = vertex(p);
+            }
+        }
+        for j in 0..nv {
+            for i in 0..nu {
+                let a = ids[j * (nu + 1) + i];
+                let b = ids[j * (nu + 1) + i + 1];
+                let c = ids[(j + 1) * (nu + 1) + i + 1];
+                let d = ids[(j + 1) * (nu + 1) + i];
+                triangles.push([a, b, c]);
+                triangles.push([a, c, d]);
+            }
+        }
+    }
+    Shape::new(positions, None, triangles).expect("a box is valid")
+}
+
 /// A capsule along x: `length` end to end, `radius`.
 pub fn capsule_mesh(length: f64, radius: f64) -> Shape {
     let half = length / 2.0 - radius;

@@ -190,7 +190,7 @@ impl Builder {
 
 /// Lowers the calling thread's priority (nice 10), so that on a busy machine the step thread
 /// wins the CPU over inference and the 60 Hz beat holds.
-fn yield_to_stepping() {
+pub(crate) fn yield_to_stepping() {
     // SAFETY: setpriority on this thread's own id has no memory effects; a failure (no
     // permission) only leaves the priority as it was.
     unsafe {
@@ -217,6 +217,7 @@ pub fn run_builder(
     params: Arc<RwLock<NodeParams>>,
     model: Arc<NeuralModel>,
     outputs: SharedOutputs,
+    reserved_ids: u32,
 ) {
     let threads = params.read().map_or(1, |p| p.inference.threads);
     // Inference gets its own thread pool, so it cannot occupy the pool the stepper uses.
@@ -238,7 +239,11 @@ pub fn run_builder(
         }
     };
     yield_to_stepping();
-    let mut builder = Builder::default();
+    // Ids up to `reserved_ids` belong to the scene's objects.
+    let mut builder = Builder {
+        next_id: reserved_ids,
+        ..Builder::default()
+    };
     while let Ok(first) = requests.recv() {
         let mut newest: Vec<BuildRequest> = vec![first];
         for request in requests.try_iter() {

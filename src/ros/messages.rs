@@ -178,6 +178,21 @@ ros_message!(
         fallback: bool,
         residual: f64,
         step_time_ms: f64,
+        sleeping: bool,
+        cubature_points: u32,
+        decision: String,
+    }
+);
+
+ros_message!(
+    /// sensor_msgs/msg/JointState: joint positions (rad, m) by name; velocity and effort may be
+    /// empty.
+    JointState = "sensor_msgs" {
+        header: Header,
+        name: Vec<String>,
+        position: Vec<f64>,
+        velocity: Vec<f64>,
+        effort: Vec<f64>,
     }
 );
 

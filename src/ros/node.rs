@@ -18,11 +18,14 @@ use ros2_client::{
 
 use super::builder::{run_builder, BuildRequest};
 use super::clock::NodeClock;
-use super::messages::{Clock, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, Status};
+use super::messages::{
+    Clock, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
+};
 use super::outputs::{topic_table, Outputs, Publishers};
 use super::params::NodeParams;
 use super::stepper::{run_stepper, StepperCommand, StepperStats};
-use crate::bag::{QosProfile, RecordOptions, Recorder};
+use crate::bag::{QosProfile, RecordOptions, Recorder, TopicInfo};
+use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::shm::{ShmOptions, ShmPublisher};
 use crate::skinning::NeuralModel;
 
@@ -39,6 +42,8 @@ pub enum NodeError {
     Signal(String),
     #[error(transparent)]
     Record(#[from] crate::bag::BagError),
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
 }
 
 /// How to start the node.
@@ -283,6 +288,38 @@ pub fn run_node(
     let interaction_sub =
         subscription::<Interaction>(&mut node, &t.interaction, qos(&t.interaction))?;
     let clock_sub = subscription::<Clock>(&mut node, "/clock", sensor_qos())?;
+    // A scene file is read (and its mistakes refused) before anything starts; its objects are
+    // built on a thread of their own, and join the stepper when ready.
+    let scene_file = if p.scene.is_empty() {
+        None
+    } else {
+        Some(SceneFile::load(std::path::Path::new(&p.scene))?)
+    };
+    let mut joint_subs = Vec::new();
+    let mut scene_objects = 0u32;
+    if let Some(file) = &scene_file {
+        scene_objects = file
+            .objects
+            .iter()
+            .filter(|o| o.kind == crate::scene::ObjectKind::Deformable && o.topic.is_none())
+            .count() as u32;
+        let mut topics: Vec<(&str, &str)> = file
+            .robots
+            .iter()
+            .map(|r| (r.name.as_str(), r.joint_states.as_str()))
+            .collect();
+        topics.dedup_by_key(|(_, topic)| *topic);
+        for (robot, topic) in topics {
+            if let Some(recorder) = &outputs.recorder {
+                let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(10));
+                if let Err(e) = recorder.declare(info) {
+                    eprintln!("[physskin] error: recording: {e}");
+                }
+            }
+            let sub = subscription::<JointState>(&mut node, topic, sensor_qos())?;
+            joint_subs.push((robot.to_string(), topic.to_string(), sub));
+        }
+    }
 
     let (build_tx, build_rx) = channel::<BuildRequest>();
     let (ready_tx, ready_rx) = channel();
@@ -291,9 +328,16 @@ pub fn run_node(
         let (params, outputs) = (params.clone(), outputs.clone());
         std::thread::Builder::new()
             .name("physskin-build".into())
-            .spawn(move || run_builder(build_rx, ready_tx, params, model, outputs))
+            .spawn({
+                let model = model.clone();
+                move || run_builder(build_rx, ready_tx, params, model, outputs, scene_objects)
+            })
             .map_err(|e| NodeError::Dds(format!("cannot start the build thread: {e}")))?
     };
+    let scene_builder = scene_file.map(|file| {
+        let (outputs, step_tx, frame) = (outputs.clone(), step_tx.clone(), p.mesh_frame.clone());
+        std::thread::spawn(move || build_scene(&file, &model, &outputs, &step_tx, frame))
+    });
     // Ready bodies reach the stepper through its own channel, so it waits on one queue only.
     let forward = {
         let step_tx = step_tx.clone();
@@ -383,7 +427,18 @@ pub fn run_node(
             }
             async {}
         });
-        futures::join!(clouds, meshes, stamped, interactions, ticks);
+        let (outputs, step_tx) = (&outputs, &step_tx);
+        let joints = futures::future::join_all(joint_subs.iter().map(|(robot, topic, sub)| {
+            sub.async_stream().for_each(move |m| {
+                if let Ok((state, _)) = m {
+                    outputs.record_input(topic, Some(state.header.stamp.nanos()), &state);
+                    let robot = robot.clone();
+                    let _ = step_tx.send(StepperCommand::Joints { robot, state });
+                }
+                async {}
+            })
+        }));
+        futures::join!(clouds, meshes, stamped, interactions, ticks, joints);
     };
     let stopped = async {
         while !stop.load(Ordering::Relaxed) {
@@ -396,6 +451,9 @@ pub fn run_node(
     drop(step_tx);
     let _ = builder.join();
     let _ = forward.join();
+    if let Some(scene_builder) = scene_builder {
+        let _ = scene_builder.join();
+    }
     let stats = stepper.join().unwrap_or_default();
     outputs.report(
         Status::INFO,
@@ -421,4 +479,39 @@ pub fn run_node(
     node.stop_spinner();
     drop(executor);
     Ok(stats)
+}
+
+/// Builds a scene's objects off the stepping thread, at low priority, and hands the scene to
+/// the stepper; a failure is reported and the node goes on without it.
+fn build_scene(
+    file: &SceneFile,
+    model: &Arc<NeuralModel>,
+    outputs: &Outputs,
+    step_tx: &std::sync::mpsc::Sender<StepperCommand>,
+    frame: String,
+) {
+    super::builder::yield_to_stepping();
+    let options = SceneOptions {
+        scripted: false,
+        ..SceneOptions::default()
+    };
+    let built = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .start_handler(|_| super::builder::yield_to_stepping())
+        .build()
+        .map_err(|e| e.to_string())
+        .and_then(|pool| {
+            pool.install(|| Scene::build(file, model, &FieldCache::default(), &options))
+                .map_err(|e| e.to_string())
+        });
+    match built {
+        Ok(scene) => {
+            let _ = step_tx.send(StepperCommand::Scene {
+                scene: Box::new(scene),
+                first_id: 1,
+                frame,
+            });
+        }
+        Err(e) => outputs.report(Status::ERROR, 0, "scene_rejected", e),
+    }
 }

@@ -194,6 +194,9 @@ impl Outputs {
                 } else {
                     0.0
                 },
+                sleeping: body.is_sleeping(),
+                cubature_points: body.cubature_len() as u32,
+                decision: body.decision().into(),
             };
             let publisher = self.dds.as_ref().and_then(|d| d.state.as_ref());
             self.emit(&self.topics.state, publisher, state);

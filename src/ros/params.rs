@@ -230,6 +230,9 @@ pub struct NodeParams {
     pub publish: PublishParams,
     pub record: RecordParams,
     pub shm: ShmParams,
+    /// Scene file (config/scenes/*.yaml): its objects are built and simulated, and its robots
+    /// follow their joint-state topics. Read-only after start. Default "" (none).
+    pub scene: String,
 }
 
 impl Default for NodeParams {
@@ -246,13 +249,15 @@ impl Default for NodeParams {
             publish: PublishParams::default(),
             record: RecordParams::default(),
             shm: ShmParams::default(),
+            scene: String::new(),
         }
     }
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-const READ_ONLY: [&str; 6] = [
+const READ_ONLY: [&str; 7] = [
     "rate_hz",
+    "scene",
     "use_sim_time",
     "topics.",
     "inference.threads",

@@ -8,12 +8,26 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::builder::ReadyBody;
-use super::messages::{Interaction, Status};
+use super::messages::{Interaction, JointState, Status};
 use super::outputs::{Outputs, SharedOutputs};
+use crate::pipeline::SoftBody;
+use crate::scene::Scene;
 
 pub enum StepperCommand {
     Add(Box<ReadyBody>),
     Interact(Interaction),
+    /// A scene's objects and robots join the stage; its objects get ids from `first_id` and
+    /// publish in `frame` (the scene's world frame).
+    Scene {
+        scene: Box<Scene>,
+        first_id: u32,
+        frame: String,
+    },
+    /// A robot's joint state.
+    Joints {
+        robot: String,
+        state: JointState,
+    },
 }
 
 /// Counters the stepper keeps for the node's final report.
@@ -61,6 +75,14 @@ pub fn run_stepper(
                     stage.add(*ready, &outputs, !beat_is_near)
                 }
                 Ok(StepperCommand::Interact(i)) => stage.interact(&i, &outputs),
+                Ok(StepperCommand::Scene {
+                    scene,
+                    first_id,
+                    frame,
+                }) => stage.set_scene(*scene, first_id, frame, &outputs),
+                Ok(StepperCommand::Joints { robot, state }) => {
+                    stage.set_joints(&robot, &state, &outputs)
+                }
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => return stats,
             }
@@ -93,6 +115,34 @@ pub struct Stage {
     /// Per body: its last step is computed but not yet published (on-the-beat mode).
     unpublished: Vec<bool>,
     on_the_beat: bool,
+    scene: Option<SceneOnStage>,
+}
+
+/// A scene's objects and robots, stepped with the other bodies.
+struct SceneOnStage {
+    scene: Scene,
+    first_id: u32,
+    frame: String,
+    /// Its last step is computed but not yet published.
+    unpublished: bool,
+    /// Joint-state problems already reported (each once, not at the topic's rate).
+    reported: std::collections::HashSet<String>,
+}
+
+impl SceneOnStage {
+    /// (shape id, name, body) of each deformable object.
+    fn bodies(&self) -> impl Iterator<Item = (u32, &str, &SoftBody)> {
+        let first = self.first_id;
+        self.scene
+            .bodies_named()
+            .enumerate()
+            .map(move |(i, (name, body))| (first + i as u32, name, body))
+    }
+
+    /// Shape ids: `first_id` plus the object's place among the scene's deformable objects.
+    fn id_of(&self, index: usize) -> u32 {
+        self.first_id + index as u32
+    }
 }
 
 impl Stage {
@@ -112,9 +162,20 @@ impl Stage {
         if self.on_the_beat {
             self.publish_pending(outputs);
         }
-        self.bodies.par_iter_mut().for_each(|b| {
-            b.body.step();
-        });
+        let scene = &mut self.scene;
+        rayon::join(
+            || {
+                self.bodies.par_iter_mut().for_each(|b| {
+                    b.body.step();
+                })
+            },
+            || {
+                if let Some(s) = scene {
+                    s.scene.step();
+                    s.unpublished = true;
+                }
+            },
+        );
         self.unpublished.iter_mut().for_each(|u| *u = true);
         if !self.on_the_beat {
             self.publish_pending(outputs);
@@ -124,7 +185,55 @@ impl Stage {
     fn publish_pending(&mut self, outputs: &Outputs) {
         for (b, unpublished) in self.bodies.iter().zip(&mut self.unpublished) {
             if std::mem::take(unpublished) {
-                publish_last_step(b, outputs);
+                publish_last_step(b.id, &b.frame, &b.body, outputs);
+            }
+        }
+        if let Some(s) = &mut self.scene {
+            if std::mem::take(&mut s.unpublished) {
+                // A sleeping object is published once, as it falls asleep.
+                for (id, _, body) in s.bodies() {
+                    if !body.is_sleeping() || body.fell_asleep() {
+                        publish_last_step(id, &s.frame, body, outputs);
+                    }
+                }
+            }
+        }
+    }
+
+    /// A scene joins (or replaces the scene on) the stage: its objects are announced with
+    /// their weights and what was decided for each.
+    pub fn set_scene(&mut self, scene: Scene, first_id: u32, frame: String, outputs: &Outputs) {
+        let s = SceneOnStage {
+            scene,
+            first_id,
+            frame,
+            unpublished: false,
+            reported: Default::default(),
+        };
+        for (id, name, body) in s.bodies() {
+            let rest = rest_points(body);
+            outputs.publish_weights(id, &s.frame, &rest, body.weights(), body.handles());
+            outputs.report(
+                Status::INFO,
+                id,
+                "shape_ready",
+                format!("scene object `{name}`: {}", body.decision()),
+            );
+        }
+        self.scene = Some(s);
+    }
+
+    /// A robot's joints move (a JointState from its topic).
+    pub fn set_joints(&mut self, robot: &str, state: &JointState, outputs: &Outputs) {
+        let Some(s) = &mut self.scene else {
+            return;
+        };
+        if let Err(problem) = s
+            .scene
+            .set_joint_positions(robot, &state.name, &state.position)
+        {
+            if s.reported.insert(problem.clone()) {
+                outputs.report(Status::WARN, 0, "joint_state_ignored", problem);
             }
         }
     }
@@ -149,18 +258,37 @@ impl Stage {
     }
 
     pub fn interact(&mut self, i: &Interaction, outputs: &Outputs) {
-        interact(&mut self.bodies, i, outputs)
+        let scene_bodies = self.scene.iter_mut().flat_map(|s| {
+            let count = s.scene.bodies_named().count();
+            let ids: Vec<u32> = (0..count).map(|n| s.id_of(n)).collect();
+            let frame = &s.frame;
+            s.scene
+                .bodies_named_mut()
+                .zip(ids)
+                .map(move |((_, body), id)| (id, frame.as_str(), body))
+        });
+        let bodies = self
+            .bodies
+            .iter_mut()
+            .map(|b| (b.id, b.frame.as_str(), &mut b.body))
+            .chain(scene_bodies);
+        interact(bodies, i, outputs)
     }
 }
 
 fn step(b: &mut ReadyBody, outputs: &Outputs) {
     b.body.step();
-    publish_last_step(b, outputs);
+    publish_last_step(b.id, &b.frame, &b.body, outputs);
+}
+
+/// A body's points before any step: its weights are published against them.
+fn rest_points(body: &SoftBody) -> Vec<f32> {
+    body.deformed().to_vec()
 }
 
 /// Publishes a body's last step (and a warning if it did not converge).
-fn publish_last_step(b: &ReadyBody, outputs: &Outputs) {
-    let Some(report) = b.body.last_step() else {
+fn publish_last_step(id: u32, frame: &str, body: &SoftBody, outputs: &Outputs) {
+    let Some(report) = body.last_step() else {
         return;
     };
     if !report.converged {
@@ -168,12 +296,16 @@ fn publish_last_step(b: &ReadyBody, outputs: &Outputs) {
             "step did not converge ({} iterations, decrement {:e})",
             report.iterations, report.decrement
         );
-        outputs.report(Status::WARN, b.id, "step_unconverged", message);
+        outputs.report(Status::WARN, id, "step_unconverged", message);
     }
-    outputs.publish_step(b.id, &b.frame, &b.body);
+    outputs.publish_step(id, frame, body);
 }
 
-fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &Outputs) {
+fn interact<'a>(
+    bodies: impl Iterator<Item = (u32, &'a str, &'a mut SoftBody)>,
+    i: &Interaction,
+    outputs: &Outputs,
+) {
     let point = Vector3::new(i.point.x, i.point.y, i.point.z);
     let force = Vector3::new(i.force.x, i.force.y, i.force.z);
     let frame = &i.header.frame_id;
@@ -192,14 +324,14 @@ fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &Outputs) {
         ));
     }
     let mut matched = 0;
-    for b in bodies.iter_mut().filter(|b| {
-        (i.shape_id == 0 || b.id == i.shape_id) && (frame.is_empty() || b.frame == *frame)
+    for (_, _, body) in bodies.filter(|(id, name, _)| {
+        (i.shape_id == 0 || *id == i.shape_id) && (frame.is_empty() || name == frame)
     }) {
         matched += 1;
         match i.kind {
-            Interaction::FORCE => b.body.push(point, force, i.duration.max(0.0)),
+            Interaction::FORCE => body.push(point, force, i.duration.max(0.0)),
             Interaction::PIN => {
-                if b.body.hold(&point, i.radius) == 0 {
+                if body.hold(&point, i.radius) == 0 {
                     ignored(format!(
                         "no material within {} m of the pin point",
                         i.radius
@@ -207,7 +339,7 @@ fn interact(bodies: &mut [ReadyBody], i: &Interaction, outputs: &Outputs) {
                 }
             }
             _ => {
-                b.body.release(&point, i.radius);
+                body.release(&point, i.radius);
             }
         }
     }

@@ -35,6 +35,9 @@ pub struct SceneOptions {
     pub decisions: bool,
     /// Build only the objects with these names; every object when empty.
     pub only: Vec<String>,
+    /// Robots follow the scene file's `motion`. The node turns this off: its robots follow
+    /// their joint-state topics.
+    pub scripted: bool,
 }
 
 impl Default for SceneOptions {
@@ -42,6 +45,7 @@ impl Default for SceneOptions {
         Self {
             decisions: true,
             only: Vec::new(),
+            scripted: true,
         }
     }
 }
@@ -125,6 +129,7 @@ pub(crate) fn geometry_hash(shape: &Shape) -> u64 {
 pub struct Scene {
     dt: f64,
     time: f64,
+    scripted: bool,
     robots: Vec<SceneRobot>,
     pub(crate) objects: Vec<SceneObject>,
 }
@@ -259,6 +264,7 @@ impl Scene {
         Ok(Self {
             dt,
             time: 0.0,
+            scripted: options.scripted,
             robots,
             objects,
         })
@@ -290,7 +296,7 @@ impl Scene {
     pub fn step(&mut self) {
         self.time += self.dt;
         let time = self.time;
-        for r in &mut self.robots {
+        for r in self.robots.iter_mut().filter(|_| self.scripted) {
             if !r.motion.is_empty() {
                 let frame = interpolate(&r.motion, time);
                 // Names come from the file and were checked when the scene was built.
@@ -402,6 +408,19 @@ impl Scene {
         self.objects.iter().filter_map(|o| o.body.as_ref())
     }
 
+    /// The deformable objects' names and bodies, in the file's order.
+    pub fn bodies_named(&self) -> impl Iterator<Item = (&str, &SoftBody)> {
+        self.objects
+            .iter()
+            .filter_map(|o| Some((o.name.as_str(), o.body.as_ref()?)))
+    }
+
+    pub fn bodies_named_mut(&mut self) -> impl Iterator<Item = (&str, &mut SoftBody)> {
+        self.objects
+            .iter_mut()
+            .filter_map(|o| Some((o.name.as_str(), o.body.as_mut()?)))
+    }
+
     /// Deformable objects awake now.
     pub fn awake(&self) -> usize {
         self.bodies().filter(|b| !b.is_sleeping()).count()
@@ -510,7 +529,12 @@ fn world_shape(spec: &ObjectSpec) -> Result<Option<(Shape, u64)>> {
             .and_then(Shape::from_raw)
             .map_err(named)?,
         Source::Shape(s) => match s {
-            ShapeSpec::Box(size) => geometry::box_mesh(Vector3::from(*size)),
+            // Faces divided 40 times along the longest side: enough points to show
+            // a dent.
+            ShapeSpec::Box(size) => {
+                let size = Vector3::from(*size);
+                geometry::box_grid_mesh(size, size.max() / 40.0)
+            }
             ShapeSpec::Sphere(r) => {
                 let r = *r;
                 geometry::sdf_mesh(&move |p: &Vector3<f64>| p.norm() - r, 1.2 * r, 40)
