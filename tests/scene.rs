@@ -116,6 +116,45 @@ fn a_link_dents_a_soft_block_as_the_fem_does() {
 }
 
 #[test]
+fn a_rigid_object_carried_by_a_link_pushes_like_a_link() {
+    // A rigid plate hangs under the pusher and goes down with it, 5 cm into the block; it is
+    // not simulated.
+    let file = scene_file(
+        "rigid",
+        "floor: 0\nrobots:\n  - name: rig\n    urdf: '{urdf}'\n    motion:\n      \
+         - {at: 0, positions: {lift: 0}}\n      - {at: 0.5, positions: {lift: 0.17}}\n\
+         objects:\n  - name: plate\n    kind: rigid\n    shape: {box: [0.2, 0.2, 0.02]}\n    \
+         position: [0, 0, 0.43]\n    attach: {robot: rig, link: pusher}\n  \
+         - name: block\n    shape: {box: [0.3, 0.3, 0.3]}\n    position: [0, 0, 0.15]\n    \
+         material: {young: 1.0e5}\n    handles: 9\n    cubature: 128\n",
+    );
+    let mut scene = build(&file, &FieldCache::default());
+    assert!(
+        scene.body("plate").is_none(),
+        "a rigid object was simulated"
+    );
+    let plate_before = z_range(&scene, "plate");
+    for _ in 0..45 {
+        scene.step();
+    }
+    let plate_after = z_range(&scene, "plate");
+    assert!(
+        (plate_before.0 - plate_after.0 - 0.17).abs() < 1e-5,
+        "the plate went from {plate_before:?} to {plate_after:?}, its link 0.17 m down"
+    );
+    let body = scene.body("block").unwrap();
+    let mut x = [0.0f32; 3];
+    body.lifter_for(&[Vector3::new(0.0, 0.0, 0.3)])
+        .lift(body.state(), &mut x);
+    // The plate's bottom is at 0.42 - 0.17 = 0.25 m.
+    assert!(
+        x[2] < 0.265,
+        "the middle of the block's top is at {} m under a plate at 0.25",
+        x[2]
+    );
+}
+
+#[test]
 fn an_attached_object_follows_its_link_as_the_fem_does() {
     // A bar held at one end by the hand, which turns 0.6 rad: the held end follows the hand's
     // arc, the free end swings after it.

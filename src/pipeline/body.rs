@@ -195,8 +195,8 @@ impl SoftBody {
         Ok(truncate(field, &input.grid, &input.map, handles))
     }
 
-    /// The network's input of `shape`, for [`SoftBody::with_field`]'s callers that infer
-    /// themselves. The same geometry always gives the same input.
+    /// The field of `shape` in one forward pass, for callers of [`SoftBody::with_field`] that
+    /// keep fields (the same geometry always gives the same network input).
     pub fn infer(
         model: &Arc<NeuralModel>,
         shape: &Shape,

@@ -400,6 +400,44 @@ mod tests {
     }
 
     #[test]
+    fn mesh_geometry_collides_as_its_convex_hull() {
+        // A package-style path, found one directory above the URDF's.
+        let root = std::env::temp_dir().join(format!("physskin-urdf-{}", std::process::id()));
+        std::fs::create_dir_all(root.join("meshes")).unwrap();
+        std::fs::create_dir_all(root.join("urdf")).unwrap();
+        let cube = crate::geometry::box_mesh(Vector3::new(1.0, 1.0, 1.0));
+        let raw = crate::geometry::RawGeometry {
+            positions: cube.positions.iter().map(|p| [p.x, p.y, p.z]).collect(),
+            normals: None,
+            triangles: cube.triangles.clone(),
+        };
+        let mut file = std::fs::File::create(root.join("meshes/cube.obj")).unwrap();
+        crate::geometry::write_obj(&raw, &mut file).unwrap();
+        let urdf = r#"<robot name="m"><link name="l"><collision><geometry>
+            <mesh filename="package://m/meshes/cube.obj" scale="0.2 0.2 0.4"/></geometry></collision></link></robot>"#;
+        let robot = Robot::from_urdf_text(
+            urdf,
+            &root.join("urdf"),
+            Isometry3::translation(1.0, 0.0, 0.0),
+        )
+        .unwrap();
+        let colliders = robot.colliders(&robot.link_poses());
+        let inside = colliders[0]
+            .penetration(&Vector3::new(1.0, 0.0, 0.15))
+            .unwrap();
+        assert!((inside.depth - 0.05).abs() < 1e-5, "{inside:?}");
+        assert!(colliders[0]
+            .penetration(&Vector3::new(1.0, 0.0, 0.25))
+            .is_none());
+        let missing = urdf.replace("cube.obj", "gone.obj");
+        let err = Robot::from_urdf_text(&missing, &root.join("urdf"), Isometry3::identity())
+            .err()
+            .unwrap();
+        assert!(err.contains("package://m/meshes/gone.obj"), "{err}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
     fn unsupported_joints_and_unknown_links_are_named() {
         let floating = ARM.replace(r#"type="fixed""#, r#"type="floating""#);
         let err = Robot::from_urdf_text(&floating, Path::new("."), Isometry3::identity())

@@ -12,6 +12,9 @@ pub fn root() -> &'static Path {
 /// target/<name> with `packages` from pip; `check` is a Python statement that succeeds once
 /// they are installed. Returns the venv's python.
 pub fn venv(name: &str, check: &str, packages: &[&str]) -> PathBuf {
+    // Tests of one binary run in parallel: one makes the venv, the others wait for it.
+    static MAKING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _making = MAKING.lock().unwrap_or_else(|e| e.into_inner());
     let venv = root().join("target").join(name);
     let python = venv.join("bin/python");
     let ready = Command::new(&python)
