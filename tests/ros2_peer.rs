@@ -1,6 +1,8 @@
 //! The node against a real ROS 2 (rclpy with Fast DDS from pip), in a private network namespace:
 //! rclpy publishes a PointCloud2 (float64/float32 mixed, big-endian) and a Mesh; the node must
-//! answer with deformed clouds and weights clouds whose contents the peer checks.
+//! answer with deformed clouds and weights clouds whose contents the peer checks. And rclpy
+//! drives a scene's robot over sensor_msgs/JointState: the press it lowers dents the block the
+//! node simulates.
 
 mod common;
 
@@ -23,22 +25,22 @@ fn ros_venv() -> PathBuf {
     )
 }
 
-#[test]
-fn rclpy_peer_gets_deformed_and_weights_clouds() {
+/// Runs `physskin node --domain-id <domain> <node_args>` and the Python `peer` against it in a
+/// private network namespace; the node is stopped with SIGINT after the peer. Returns the
+/// peer's stdout and the node's log; fails the test, with both, unless both exit 0.
+fn node_with_peer(domain: u16, node_args: &str, peer: &str, log_name: &str) -> (String, String) {
     let python = ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let bag = root.join("target/ros2-peer-node.mcap");
-    let _ = std::fs::remove_file(&bag);
+    let log_path = root.join("target").join(log_name);
     let script = format!(
-        "{node} node --domain-id 31 --record {bag} > {log} 2>&1 & NODE=$!; \
-         ROS_DOMAIN_ID=31 timeout 120 {python} {peer}; RC=$?; \
+        "{node} node --domain-id {domain} {node_args} > {log} 2>&1 & NODE=$!; \
+         ROS_DOMAIN_ID={domain} timeout 120 {python} {peer}; RC=$?; \
          kill -INT $NODE; wait $NODE; NODE_RC=$?; \
          echo node exit $NODE_RC; exit $(( RC != 0 ? RC : NODE_RC ))",
         node = env!("CARGO_BIN_EXE_physskin"),
-        log = root.join("target/ros2-peer-node.log").display(),
-        bag = bag.display(),
+        log = log_path.display(),
         python = python.display(),
-        peer = root.join("tests/peers/ros2_peer.py").display(),
+        peer = root.join("tests/peers").join(peer).display(),
     );
     let out = Command::new("unshare")
         .arg("-n")
@@ -46,17 +48,30 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
         .args(["bash", "-c", &script])
         .output()
         .expect("unshare runs (root is needed for a private network namespace)");
-    let log = std::fs::read_to_string(root.join("target/ros2-peer-node.log")).unwrap_or_default();
+    let log = std::fs::read_to_string(&log_path).unwrap_or_default();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),
-        "peer failed\nstdout:\n{}\nstderr:\n{}\nnode log:\n{log}",
-        String::from_utf8_lossy(&out.stdout),
+        "peer failed\nstdout:\n{stdout}\nstderr:\n{}\nnode log:\n{log}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}");
+    (stdout, log)
+}
+
+#[test]
+fn rclpy_peer_gets_deformed_and_weights_clouds() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let bag = root.join("target/ros2-peer-node.mcap");
+    let _ = std::fs::remove_file(&bag);
+    let (stdout, log) = node_with_peer(
+        31,
+        &format!("--record {}", bag.display()),
+        "ros2_peer.py",
+        "ros2-peer-node.log",
+    );
     assert!(stdout.contains("ok: "), "{stdout}");
     assert!(stdout.contains("set/get ok"), "parameters: {stdout}");
-    eprintln!("{stdout}");
     assert!(log.contains("shape_ready"), "{log}");
     // The node recorded what it received and sent; readers nobody here wrote agree.
     let counts = &common::python_counts(&[bag])[0];
@@ -79,37 +94,19 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
 
 #[test]
 fn rclpy_joint_states_drive_a_scene_robot() {
-    let python = ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let bag = root.join("target/ros2-press-node.mcap");
-    let log_path = root.join("target/ros2-press-node.log");
     let _ = std::fs::remove_file(&bag);
-    let script = format!(
-        "{node} node --domain-id 32 --scene {scene} --record {bag} > {log} 2>&1 & NODE=$!; \
-         ROS_DOMAIN_ID=32 timeout 120 {python} {peer}; RC=$?; \
-         kill -INT $NODE; wait $NODE; NODE_RC=$?; \
-         echo node exit $NODE_RC; exit $(( RC != 0 ? RC : NODE_RC ))",
-        node = env!("CARGO_BIN_EXE_physskin"),
-        scene = root.join("tests/data/press/press.yaml").display(),
-        log = log_path.display(),
-        bag = bag.display(),
-        python = python.display(),
-        peer = root.join("tests/peers/joint_peer.py").display(),
+    let node_args = format!(
+        "--scene {} --record {}",
+        root.join("tests/data/press/press.yaml").display(),
+        bag.display()
     );
-    let out = Command::new("unshare")
-        .arg("-n")
-        .arg(root.join("tests/peers/private_net.sh"))
-        .args(["bash", "-c", &script])
-        .output()
-        .expect("unshare runs (root is needed for a private network namespace)");
-    let log = std::fs::read_to_string(&log_path).unwrap_or_default();
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let (stdout, log) = node_with_peer(32, &node_args, "joint_peer.py", "ros2-press-node.log");
     assert!(
-        out.status.success() && stdout.contains("ok: joint states drove the press"),
-        "peer failed\nstdout:\n{stdout}\nstderr:\n{}\nnode log:\n{log}",
-        String::from_utf8_lossy(&out.stderr)
+        stdout.contains("ok: joint states drove the press"),
+        "{stdout}"
     );
-    eprintln!("{stdout}");
     // What was decided for the block is in the log, and the unknown joint was named.
     assert!(
         log.contains("scene object `block`: 17 of 17 handles, 128 cubature points"),

@@ -53,6 +53,39 @@ fn z_range(scene: &Scene, name: &str) -> (f64, f64) {
         })
 }
 
+/// Where the material point at `rest` of a deformable object is now.
+fn position_of(scene: &Scene, name: &str, rest: Vector3<f64>) -> Vector3<f64> {
+    let body = scene.body(name).unwrap();
+    let mut x = [0.0f32; 3];
+    body.lifter_for(&[rest]).lift(body.state(), &mut x);
+    Vector3::new(x[0] as f64, x[1] as f64, x[2] as f64)
+}
+
+/// The scene run again, after `settle_steps` steps with the robot still, for `seconds` of its
+/// motion; `name`'s error against the full-space FEM, %.
+fn fem_error_pct(
+    file: &SceneFile,
+    cache: &FieldCache,
+    seconds: f64,
+    settle_steps: usize,
+    name: &str,
+) -> f64 {
+    let run = run_scene(
+        file,
+        &NeuralModel::bundled().unwrap(),
+        cache,
+        &SceneRunOptions {
+            scene: SceneOptions::default(),
+            seconds,
+            settle_steps,
+            settle_exactly: true,
+            compare: vec![name.into()],
+        },
+    )
+    .unwrap();
+    run.errors[0].error_pct
+}
+
 #[test]
 fn a_link_dents_a_soft_block_as_the_fem_does() {
     // The pusher comes down 0.17 m onto a 0.3 m block standing on the floor, holds, and goes
@@ -68,13 +101,7 @@ fn a_link_dents_a_soft_block_as_the_fem_does() {
     let cache = FieldCache::default();
     let mut scene = build(&file, &cache);
     // The middle of the block's top, where the pusher lands.
-    let top_middle = |scene: &Scene| {
-        let body = scene.body("block").unwrap();
-        let mut x = [0.0f32; 3];
-        body.lifter_for(&[Vector3::new(0.0, 0.0, 0.3)])
-            .lift(body.state(), &mut x);
-        x[2] as f64
-    };
+    let top_middle = |scene: &Scene| position_of(scene, "block", Vector3::new(0.0, 0.0, 0.3)).z;
     scene.settle(120);
     let at_rest = top_middle(&scene);
     let mut lowest = f64::INFINITY;
@@ -98,20 +125,7 @@ fn a_link_dents_a_soft_block_as_the_fem_does() {
     );
 
     // The same motion in the full-space FEM, compared step by step.
-    let run = run_scene(
-        &file,
-        &NeuralModel::bundled().unwrap(),
-        &cache,
-        &SceneRunOptions {
-            scene: SceneOptions::default(),
-            seconds: 1.6,
-            settle_steps: 120,
-            settle_exactly: true,
-            compare: vec!["block".into()],
-        },
-    )
-    .unwrap();
-    let error = run.errors[0].error_pct;
+    let error = fem_error_pct(&file, &cache, 1.6, 120, "block");
     assert!(error < 2.0, "block against the FEM: {error:.3} %");
 }
 
@@ -142,15 +156,11 @@ fn a_rigid_object_carried_by_a_link_pushes_like_a_link() {
         (plate_before.0 - plate_after.0 - 0.17).abs() < 1e-5,
         "the plate went from {plate_before:?} to {plate_after:?}, its link 0.17 m down"
     );
-    let body = scene.body("block").unwrap();
-    let mut x = [0.0f32; 3];
-    body.lifter_for(&[Vector3::new(0.0, 0.0, 0.3)])
-        .lift(body.state(), &mut x);
     // The plate's bottom is at 0.42 - 0.17 = 0.25 m.
+    let top = position_of(&scene, "block", Vector3::new(0.0, 0.0, 0.3)).z;
     assert!(
-        x[2] < 0.265,
-        "the middle of the block's top is at {} m under a plate at 0.25",
-        x[2]
+        top < 0.265,
+        "the middle of the block's top is at {top} m under a plate at 0.25"
     );
 }
 
@@ -173,30 +183,13 @@ fn an_attached_object_follows_its_link_as_the_fem_does() {
     }
     // The hand turned 0.6 rad about y through (0.3, 0, 0.6): the held point (0.3, 0, 0.56)
     // is now at 0.04 (sin 0.6 * -1, ...) from the pivot: x = 0.3 - 0.04 sin(0.6).
-    let body = scene.body("bar").unwrap();
-    let held = body.lifter_for(&[Vector3::new(0.3, 0.0, 0.56)]);
-    let mut x = [0.0f32; 3];
-    held.lift(body.state(), &mut x);
+    let got = position_of(&scene, "bar", Vector3::new(0.3, 0.0, 0.56));
     let expected = Vector3::new(0.3 - 0.04 * 0.6f64.sin(), 0.0, 0.6 - 0.04 * 0.6f64.cos());
-    let got = Vector3::new(x[0] as f64, x[1] as f64, x[2] as f64);
     assert!(
         (got - expected).norm() < 0.01,
         "held point at {got:?}, the link holds it at {expected:?}"
     );
-    let run = run_scene(
-        &file,
-        &NeuralModel::bundled().unwrap(),
-        &cache,
-        &SceneRunOptions {
-            scene: SceneOptions::default(),
-            seconds: 1.0,
-            settle_steps: 30,
-            settle_exactly: true,
-            compare: vec!["bar".into()],
-        },
-    )
-    .unwrap();
-    let error = run.errors[0].error_pct;
+    let error = fem_error_pct(&file, &cache, 1.0, 30, "bar");
     assert!(error < 3.0, "bar against the FEM: {error:.3} %");
 }
 

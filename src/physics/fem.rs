@@ -9,7 +9,7 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 use rayon::prelude::*;
 
 use super::material::Material;
-use super::obstacle::{Obstacle, Penetration, Stick};
+use super::obstacle::{Anchors, Obstacle, Penetration, Stick};
 use super::reduced::{is_descent, StepReport};
 use super::scene::{Poke, SimParams};
 use crate::error::Result;
@@ -39,8 +39,8 @@ pub struct FemSim {
     colliders: Vec<Obstacle>,
     /// This step's friction: boundary vertices touching at its start.
     sticks: Vec<Stick>,
-    /// Friction anchors of vertices resting on static obstacles, kept while they touch.
-    anchors: std::collections::HashMap<(usize, usize), Vector3<f64>>,
+    /// Friction anchors of vertices resting on static obstacles.
+    anchors: Anchors,
     pokes: Vec<(usize, Poke)>,
     pattern: ElementPattern,
     cholesky: SparseCholesky,
@@ -103,7 +103,7 @@ impl FemSim {
             obstacles: Vec::new(),
             colliders: Vec::new(),
             sticks: Vec::new(),
-            anchors: std::collections::HashMap::new(),
+            anchors: Anchors::default(),
             pokes: Vec::new(),
             pattern,
             cholesky,
@@ -340,7 +340,6 @@ impl FemSim {
             return;
         }
         let statics = self.obstacles.len();
-        let mut anchors = std::collections::HashMap::new();
         let mut sticks = Vec::new();
         for (&v, &area) in self
             .mesh
@@ -354,18 +353,12 @@ impl FemSim {
                 let Some(p) = obstacle.penetration(&x) else {
                     continue;
                 };
-                let anchor = match self.anchors.get(&(v, o)) {
-                    Some(previous) if o < statics => Stick::carried_anchor(previous, &x, &p.normal),
-                    _ => x,
-                };
-                if o < statics {
-                    anchors.insert((v, o), anchor);
-                }
+                let anchor = self.anchors.tie((v, o), o < statics, &x, &p.normal);
                 sticks.extend(Stick::new(v, anchor, &p, area, kc, mu));
             }
         }
         self.sticks = sticks;
-        self.anchors = anchors;
+        self.anchors.end_step();
     }
 
     /// Boundary vertices inside an obstacle at positions `x`: (vertex, area, penetration).

@@ -75,6 +75,40 @@ impl Obstacle {
     }
 }
 
+/// Friction anchors of points resting on static obstacles, kept from step to step while the
+/// point touches (on moving obstacles a point is tied where it is at the step's start).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Anchors {
+    kept: std::collections::HashMap<(usize, usize), Vector3<f64>>,
+    touching: std::collections::HashMap<(usize, usize), Vector3<f64>>,
+}
+
+impl Anchors {
+    /// Where the (point, obstacle) pair touching at `x` with contact normal `normal` is tied
+    /// this step.
+    pub fn tie(
+        &mut self,
+        pair: (usize, usize),
+        on_static: bool,
+        x: &Vector3<f64>,
+        normal: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        let anchor = match self.kept.get(&pair) {
+            Some(previous) if on_static => Stick::carried_anchor(previous, x, normal),
+            _ => *x,
+        };
+        if on_static {
+            self.touching.insert(pair, anchor);
+        }
+        anchor
+    }
+
+    /// After a step's ties: the pairs not tied again have let go.
+    pub fn end_step(&mut self) {
+        self.kept = std::mem::take(&mut self.touching);
+    }
+}
+
 /// Slip (m) at which a sticking contact's tangential spring reaches the Coulomb limit.
 pub const STICK_SLIP: f64 = 1e-3;
 

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::material::{Material, Matrix9};
-use super::obstacle::{Obstacle, Stick};
+use super::obstacle::{Anchors, Obstacle, Stick};
 use super::scene::{Poke, SimParams};
 use super::subspace::Subspace;
 use crate::error::{Error, Result};
@@ -116,9 +116,8 @@ pub struct ReducedSim {
     candidates: Vec<(usize, usize)>,
     /// This step's friction: contact points touching at its start.
     sticks: Vec<Stick>,
-    /// Friction anchors of contacts resting on static obstacles, kept while they touch:
-    /// (contact, obstacle) to anchor.
-    anchors: std::collections::HashMap<(usize, usize), Vector3<f64>>,
+    /// Friction anchors of contacts resting on static obstacles.
+    anchors: Anchors,
     /// The object's bounding-box diagonal, m.
     diagonal: f64,
     pokes: Vec<(DVector<f64>, Poke)>,
@@ -154,7 +153,7 @@ impl ReducedSim {
             colliders: Vec::new(),
             candidates: Vec::new(),
             sticks: Vec::new(),
-            anchors: std::collections::HashMap::new(),
+            anchors: Anchors::default(),
             diagonal,
             pokes: Vec::new(),
             rest_hessian: None,
@@ -378,26 +377,18 @@ impl ReducedSim {
             return;
         }
         let statics = self.obstacles.len();
-        let mut anchors = std::collections::HashMap::new();
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
             let x = contact.rest + &self.z * &contact.phi;
             if let Some(p) = self.obstacle(o).penetration(&x) {
-                // On a static obstacle the anchor stays while the point touches, so friction
-                // holds a resting object instead of letting it creep; on a moving link it is
-                // where the point is (the link's motion drags it).
-                let anchor = match self.anchors.get(&(c, o)) {
-                    Some(previous) if o < statics => Stick::carried_anchor(previous, &x, &p.normal),
-                    _ => x,
-                };
-                if o < statics {
-                    anchors.insert((c, o), anchor);
-                }
+                // Kept anchors hold a resting object instead of letting it creep a little
+                // every step.
+                let anchor = self.anchors.tie((c, o), o < statics, &x, &p.normal);
                 self.sticks
                     .extend(Stick::new(c, anchor, &p, contact.weight, kc, mu));
             }
         }
-        self.anchors = anchors;
+        self.anchors.end_step();
     }
 
     fn obstacle(&self, index: usize) -> &Obstacle {
