@@ -334,8 +334,8 @@ impl ReducedSim {
     }
 
     /// The broad phase: the (contact, obstacle) pairs to test during a step from state `z`.
-    /// A point farther from an obstacle's bounding box than a tenth of the object's size plus
-    /// twice its predicted move is taken not to reach it within the step.
+    /// A point farther from an obstacle's bounding box (or a floor) than a tenth of the
+    /// object's size plus twice its predicted move is taken not to reach it within the step.
     fn find_candidates(&mut self, z: &DMatrix<f64>) {
         self.candidates.clear();
         if self.contacts.is_empty() {
@@ -356,17 +356,23 @@ impl ReducedSim {
             .chain(&self.colliders)
             .map(|o| o.bounds(margin))
             .collect();
+        let mut candidates = std::mem::take(&mut self.candidates);
         for (c, x) in positions.iter().enumerate() {
             for (o, b) in bounds.iter().enumerate() {
-                let near = match b {
-                    None => true,
-                    Some((lo, hi)) => (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]),
+                let near = match (self.obstacle(o), b) {
+                    // A floor is near only the points within the margin above it: testing all
+                    // of an object's surface against it every evaluation would cost more than
+                    // the rest of the step.
+                    (Obstacle::Plane { normal, offset }, _) => offset - normal.dot(x) > -margin,
+                    (_, Some((lo, hi))) => (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]),
+                    (_, None) => true,
                 };
                 if near {
-                    self.candidates.push((c, o));
+                    candidates.push((c, o));
                 }
             }
         }
+        self.candidates = candidates;
     }
 
     /// Friction for this step: the candidate contacts that touch at the step's start.
