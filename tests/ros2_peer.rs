@@ -113,7 +113,7 @@ fn rclpy_joint_states_drive_a_scene_robot() {
         "{log}"
     );
     assert!(
-        log.contains("joint_state_ignored") && log.contains("no joint elbow"),
+        log.contains("joint_state_ignored") && log.contains("has joint elbow"),
         "{log}"
     );
     let counts = &common::python_counts(&[bag])[0];

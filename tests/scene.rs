@@ -359,6 +359,33 @@ fn auto_sizes_are_the_smallest_within_the_budget() {
 }
 
 #[test]
+fn a_joint_state_reaches_every_robot_on_its_topic() {
+    // Two robots on one topic: each takes the joints it has; only a name neither has is wrong.
+    let file = scene_file(
+        "two-robots",
+        "robots:\n  - {name: left, urdf: '{urdf}'}\n  - {name: right, urdf: '{urdf}', base: {xyz: [1, 0, 0]}}\n\
+         objects:\n  - {name: bar, shape: {box: [0.06, 0.06, 0.4]}, position: [0.3, 0, 0.38], handles: 5, cubature: 64}\n",
+    );
+    let mut scene = build(&file, &FieldCache::default());
+    let robots = ["left".to_string(), "right".to_string()];
+    let names = ["lift".to_string(), "swing".to_string()];
+    scene
+        .set_joint_positions(&robots, &names, &[0.1, 0.2])
+        .unwrap();
+    let err = scene
+        .set_joint_positions(&robots, &["lift".into(), "elbow".into()], &[0.1, 0.2])
+        .unwrap_err();
+    assert!(
+        err.contains("has joint elbow") && !err.contains("lift"),
+        "{err}"
+    );
+    let err = scene
+        .set_joint_positions(&robots, &names, &[0.1])
+        .unwrap_err();
+    assert!(err.contains("2 joint names but 1 positions"), "{err}");
+}
+
+#[test]
 fn scene_mistakes_name_the_object_and_the_problem() {
     let file = scene_file(
         "mistakes",

@@ -303,21 +303,24 @@ pub fn run_node(
             .iter()
             .filter(|o| o.kind == crate::scene::ObjectKind::Deformable && o.topic.is_none())
             .count() as u32;
-        let mut topics: Vec<(&str, &str)> = file
-            .robots
-            .iter()
-            .map(|r| (r.name.as_str(), r.joint_states.as_str()))
-            .collect();
-        topics.dedup_by_key(|(_, topic)| *topic);
-        for (robot, topic) in topics {
+        // One subscription per topic, for every robot on it (a JointState may carry the joints
+        // of several robots).
+        let mut topics: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
+        for r in &file.robots {
+            topics
+                .entry(r.joint_states.as_str())
+                .or_default()
+                .push(r.name.clone());
+        }
+        for (topic, robots) in topics {
             if let Some(recorder) = &outputs.recorder {
-                let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(10));
+                let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
                 if let Err(e) = recorder.declare(info) {
                     eprintln!("[physskin] error: recording: {e}");
                 }
             }
             let sub = subscription::<JointState>(&mut node, topic, sensor_qos())?;
-            joint_subs.push((robot.to_string(), topic.to_string(), sub));
+            joint_subs.push((robots, topic.to_string(), sub));
         }
     }
 
@@ -428,12 +431,12 @@ pub fn run_node(
             async {}
         });
         let (outputs, step_tx) = (&outputs, &step_tx);
-        let joints = futures::future::join_all(joint_subs.iter().map(|(robot, topic, sub)| {
+        let joints = futures::future::join_all(joint_subs.iter().map(|(robots, topic, sub)| {
             sub.async_stream().for_each(move |m| {
                 if let Ok((state, _)) = m {
                     outputs.record_input(topic, Some(state.header.stamp.nanos()), &state);
-                    let robot = robot.clone();
-                    let _ = step_tx.send(StepperCommand::Joints { robot, state });
+                    let robots = robots.clone();
+                    let _ = step_tx.send(StepperCommand::Joints { robots, state });
                 }
                 async {}
             })

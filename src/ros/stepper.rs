@@ -23,9 +23,9 @@ pub enum StepperCommand {
         first_id: u32,
         frame: String,
     },
-    /// A robot's joint state.
+    /// A joint state for the robots on its topic.
     Joints {
-        robot: String,
+        robots: Vec<String>,
         state: JointState,
     },
 }
@@ -80,8 +80,8 @@ pub fn run_stepper(
                     first_id,
                     frame,
                 }) => stage.set_scene(*scene, first_id, frame, &outputs),
-                Ok(StepperCommand::Joints { robot, state }) => {
-                    stage.set_joints(&robot, &state, &outputs)
+                Ok(StepperCommand::Joints { robots, state }) => {
+                    stage.set_joints(&robots, &state, &outputs)
                 }
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => return stats,
@@ -223,14 +223,14 @@ impl Stage {
         self.scene = Some(s);
     }
 
-    /// A robot's joints move (a JointState from its topic).
-    pub fn set_joints(&mut self, robot: &str, state: &JointState, outputs: &Outputs) {
+    /// Robots' joints move (a JointState from their topic).
+    pub fn set_joints(&mut self, robots: &[String], state: &JointState, outputs: &Outputs) {
         let Some(s) = &mut self.scene else {
             return;
         };
         if let Err(problem) = s
             .scene
-            .set_joint_positions(robot, &state.name, &state.position)
+            .set_joint_positions(robots, &state.name, &state.position)
         {
             if s.reported.insert(problem.clone()) {
                 outputs.report(Status::WARN, 0, "joint_state_ignored", problem);

@@ -173,6 +173,10 @@ impl Robot {
         self.link_index.get(name).copied()
     }
 
+    pub fn has_joint(&self, name: &str) -> bool {
+        self.joints.iter().any(|j| j.name == name)
+    }
+
     /// Names of the joints that move.
     pub fn moving_joints(&self) -> Vec<&str> {
         self.joints

@@ -328,22 +328,55 @@ impl Scene {
             });
     }
 
-    /// Sets a robot's joints from a JointState (names and positions). Unknown joint names are
-    /// an error naming them; the known ones are applied.
+    /// Sets the joints of the robots on one joint-state topic from a JointState (names and
+    /// positions): each robot takes the joints it has. Names no robot of `robots` has (or
+    /// non-finite positions) are an error naming them; the rest is applied.
     pub fn set_joint_positions(
         &mut self,
-        robot: &str,
+        robots: &[String],
         names: &[String],
         positions: &[f64],
     ) -> std::result::Result<(), String> {
-        let r = self
-            .robots
-            .iter_mut()
-            .find(|r| r.name == robot)
-            .ok_or_else(|| format!("the scene has no robot `{robot}`"))?;
-        let result = r.robot.set_joint_positions(names, positions);
-        r.poses = r.robot.link_poses();
-        result
+        if names.len() != positions.len() {
+            return Err(format!(
+                "{} joint names but {} positions",
+                names.len(),
+                positions.len()
+            ));
+        }
+        let mut unclaimed: Vec<bool> = vec![true; names.len()];
+        let mut problems = Vec::new();
+        for r in self.robots.iter_mut().filter(|r| robots.contains(&r.name)) {
+            let (mut own_names, mut own_positions) = (Vec::new(), Vec::new());
+            for (i, name) in names.iter().enumerate() {
+                if r.robot.has_joint(name) {
+                    unclaimed[i] = false;
+                    own_names.push(name.clone());
+                    own_positions.push(positions[i]);
+                }
+            }
+            if let Err(problem) = r.robot.set_joint_positions(&own_names, &own_positions) {
+                problems.push(problem);
+            }
+            r.poses = r.robot.link_poses();
+        }
+        let unknown: Vec<&str> = names
+            .iter()
+            .zip(&unclaimed)
+            .filter(|(_, u)| **u)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        if !unknown.is_empty() {
+            problems.push(format!(
+                "no robot among {robots:?} has joint {}",
+                unknown.join(", ")
+            ));
+        }
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(problems.join("; "))
+        }
     }
 
     /// A force on the material point at `rest` of a deformable object for `duration` seconds
