@@ -116,7 +116,29 @@ fn rclpy_joint_states_drive_a_scene_robot() {
         log.contains("joint_state_ignored") && log.contains("has joint elbow"),
         "{log}"
     );
-    let counts = &common::python_counts(&[bag])[0];
+    let counts = &common::python_counts(std::slice::from_ref(&bag))[0];
+    // The recording replays through the same scene: the recorded joint states lower the press
+    // again and the block dents again (its top middle went down about 1.1 cm above).
+    let replayed = Command::new(env!("CARGO_BIN_EXE_physskin"))
+        .args(["replay", "--json", "--scene"])
+        .arg(root.join("tests/data/press/press.yaml"))
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&replayed.stdout).unwrap_or_else(|e| {
+        panic!(
+            "replay printed no JSON ({e}): {}",
+            String::from_utf8_lossy(&replayed.stderr)
+        )
+    });
+    assert_eq!(json["rejected"], 0, "{json}");
+    let moved = json["scene_objects"][0]["max_displacement_m"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        moved > 0.008,
+        "the replayed press moved the block {moved} m at most: {json}"
+    );
     for topic in [
         "/joint_states",
         "/physskin/deformed_points",

@@ -14,9 +14,10 @@ use super::recorder::Recorder;
 use super::writer::{RecordOptions, RecordSummary};
 use super::BagError;
 use crate::ros::messages::{
-    from_cdr, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, Status, Time,
+    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status, Time,
 };
 use crate::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
+use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::skinning::NeuralModel;
 
 /// How to replay.
@@ -70,6 +71,18 @@ pub struct ShapeSummary {
     pub max_displacement_m: f64,
 }
 
+/// One object of the scene a replay ran (`scene` parameter).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SceneObjectSummary {
+    pub shape_id: u32,
+    pub name: String,
+    pub handles: usize,
+    pub cubature: usize,
+    /// Largest distance of a point from where it was when the scene was built, m.
+    pub max_displacement_m: f64,
+    pub decision: String,
+}
+
 /// What a replay did.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ReplaySummary {
@@ -77,6 +90,9 @@ pub struct ReplaySummary {
     /// Inputs refused (each reported on the status topic with the reason).
     pub rejected: usize,
     pub shapes: Vec<ShapeSummary>,
+    /// The scene's objects, when the parameters name a scene: its robots follow the recorded
+    /// JointState messages.
+    pub scene_objects: Vec<SceneObjectSummary>,
     pub ticks: u64,
     /// Log time covered, s.
     pub sim_seconds: f64,
@@ -104,6 +120,19 @@ pub fn replay(
     let params = &options.params;
     params.validate()?;
     let topics = &params.topics;
+    let scene_file = if params.scene.is_empty() {
+        None
+    } else {
+        Some(SceneFile::load(std::path::Path::new(&params.scene))?)
+    };
+    // Joint-state topic to the robots on it.
+    let mut joint_topics: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for r in scene_file.iter().flat_map(|f| &f.robots) {
+        joint_topics
+            .entry(r.joint_states.clone())
+            .or_default()
+            .push(r.name.clone());
+    }
     let inputs: Vec<BagMessage> = read_messages(bytes, source)?
         .into_iter()
         .filter(|m| {
@@ -114,6 +143,7 @@ pub fn replay(
                 &topics.interaction,
             ]
             .contains(&&m.topic)
+                || joint_topics.contains_key(&m.topic)
         })
         .collect();
     let recorder = match &options.record {
@@ -138,6 +168,14 @@ pub fn replay(
         timings: options.timings,
     };
     outputs.declare_topics();
+    if let Some(recorder) = &outputs.recorder {
+        for topic in joint_topics.keys() {
+            recorder.declare(crate::bag::TopicInfo::of::<JointState>(
+                topic,
+                crate::bag::QosProfile::sensor(5),
+            ))?;
+        }
+    }
 
     let mut summary = ReplaySummary {
         input_messages: inputs.len(),
@@ -152,13 +190,31 @@ pub fn replay(
         last.log_time + (options.tail_s * 1e9) as i64,
     );
     let period = (1e9 / params.rate_hz) as i64;
-    let mut builder = Builder::default();
     let mut stage = Stage::default();
+    let mut reserved = 0;
+    let mut scene_rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
+    if let Some(file) = &scene_file {
+        let options = SceneOptions {
+            scripted: false,
+            ..SceneOptions::default()
+        };
+        let scene = Scene::build(file, model, &FieldCache::default(), &options)?;
+        clock.set(&Time::from_nanos(start));
+        stage.set_scene(scene, 1, params.mesh_frame.clone(), &outputs);
+        for (id, _, body) in stage.scene_bodies() {
+            scene_rest.insert(id, body.deformed().to_vec());
+            reserved = reserved.max(id);
+        }
+    }
+    let mut builder = Builder::after_reserved_ids(reserved);
     let mut rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
     let mut shapes: BTreeMap<u32, ShapeSummary> = BTreeMap::new();
     let mut step_times: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
-    let decoded: Vec<Result<Input, String>> =
-        inputs.iter().map(|m| input(m, source, params)).collect();
+    let mut scene_moved: BTreeMap<u32, f64> = BTreeMap::new();
+    let decoded: Vec<Result<Input, String>> = inputs
+        .iter()
+        .map(|m| input(m, source, params, &joint_topics))
+        .collect();
     let mut next_input = inputs.iter().zip(&decoded).peekable();
     let wall = Instant::now();
     let mut tick_time = start;
@@ -194,6 +250,7 @@ pub fn replay(
                     }
                 }
                 Ok(Input::Interaction(i)) => stage.interact(i, &outputs),
+                Ok(Input::Joints(robots, state)) => stage.set_joints(robots, state, &outputs),
                 Err(problem) => {
                     summary.rejected += 1;
                     outputs.report(Status::ERROR, 0, "input_rejected", problem.clone());
@@ -225,6 +282,13 @@ pub fn replay(
                     .max(max_distance(b.body.deformed(), rest));
             }
         }
+        for (id, _, body) in stage.scene_bodies() {
+            if let Some(rest) = scene_rest.get(&id) {
+                let moved = max_distance(body.deformed(), rest);
+                let entry = scene_moved.entry(id).or_insert(0.0);
+                *entry = entry.max(moved);
+            }
+        }
         observe(&Tick {
             time_ns: tick_time,
             stage: &stage,
@@ -243,6 +307,16 @@ pub fn replay(
             shape.step_ms_p99 = times[((times.len() as f64 * 0.99) as usize).min(times.len() - 1)];
         }
         summary.shapes.push(shape);
+    }
+    for (id, name, body) in stage.scene_bodies() {
+        summary.scene_objects.push(SceneObjectSummary {
+            shape_id: id,
+            name: name.into(),
+            handles: body.handles(),
+            cubature: body.cubature_len(),
+            max_displacement_m: scene_moved.get(&id).copied().unwrap_or(0.0),
+            decision: body.decision().into(),
+        });
     }
     summary.recording = finish(&outputs)?;
     Ok(summary)
@@ -266,12 +340,22 @@ fn finish(outputs: &Outputs) -> Result<Option<RecordSummary>, BagError> {
 enum Input {
     Geometry(BuildRequest),
     Interaction(Interaction),
+    /// A joint state for the scene robots on its topic.
+    Joints(Vec<String>, JointState),
 }
 
 /// Decodes one recorded input, checking its channel's type and encoding.
-fn input(m: &BagMessage, source: &str, params: &NodeParams) -> Result<Input, String> {
+fn input(
+    m: &BagMessage,
+    source: &str,
+    params: &NodeParams,
+    joint_topics: &BTreeMap<String, Vec<String>>,
+) -> Result<Input, String> {
     let t = &params.topics;
-    let expected = if m.topic == t.points {
+    let robots = joint_topics.get(&m.topic);
+    let expected = if robots.is_some() {
+        JointState::type_name()
+    } else if m.topic == t.points {
         PointCloud2::type_name()
     } else if m.topic == t.mesh {
         Mesh::type_name()
@@ -289,7 +373,10 @@ fn input(m: &BagMessage, source: &str, params: &NodeParams) -> Result<Input, Str
     }
     let bad = |e: String| format!("{at}: {e}");
     let max = params.max_points;
-    if m.topic == t.points {
+    if let Some(robots) = robots {
+        let state: JointState = from_cdr(&m.data).map_err(bad)?;
+        Ok(Input::Joints(robots.clone(), state))
+    } else if m.topic == t.points {
         let cloud: PointCloud2 = from_cdr(&m.data).map_err(bad)?;
         BuildRequest::from_cloud(&cloud, max).map(Input::Geometry)
     } else if m.topic == t.mesh {

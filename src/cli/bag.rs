@@ -40,15 +40,22 @@ pub struct ReplayArgs {
     /// services `<PREFIX>deformed_points` and `<PREFIX>weights`.
     #[arg(long, value_name = "PREFIX", num_args = 0..=1, default_missing_value = "physskin/")]
     shm: Option<String>,
+    /// Run this scene file too (overrides the `scene` parameter): its robots follow the
+    /// recording's JointState messages.
+    #[arg(long)]
+    scene: Option<PathBuf>,
     #[arg(long)]
     json: bool,
 }
 
 pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
-    let params = match &args.params {
+    let mut params = match &args.params {
         Some(path) => NodeParams::from_yaml_file(path, "/physskin")?,
         None => NodeParams::default(),
     };
+    if let Some(scene) = &args.scene {
+        params.scene = scene.display().to_string();
+    }
     if args
         .pace
         .is_some_and(|p| p.is_nan() || p <= 0.0 || p.is_infinite())
@@ -103,6 +110,12 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
             summary.wall_seconds,
             summary.realtime_factor
         );
+        for o in &summary.scene_objects {
+            println!(
+                "scene object {} (shape {}): moved up to {:.4} m; {}",
+                o.name, o.shape_id, o.max_displacement_m, o.decision
+            );
+        }
         if let Some(rec) = &summary.recording {
             let files: Vec<String> = rec
                 .files

@@ -91,6 +91,16 @@ pub struct Builder {
     next_id: u32,
 }
 
+impl Builder {
+    /// A builder whose first id follows `reserved` ids (those of a scene's objects).
+    pub fn after_reserved_ids(reserved: u32) -> Self {
+        Self {
+            next_id: reserved,
+            ..Self::default()
+        }
+    }
+}
+
 /// What is announced once a body is with the stepper: its weights and a `shape_ready` status.
 pub struct Announcement {
     id: u32,

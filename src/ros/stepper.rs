@@ -242,6 +242,11 @@ impl Stage {
         &self.bodies
     }
 
+    /// The scene's deformable objects: (shape id, name, body).
+    pub fn scene_bodies(&self) -> impl Iterator<Item = (u32, &str, &SoftBody)> {
+        self.scene.iter().flat_map(|s| s.bodies())
+    }
+
     /// A new body replaces the one in its frame. With `step_now` it makes its first step at
     /// once, so its first deformed cloud does not wait for the next tick.
     pub fn add(&mut self, mut ready: ReadyBody, outputs: &Outputs, step_now: bool) {
