@@ -14,6 +14,6 @@ pub use cubature::{stratified_subset, Cubature};
 pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
 pub use sampling::{median_spacing, sample_surface, SurfaceSamples, SurfaceSampling};
-pub use shape::{Normalization, Shape};
+pub use shape::{content_hash, Normalization, Shape};
 pub use tetmesh::{TetLocation, TetMesh};
 pub use voxel::VoxelGrid;

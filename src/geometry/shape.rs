@@ -28,6 +28,18 @@ impl Normalization {
     }
 }
 
+/// Content hash of geometry: positions (bit patterns) and triangles. The same points and
+/// triangles always hash alike; anything else almost never does.
+pub fn content_hash(positions: &[Vector3<f64>], triangles: &[[u32; 3]]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for p in positions {
+        p.iter().for_each(|c| c.to_bits().hash(&mut h));
+    }
+    triangles.hash(&mut h);
+    h.finish()
+}
+
 /// A triangle mesh, or a bare point cloud when `triangles` is empty. Positions are in world units.
 #[derive(Clone, Debug, Default)]
 pub struct Shape {

@@ -1,9 +1,7 @@
 //! The build thread: new geometry in, a ready body out, off the stepping thread so running
 //! objects never wait for inference.
 
-use std::collections::hash_map::DefaultHasher;
 use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
 use std::sync::mpsc::{Receiver, Sender};
 use std::sync::{Arc, RwLock};
 
@@ -72,14 +70,7 @@ impl BuildRequest {
     }
 
     fn content_hash(&self) -> u64 {
-        let mut h = DefaultHasher::new();
-        for p in &self.points {
-            for c in p.iter() {
-                c.to_bits().hash(&mut h);
-            }
-        }
-        self.triangles.hash(&mut h);
-        h.finish()
+        crate::geometry::content_hash(&self.points, &self.triangles)
     }
 }
 

@@ -115,16 +115,6 @@ impl FieldCache {
     }
 }
 
-/// Content hash of geometry: positions (bit patterns) and triangles.
-pub(crate) fn geometry_hash(shape: &Shape) -> u64 {
-    let mut h = DefaultHasher::new();
-    for p in &shape.positions {
-        p.iter().for_each(|c| c.to_bits().hash(&mut h));
-    }
-    shape.triangles.hash(&mut h);
-    h.finish()
-}
-
 /// A scene: its robots and objects, at one time.
 pub struct Scene {
     dt: f64,
@@ -588,7 +578,8 @@ fn world_shape(spec: &ObjectSpec) -> Result<Option<(Shape, u64)>> {
     let positions = local.positions.iter().map(|p| p + offset).collect();
     let placed =
         Shape::new(positions, local.normals.clone(), local.triangles.clone()).map_err(named)?;
-    Ok(Some((placed, geometry_hash(&local))))
+    let key = geometry::content_hash(&local.positions, &local.triangles);
+    Ok(Some((placed, key)))
 }
 
 fn find_link(
