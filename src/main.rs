@@ -114,6 +114,25 @@ enum BenchCommand {
         #[arg(long, default_value_t = 3.5)]
         seconds: f64,
     },
+    /// The node for a long run under changing shapes, pokes, pins and bad inputs, recording:
+    /// memory over time, ticks missed, NaN states, the recording read back (run it in a private
+    /// network namespace: `unshare -n tests/peers/private_net.sh`).
+    Soak {
+        #[arg(long)]
+        json: bool,
+        #[arg(long, default_value_t = 600.0)]
+        seconds: f64,
+        #[arg(long, default_value_t = 79)]
+        domain_id: u16,
+        #[arg(long, default_value = "target/soak/soak.mcap")]
+        record: PathBuf,
+    },
+    /// Numerical stress: stiff to soft, nu toward 0.5, large steps, inverted starts, a thin
+    /// sheet, violent pokes; each case's NaN, energy bound, Newton iterations and fallbacks.
+    Stress {
+        #[arg(long)]
+        json: bool,
+    },
     /// Reduced simulation against the FEM reference: step time next to error.
     Sim {
         /// Small meshes and fewer variants (fits in CI).
@@ -191,6 +210,13 @@ fn main() -> ExitCode {
             BenchCommand::Replay { json } => run_bench_replay(json),
             BenchCommand::Scene { json, seconds } => cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
+            BenchCommand::Stress { json } => run_bench_stress(json),
+            BenchCommand::Soak {
+                json,
+                seconds,
+                domain_id,
+                record,
+            } => run_bench_soak(json, seconds, domain_id, record),
         },
     };
     match result {
@@ -262,6 +288,79 @@ fn run_bench_transport(json: bool, domain_id: u16) -> physskin::Result<()> {
             r.dds_median_ms, r.dds_p99_ms, r.dds_received, r.frames
         );
     }
+    Ok(())
+}
+
+fn run_bench_soak(
+    json: bool,
+    seconds: f64,
+    domain_id: u16,
+    record: PathBuf,
+) -> physskin::Result<()> {
+    let options = physskin::bench::SoakOptions {
+        seconds,
+        domain_id,
+        record,
+    };
+    let r = physskin::bench::run_soak(&options, |line| eprintln!("{line}"))?;
+    if json {
+        cli::print_json(&r);
+        return Ok(());
+    }
+    println!(
+        "{:.0} s: {} shapes, {} pokes and pins, {} bad inputs sent",
+        r.seconds, r.shapes_sent, r.pokes_sent, r.bad_inputs_sent
+    );
+    println!("ticks {}, missed {}", r.ticks, r.missed_ticks);
+    println!(
+        "states received {}, with NaN or Inf {}",
+        r.states_received, r.non_finite_states
+    );
+    println!(
+        "RSS warm {:.1} MB, end {:.1} MB, max {:.1} MB, growth {:+.3} MB/min",
+        r.rss_warm_mb, r.rss_end_mb, r.rss_max_mb, r.rss_growth_mb_per_min
+    );
+    println!("statuses {:?}", r.statuses);
+    println!(
+        "recording: {} files, complete {}, {:?}",
+        r.recording_files, r.recording_complete, r.recorded
+    );
+    Ok(())
+}
+
+fn run_bench_stress(json: bool) -> physskin::Result<()> {
+    let cases = physskin::bench::stress_cases();
+    let r = physskin::bench::run_stress(&cases, |line| eprintln!("{line}"))?;
+    if json {
+        cli::print_json(&r);
+        return Ok(());
+    }
+    println!(
+        "| case | E Pa | nu | dt s | steps | NaN steps | energy peak J | after J | bounded | iterations mean / max | fallback steps | unconverged | max moved m | ms/step |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|");
+    for row in &r.rows {
+        let c = &row.case;
+        println!(
+            "| {} | {:.0e} | {} | {:.4} | {} | {} | {:.4e} | {:.4e} | {} | {:.2} / {} | {} | {} | {:.4} | {:.3} |",
+            c.name,
+            c.young,
+            c.poisson,
+            c.dt,
+            row.steps,
+            row.non_finite_steps,
+            row.energy_peak_j,
+            row.energy_after_j,
+            if row.bounded { "yes" } else { "NO" },
+            row.iterations_mean,
+            row.iterations_max,
+            row.fallback_steps,
+            row.unconverged_steps,
+            row.max_displacement_m,
+            row.step_ms_mean
+        );
+    }
+    println!("{} of {} cases failed", r.failures, r.rows.len());
     Ok(())
 }
 

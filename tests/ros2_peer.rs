@@ -73,6 +73,16 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
     assert!(stdout.contains("ok: "), "{stdout}");
     assert!(stdout.contains("set/get ok"), "parameters: {stdout}");
     assert!(log.contains("shape_ready"), "{log}");
+    // The peer's bad clouds were refused, each with its reason, in the log and on the status
+    // topic (recorded below).
+    assert!(
+        log.contains("cloud in frame `peer_bad`: PointCloud2 has no `z` field"),
+        "{log}"
+    );
+    assert!(
+        log.contains("cloud in frame `peer_short`: PointCloud2 data holds 993 bytes"),
+        "{log}"
+    );
     // The node recorded what it received and sent; readers nobody here wrote agree.
     let counts = &common::python_counts(&[bag])[0];
     for topic in [

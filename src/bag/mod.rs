@@ -11,7 +11,7 @@ mod writer;
 use std::path::PathBuf;
 
 pub use qos::QosProfile;
-pub use reader::{read_messages, recover, BagMessage, Recovered};
+pub use reader::{read_messages, read_recording, recover, BagMessage, Recording, Recovered};
 pub use recorder::Recorder;
 pub use replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
 pub use schema::schema_text;

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::reader::{read_messages, BagMessage};
+use super::reader::{read_recording, BagMessage};
 use super::recorder::Recorder;
 use super::writer::{RecordOptions, RecordSummary};
 use super::BagError;
@@ -89,6 +89,8 @@ pub struct ReplaySummary {
     pub input_messages: usize,
     /// Inputs refused (each reported on the status topic with the reason).
     pub rejected: usize,
+    /// The damaged parts of the recording, skipped (each also reported on the status topic).
+    pub damage: Vec<String>,
     pub shapes: Vec<ShapeSummary>,
     /// The scene's objects, when the parameters name a scene: its robots follow the recorded
     /// JointState messages.
@@ -133,7 +135,9 @@ pub fn replay(
             .or_default()
             .push(r.name.clone());
     }
-    let inputs: Vec<BagMessage> = read_messages(bytes, source)?
+    let recording = read_recording(bytes, source)?;
+    let inputs: Vec<BagMessage> = recording
+        .messages
         .into_iter()
         .filter(|m| {
             [
@@ -177,8 +181,13 @@ pub fn replay(
         }
     }
 
+    // A damaged recording replays what is intact; each damaged part is reported once.
+    for damage in &recording.damage {
+        outputs.report(Status::ERROR, 0, "recording_damaged", damage.clone());
+    }
     let mut summary = ReplaySummary {
         input_messages: inputs.len(),
+        damage: recording.damage,
         ..Default::default()
     };
     let (Some(first), Some(last)) = (inputs.first(), inputs.last()) else {

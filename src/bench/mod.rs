@@ -6,7 +6,9 @@ mod plot;
 mod replay;
 mod scene;
 pub(crate) mod sim;
+mod soak;
 mod stats;
+mod stress;
 mod transport;
 
 pub use fields::{
@@ -23,5 +25,7 @@ pub use sim::{
     run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimRow, SimulateOptions,
     SimulateSummary,
 };
+pub use soak::{run_soak, MemorySample, SoakOptions, SoakReport};
 pub use stats::median;
+pub use stress::{run_stress, stress_cases, Start, StressCase, StressReport, StressRow};
 pub use transport::{run_transport_bench, TransportReport};

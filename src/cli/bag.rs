@@ -110,6 +110,9 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
             summary.wall_seconds,
             summary.realtime_factor
         );
+        for damage in &summary.damage {
+            println!("skipped, damaged: {damage}");
+        }
         for o in &summary.scene_objects {
             println!(
                 "scene object {} (shape {}): moved up to {:.4} m; {}",

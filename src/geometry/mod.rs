@@ -11,7 +11,9 @@ mod tetmesh;
 mod voxel;
 
 pub use cubature::{stratified_subset, Cubature};
-pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
+pub use mesh_io::{
+    load_geometry, parse_obj, parse_ply, parse_stl, write_obj, write_ply, LoadError, RawGeometry,
+};
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
 pub use sampling::{median_spacing, sample_surface, SurfaceSamples, SurfaceSampling};
 pub use shape::{content_hash, Normalization, Shape};

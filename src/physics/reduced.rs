@@ -56,6 +56,10 @@ pub struct StepReport {
     pub kinetic_energy: f64,
     /// Gravity's potential energy relative to the rest pose (J).
     pub gravity_energy: f64,
+    /// Energy held by the penalty springs of pins, contacts and friction (J): with the three
+    /// above, what implicit Euler may only lose once nothing drives the body.
+    #[serde(default)]
+    pub constraint_energy: f64,
     pub seconds: f64,
 }
 
@@ -509,6 +513,7 @@ impl ReducedSim {
         self.z_prev = std::mem::replace(&mut self.z, z);
         self.time += self.params.dt;
         report.elastic_energy = current.elastic;
+        report.constraint_energy = current.nonquadratic - current.elastic + self.pin_energy();
         report.contacts = current.touching;
         let velocity = self.velocity();
         report.kinetic_energy = 0.5 * quadratic(&velocity, self.subspace.mass_phi());
@@ -723,6 +728,15 @@ impl ReducedSim {
             q.axpy(alpha - beta, s, 1.0);
         }
         q
+    }
+
+    /// Energy of the pin springs at the current state (J).
+    fn pin_energy(&self) -> f64 {
+        let k = self.params.pin_stiffness;
+        self.pins
+            .iter()
+            .map(|p| 0.5 * k * p.weight * (p.rest + &self.z * &p.phi - p.target).norm_squared())
+            .sum()
     }
 
     /// Deformed positions of the pinned points (for reports and tests).

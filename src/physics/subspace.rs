@@ -93,7 +93,8 @@ impl Subspace {
     }
 
     /// The state that moves the object rigidly, x = R X + t: handle 0 (the constant one)
-    /// carries [R - I | t], every other handle is still.
+    /// carries [R - I | t], every other handle is still. Any matrix in place of R gives that
+    /// affine map of the object.
     pub fn rigid_state(&self, rotation: &Matrix3<f64>, translation: &Vector3<f64>) -> DMatrix<f64> {
         let mut z = DMatrix::zeros(3, 4 * self.handles);
         let a = rotation - Matrix3::identity();

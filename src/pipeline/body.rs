@@ -351,6 +351,20 @@ impl SoftBody {
         }
     }
 
+    /// Starts from the affine pose x = A X + t of the rest shape, at rest velocity: A may be
+    /// any matrix, a mirror or a squash included (the stress cases start inverted this way).
+    pub fn start_from_affine(&mut self, a: &nalgebra::Matrix3<f64>, t: &Vector3<f64>) {
+        let z = self.sim.subspace().rigid_state(a, t);
+        self.sim.set_state(z, None);
+        self.lifter.lift(self.sim.state(), &mut self.deformed);
+        self.bounds = bounds_of(&self.deformed);
+    }
+
+    /// The body's mass, kg.
+    pub fn mass(&self) -> f64 {
+        self.sim.subspace().total_mass()
+    }
+
     /// Whether the body sleeps (is not being stepped).
     pub fn is_sleeping(&self) -> bool {
         self.activity.asleep
@@ -573,9 +587,62 @@ struct NetworkInput {
     voxelize_ms: f64,
 }
 
+/// Objects from 1 mm to 1 km across: outside, the input is almost surely in another unit.
+const SIZE_RANGE_M: (f64, f64) = (1e-3, 1e3);
+/// Below this fraction of its length, a side counts as zero: the points lie on a line or plane.
+const FLAT: f64 = 1e-3;
+
+/// Refuses geometry that is not a solid of a size in metres, naming why: voxelizing a line,
+/// a plane or a micrometre object would build a body from voxels the input never had.
+fn check_extent(shape: &Shape) -> Result<()> {
+    let n = shape.positions.len() as f64;
+    let mean = shape.positions.iter().sum::<Vector3<f64>>() / n;
+    let covariance = shape
+        .positions
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<nalgebra::Matrix3<f64>>()
+        / n;
+    let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
+    let mut extents: Vec<f64> = (0..3)
+        .map(|a| {
+            let along = shape.positions.iter().map(|p| p.dot(&axes.column(a)));
+            let (lo, hi) = along.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            });
+            hi - lo
+        })
+        .collect();
+    extents.sort_by(|a, b| b.total_cmp(a));
+    let [length, width, thickness] = [extents[0], extents[1], extents[2]];
+    let refuse = |why: String| Err(crate::Error::Geometry(why));
+    if length < SIZE_RANGE_M.0 {
+        return refuse(format!(
+            "the object is {length:.3e} m across, smaller than 1 mm: positions are read in metres (is the input in another unit?)"
+        ));
+    }
+    if length > SIZE_RANGE_M.1 {
+        return refuse(format!(
+            "the object is {length:.3e} m across, larger than 1 km: positions are read in metres (is the input in another unit?)"
+        ));
+    }
+    if width < FLAT * length {
+        return refuse(format!(
+            "the points lie on one line ({width:.3e} m wide over {length:.3e} m): a solid needs width and depth"
+        ));
+    }
+    if thickness < FLAT * length {
+        return refuse(format!(
+            "the points lie on one plane ({thickness:.3e} m thick over {length:.3e} m): a solid needs depth"
+        ));
+    }
+    Ok(())
+}
+
 impl NetworkInput {
     fn new(shape: &Shape, options: &BodyOptions) -> Result<Self> {
         options.sim.validate()?;
+        check_extent(shape)?;
         let started = Instant::now();
         let grid = VoxelGrid::from_shape(shape, options.voxel_resolution, None);
         if grid.solid_volume() <= 0.0 {

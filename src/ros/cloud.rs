@@ -40,6 +40,8 @@ pub enum CloudError {
     },
     #[error("PointCloud2 holds {count} points, more than max_points = {cap}")]
     TooManyPoints { count: u64, cap: usize },
+    #[error("PointCloud2 holds no points (width {width} x height {height})")]
+    Empty { width: u32, height: u32 },
     #[error("PointCloud2 holds no finite point ({dropped} with NaN or Inf coordinates dropped)")]
     NoFinitePoints { dropped: usize },
 }
@@ -110,6 +112,12 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
         });
     }
     let count = width * height;
+    if count == 0 {
+        return Err(CloudError::Empty {
+            width: cloud.width,
+            height: cloud.height,
+        });
+    }
     if count > max_points as u64 {
         return Err(CloudError::TooManyPoints {
             count,

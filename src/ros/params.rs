@@ -307,6 +307,11 @@ impl NodeParams {
                 for (name, value) in flatten(&section, "") {
                     params = params.with(&name, value)?;
                 }
+                check_groups(
+                    &section,
+                    &serde_json::to_value(&params).unwrap_or_default(),
+                    "",
+                )?;
             }
         }
         if !matched {
@@ -494,6 +499,24 @@ fn node_matches(pattern: &str, name: &str) -> bool {
     let p: Vec<&str> = p.iter().map(String::as_str).collect();
     let n: Vec<&str> = n.iter().map(String::as_str).collect();
     matches(&p, &n)
+}
+
+/// Refuses groups of a parameter file that name nothing (an empty `materiel: {}` flattens to
+/// no parameter at all, so `with` never sees it).
+fn check_groups(map: &Map<String, Value>, known: &Value, prefix: &str) -> Result<(), ParamError> {
+    for (key, value) in map {
+        let name = format!("{prefix}{key}");
+        let Some(slot) = known.get(key) else {
+            return Err(ParamError::Invalid {
+                name,
+                reason: "no such parameter".into(),
+            });
+        };
+        if let Value::Object(inner) = value {
+            check_groups(inner, slot, &format!("{name}."))?;
+        }
+    }
+    Ok(())
 }
 
 fn flatten(map: &Map<String, Value>, prefix: &str) -> Vec<(String, Value)> {

@@ -115,6 +115,22 @@ def main():
     assert np.abs(xyz - pts).max() < 1e-5, "the weights cloud carries the rest points"
     mesh_frames = got["deformed"]["world"]
     assert read_xyz(mesh_frames[-1])[0].shape == (8, 3)
+    # Bad clouds from a publisher nobody here wrote: a cloud without z, and one whose data is
+    # shorter than its layout says. The node refuses them (the Rust side reads its log) and
+    # keeps publishing the good object.
+    _, bad = box_cloud(50, "peer_bad")
+    bad.fields = [f for f in bad.fields if f.name != "z"]
+    cloud_pub.publish(bad)
+    _, short = box_cloud(50, "peer_short")
+    short.data = short.data[:-7]
+    cloud_pub.publish(short)
+    before = len(got["deformed"]["peer_cloud"])
+    while time.time() < deadline and len(got["deformed"]["peer_cloud"]) < before + 30:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    after = len(got["deformed"]["peer_cloud"]) - before
+    assert after >= 30, f"only {after} deformed clouds after the bad inputs"
+    assert np.isfinite(read_xyz(got["deformed"]["peer_cloud"][-1])[0]).all()
+    assert "peer_bad" not in got["deformed"] and "peer_short" not in got["deformed"]
     params = check_parameters(node)
     print(f"ok: {len(frames)} deformed clouds, max displacement {moved:.4f} m, "
           f"{len(handles)} handles, mesh {len(mesh_frames)} frames, parameters: {params}")

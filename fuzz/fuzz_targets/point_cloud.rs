@@ -1,0 +1,47 @@
+//! PointCloud2 in: the CDR bytes as DDS delivers them, and (first byte odd) a cloud laid out
+//! from the bytes field by field, so that the decoder's layout checks are reached without
+//! having to get CDR right first.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use physskin::ros::messages::{from_cdr, PointCloud2, PointField};
+use physskin::ros::BuildRequest;
+
+const CAP: usize = 100_000;
+
+fn structured(bytes: &[u8]) -> Option<PointCloud2> {
+    let (head, data) = bytes.split_at_checked(12)?;
+    let names = ["x", "y", "z", "rgb"];
+    let fields = (0..head[0] % 5)
+        .map(|i| PointField {
+            name: names[(head[1 + i as usize] % 4) as usize].into(),
+            offset: u32::from(head[5 + i as usize] % 32),
+            datatype: head[9] % 10,
+            count: 1,
+        })
+        .collect();
+    Some(PointCloud2 {
+        height: u32::from(head[10] % 4),
+        width: u32::from(head[11]),
+        fields,
+        is_bigendian: head[0] & 0x80 != 0,
+        point_step: u32::from(head[1] % 40),
+        row_step: u32::from(head[2]) * 4,
+        data: data.to_vec(),
+        is_dense: head[3] & 1 == 1,
+        ..PointCloud2::default()
+    })
+}
+
+fuzz_target!(|bytes: &[u8]| {
+    let cloud = match bytes.first() {
+        Some(b) if b & 1 == 1 => structured(&bytes[1..]),
+        _ => from_cdr::<PointCloud2>(bytes).ok(),
+    };
+    if let Some(cloud) = cloud {
+        if let Ok(request) = BuildRequest::from_cloud(&cloud, CAP) {
+            assert!(request.points.iter().all(|p| p.iter().all(|c| c.is_finite())));
+            let _ = physskin::geometry::Shape::new(request.points, None, Vec::new());
+        }
+    }
+});

@@ -1,0 +1,352 @@
+//! `bench soak`: the node under a stream of changing shapes, pokes, pins and bad inputs for a
+//! long time, in a private network namespace. It reports memory over time, ticks missed, the
+//! states published (all finite?), and whether the recording reads back complete.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::latency::{dds, open_interfaces, sample_cloud};
+use crate::bag::read_messages;
+use crate::ros::messages::{
+    from_cdr, Header, Interaction, Point, PointCloud2, Status, SubspaceState, Vector3,
+};
+use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use crate::skinning::NeuralModel;
+use crate::Result;
+
+/// How long and how hard.
+#[derive(Clone, Debug)]
+pub struct SoakOptions {
+    pub seconds: f64,
+    pub domain_id: u16,
+    /// Where the node records (state, status and inputs; split every minute).
+    pub record: PathBuf,
+}
+
+/// One memory sample.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct MemorySample {
+    pub at_s: f64,
+    pub rss_mb: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SoakReport {
+    pub seconds: f64,
+    pub shapes_sent: usize,
+    pub pokes_sent: usize,
+    pub bad_inputs_sent: usize,
+    /// Node ticks and ticks skipped because one ran past the next one's start.
+    pub ticks: u64,
+    pub missed_ticks: u64,
+    /// SubspaceState messages received, and those with a NaN or Inf in them.
+    pub states_received: usize,
+    pub non_finite_states: usize,
+    /// Statuses by event (input_rejected, shape_ready, ...), as received.
+    pub statuses: BTreeMap<String, usize>,
+    /// Resident memory after the first quarter (warm: every kind of input seen), at the end,
+    /// and the highest; growth is the least-squares slope over the last three quarters.
+    pub rss_warm_mb: f64,
+    pub rss_end_mb: f64,
+    pub rss_max_mb: f64,
+    pub rss_growth_mb_per_min: f64,
+    pub memory: Vec<MemorySample>,
+    /// The recording's files, read back with the strict reader, and their messages per topic.
+    pub recording_files: usize,
+    pub recording_complete: bool,
+    pub recorded: BTreeMap<String, usize>,
+}
+
+fn rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .unwrap_or_default()
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn poke(frame: &str, kind: u8, x: f64) -> Interaction {
+    Interaction {
+        header: Header {
+            frame_id: frame.into(),
+            ..Header::default()
+        },
+        shape_id: 0,
+        kind,
+        point: Point {
+            x: 0.0,
+            y: 0.0,
+            z: 0.1,
+        },
+        force: Vector3 { x, y: 0.0, z: 0.0 },
+        duration: 0.1,
+        radius: 0.03,
+    }
+}
+
+/// Runs the node in this process for `options.seconds` and a client beside it that keeps
+/// changing its shapes and poking them.
+pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport> {
+    let open = open_interfaces();
+    if !open.is_empty() {
+        return Err(dds(format!(
+            "interfaces {open:?} could carry DDS off this machine; run the soak as `unshare -n tests/peers/private_net.sh physskin bench soak`"
+        )));
+    }
+    // Files of an earlier soak would be read back as this one's.
+    for old in recording_files(&options.record) {
+        let _ = std::fs::remove_file(old);
+    }
+    if let Some(dir) = options.record.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    let model = NeuralModel::bundled()?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut config = NodeConfig {
+        domain_id: options.domain_id,
+        ..NodeConfig::default()
+    };
+    let topics = config.params.topics.clone();
+    config.params.record.path = options.record.display().to_string();
+    config.params.record.split_duration_s = 60.0;
+    config.params.record.topics = vec![
+        topics.points.clone(),
+        topics.interaction.clone(),
+        topics.state.clone(),
+        topics.status.clone(),
+    ];
+    let node = {
+        let stop = stop.clone();
+        std::thread::spawn(move || run_node(config, model, stop))
+    };
+    let client_result = (|| {
+        let ctx = context(options.domain_id, false)?;
+        let mut client = ctx
+            .new_node(
+                ros2_client::NodeName::new("/", "physskin_soak")
+                    .map_err(|e| dds(format!("{e:?}")))?,
+                ros2_client::NodeOptions::new().enable_rosout(false),
+            )
+            .map_err(|e| dds(format!("{e:?}")))?;
+        let points = publisher::<PointCloud2>(&mut client, &topics.points, reliable_qos(5, false))?;
+        let pokes =
+            publisher::<Interaction>(&mut client, &topics.interaction, reliable_qos(10, false))?;
+        let states =
+            subscription::<SubspaceState>(&mut client, &topics.state, reliable_qos(100, false))?;
+        let statuses = subscription::<Status>(&mut client, &topics.status, reliable_qos(50, true))?;
+        let spinner = client.spinner().map_err(|e| dds(format!("{e:?}")))?;
+        std::thread::spawn(move || smol::block_on(spinner.spin()));
+        smol::block_on(smol::future::race(
+            async {
+                points.wait_for_subscription(&client).await;
+                states.wait_for_publisher(&client).await;
+            },
+            async {
+                smol::Timer::after(Duration::from_secs(20)).await;
+            },
+        ));
+        // The node and context must outlive the endpoints: dropping them ends the client.
+        Ok::<_, crate::Error>((ctx, client, points, pokes, states, statuses))
+    })();
+    let (_ctx, _client, points, pokes, states, statuses) = match client_result {
+        Ok(c) => c,
+        Err(e) => {
+            stop.store(true, Ordering::Relaxed);
+            let _ = node.join();
+            return Err(e);
+        }
+    };
+
+    let frames = ["soak_a", "soak_b", "soak_c"];
+    let shapes = ["creature", "sphere", "box", "rod", "plate"];
+    let counts = [2_000, 5_000, 10_000, 20_000];
+    let mut report = SoakReport {
+        seconds: options.seconds,
+        shapes_sent: 0,
+        pokes_sent: 0,
+        bad_inputs_sent: 0,
+        ticks: 0,
+        missed_ticks: 0,
+        states_received: 0,
+        non_finite_states: 0,
+        statuses: BTreeMap::new(),
+        rss_warm_mb: 0.0,
+        rss_end_mb: 0.0,
+        rss_max_mb: 0.0,
+        rss_growth_mb_per_min: 0.0,
+        memory: Vec::new(),
+        recording_files: 0,
+        recording_complete: false,
+        recorded: BTreeMap::new(),
+    };
+    let started = Instant::now();
+    let send = |what: &str, sent: bool| {
+        if !sent {
+            log(&format!("publishing {what} failed"));
+        }
+    };
+    let (mut next_shape, mut next_poke, mut next_bad, mut next_sample) = (0.0, 0.0, 1.0, 0.0);
+    let mut n = 0usize;
+    while started.elapsed().as_secs_f64() < options.seconds {
+        let t = started.elapsed().as_secs_f64();
+        if t >= next_shape {
+            let frame = frames[n % frames.len()];
+            let cloud = sample_cloud(
+                shapes[n % shapes.len()],
+                counts[n % counts.len()],
+                frame,
+                n as u64,
+            );
+            send("a shape", points.publish(cloud).is_ok());
+            report.shapes_sent += 1;
+            n += 1;
+            next_shape += 2.0;
+        }
+        if t >= next_poke {
+            let k = report.pokes_sent;
+            let frame = frames[k % frames.len()];
+            let (kind, x) = match k % 30 {
+                0 => (Interaction::PIN, 0.0),
+                15 => (Interaction::RELEASE, 0.0),
+                _ => (Interaction::FORCE, if k % 2 == 0 { 3.0 } else { -3.0 }),
+            };
+            if pokes.publish(poke(frame, kind, x)).is_ok() {
+                report.pokes_sent += 1;
+            }
+            next_poke += 0.1;
+        }
+        if t >= next_bad {
+            // Alternately a cloud without z and a poke with a NaN force.
+            if report.bad_inputs_sent % 2 == 0 {
+                let mut cloud = sample_cloud("sphere", 500, "soak_bad", 1);
+                cloud.fields.retain(|f| f.name != "z");
+                send("a bad cloud", points.publish(cloud).is_ok());
+            } else {
+                let _ = pokes.publish(poke("soak_a", Interaction::FORCE, f64::NAN));
+            }
+            report.bad_inputs_sent += 1;
+            next_bad += 5.0;
+        }
+        if t >= next_sample {
+            report.memory.push(MemorySample {
+                at_s: t,
+                rss_mb: rss_mb(),
+            });
+            if report.memory.len() % 60 == 0 {
+                log(&format!(
+                    "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB",
+                    report.shapes_sent,
+                    report.pokes_sent,
+                    report.states_received,
+                    rss_mb()
+                ));
+            }
+            next_sample += 1.0;
+        }
+        while let Ok(Some((state, _))) = states.take() {
+            report.states_received += 1;
+            let finite = state
+                .z
+                .iter()
+                .chain(&state.z_velocity)
+                .chain([&state.elastic_energy, &state.kinetic_energy])
+                .all(|v| v.is_finite());
+            report.non_finite_states += !finite as usize;
+        }
+        while let Ok(Some((status, _))) = statuses.take() {
+            *report.statuses.entry(status.event).or_default() += 1;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    stop.store(true, Ordering::Relaxed);
+    let stats = node
+        .join()
+        .map_err(|_| dds("the node thread panicked".into()))??;
+    report.ticks = stats.ticks;
+    report.missed_ticks = stats.missed;
+    summarize_memory(&mut report);
+    check_recording(&options.record, &mut report)?;
+    Ok(report)
+}
+
+fn summarize_memory(report: &mut SoakReport) {
+    let samples = &report.memory;
+    let Some(last) = samples.last() else {
+        return;
+    };
+    let warm_from = last.at_s / 4.0;
+    let warm: Vec<&MemorySample> = samples.iter().filter(|s| s.at_s >= warm_from).collect();
+    report.rss_warm_mb = warm.first().map_or(f64::NAN, |s| s.rss_mb);
+    report.rss_end_mb = last.rss_mb;
+    report.rss_max_mb = samples.iter().map(|s| s.rss_mb).fold(0.0, f64::max);
+    let n = warm.len() as f64;
+    let (mt, mr) = (
+        warm.iter().map(|s| s.at_s).sum::<f64>() / n,
+        warm.iter().map(|s| s.rss_mb).sum::<f64>() / n,
+    );
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for s in &warm {
+        sxy += (s.at_s - mt) * (s.rss_mb - mr);
+        sxx += (s.at_s - mt) * (s.at_s - mt);
+    }
+    report.rss_growth_mb_per_min = if sxx > 0.0 { 60.0 * sxy / sxx } else { 0.0 };
+}
+
+/// The files of a split recording whose first file is `first` (`<stem>.mcap`, `<stem>_1.mcap`, ...).
+fn recording_files(first: &Path) -> Vec<PathBuf> {
+    let stem = first
+        .file_stem()
+        .map_or(String::new(), |s| s.to_string_lossy().into_owned());
+    let dir = match first.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            let name = p.file_stem().map(|s| s.to_string_lossy().into_owned());
+            p.extension().is_some_and(|e| e == "mcap")
+                && name.is_some_and(|n| {
+                    n == stem
+                        || n.strip_prefix(&format!("{stem}_"))
+                            .is_some_and(|k| k.parse::<u32>().is_ok())
+                })
+        })
+        .collect();
+    files.sort_by_key(|p| p.to_string_lossy().len());
+    files
+}
+
+/// Reads every file of the split recording with the strict reader.
+fn check_recording(first: &Path, report: &mut SoakReport) -> Result<()> {
+    let files = recording_files(first);
+    report.recording_files = files.len();
+    report.recording_complete = !files.is_empty();
+    for file in &files {
+        let bytes = std::fs::read(file).map_err(|e| crate::Error::Io {
+            path: file.clone(),
+            source: e,
+        })?;
+        match read_messages(&bytes, &file.display().to_string()) {
+            Ok(messages) => {
+                for m in messages {
+                    if m.topic.ends_with("/state") {
+                        // Every recorded state decodes.
+                        report.recording_complete &= from_cdr::<SubspaceState>(&m.data).is_ok();
+                    }
+                    *report.recorded.entry(m.topic).or_default() += 1;
+                }
+            }
+            Err(_) => report.recording_complete = false,
+        }
+    }
+    Ok(())
+}
