@@ -606,6 +606,15 @@ fn a_recording_cut_short_replays_up_to_the_cut() {
     let replayed = replay_damaged(cut);
     assert_eq!(replayed.input_messages, 3);
     assert_eq!(replayed.shapes.len(), 1);
+    // The strict reader refuses the cut file, naming it once.
+    let strict = physskin::bag::read_messages(cut, "cut.mcap")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        strict.starts_with("reading MCAP cut.mcap: the file ends inside a record")
+            && strict.matches("cut.mcap").count() == 1,
+        "{strict}"
+    );
     // Not MCAP at all: an error naming the file.
     let refused = physskin::bag::read_recording(b"PLY\nformat ascii", "notes.txt").unwrap_err();
     assert!(

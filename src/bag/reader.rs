@@ -31,9 +31,13 @@ pub fn read_messages(bytes: &[u8], source: &str) -> Result<Vec<BagMessage>, BagE
     let recording = read_recording(bytes, source)?;
     match recording.damage.first() {
         None => Ok(recording.messages),
+        // The damage line already starts with the file's name, which the error names too.
         Some(first) => Err(BagError::Read {
             file: source.into(),
-            message: first.clone(),
+            message: first
+                .strip_prefix(&format!("{source}: "))
+                .unwrap_or(first)
+                .into(),
         }),
     }
 }
