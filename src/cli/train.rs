@@ -62,6 +62,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
         summary.seconds,
         summary.model_path.display()
     );
+    if let Some((step, path)) = &summary.best {
+        println!(
+            "best held-out fields (highest H_spec) at step {step}: {}",
+            path.display()
+        );
+    }
     if let Some(last) = summary.last {
         println!(
             "{}",

@@ -152,10 +152,15 @@ pub struct TrainingSummary {
     pub seconds: f64,
     pub last: Option<LogLine>,
     pub model_path: PathBuf,
+    /// The checkpoint with the highest held-out H_spec so far, and its step.
+    pub best: Option<(usize, PathBuf)>,
 }
 
 const CHECKPOINT: &str = "checkpoint.safetensors";
 const MODEL: &str = "model.safetensors";
+/// The weights of the checkpoint whose held-out fields were best (highest H_spec): a long run's
+/// last step need not be its best (the shipped run degenerated a column past mid-blend).
+const BEST: &str = "best.safetensors";
 const LOG: &str = "log.jsonl";
 
 /// Trains into `dir` (checkpoint, log, final model), resuming from its checkpoint when there is
@@ -208,6 +213,7 @@ pub fn train(
         .append(true)
         .open(dir.join(LOG))
         .map_err(io(&dir.join(LOG)))?;
+    let mut best = best_in_log(dir, start);
     let bar = progress_bar(config.steps, start);
     let run_started = Instant::now();
     let mut last = None;
@@ -325,6 +331,14 @@ pub fn train(
         }
         if at_checkpoint {
             save_checkpoint(&checkpoint, config, &adam, &momenta, step)?;
+            let h_spec = last
+                .as_ref()
+                .and_then(|l| l.held_out.as_ref())
+                .map(|m| m.h_spec);
+            if let Some(h_spec) = h_spec.filter(|h| best.is_none_or(|(_, b)| *h > b)) {
+                save_model(&dir.join(BEST), config, &adam, step)?;
+                best = Some((step, h_spec));
+            }
         }
         if out_of_time {
             break;
@@ -332,23 +346,43 @@ pub fn train(
     }
     bar.finish();
     let model_path = dir.join(MODEL);
+    save_model(&model_path, config, &adam, step)?;
+    Ok(TrainingSummary {
+        steps_done: step,
+        seconds: run_started.elapsed().as_secs_f64(),
+        last,
+        model_path,
+        best: best.map(|(step, _)| (step, dir.join(BEST))),
+    })
+}
+
+/// The network's weights after `step` steps, loadable as a model.
+fn save_model(path: &Path, config: &TrainingConfig, adam: &Adam, step: usize) -> Result<()> {
     let params: Vec<(String, Tensor)> = adam
         .vars
         .iter()
         .map(|(name, var)| (name.clone(), var.as_tensor().detach()))
         .collect();
     save_tensors(
-        &model_path,
+        path,
         &config.network,
         &params,
         &[("physskin.training_steps", step.to_string())],
-    )?;
-    Ok(TrainingSummary {
-        steps_done: step,
-        seconds: run_started.elapsed().as_secs_f64(),
-        last,
-        model_path,
-    })
+    )
+}
+
+/// The best checkpoint (step, held-out H_spec) up to `start` that the log records, when its
+/// weights were kept: a resumed run keeps comparing against it.
+fn best_in_log(dir: &Path, start: usize) -> Option<(usize, f64)> {
+    if !dir.join(BEST).exists() {
+        return None;
+    }
+    let text = std::fs::read_to_string(dir.join(LOG)).ok()?;
+    text.lines()
+        .filter_map(|line| serde_json::from_str::<LogLine>(line).ok())
+        .filter(|line| line.step <= start)
+        .filter_map(|line| Some((line.step, line.held_out?.h_spec)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 fn describe(line: &LogLine) -> String {
@@ -621,6 +655,25 @@ mod tests {
         {
             assert!(a < b, "{name}: {b} before, {a} after training");
         }
+        // The kept best is the checkpoint (of both runs) with the highest held-out H_spec.
+        let held_out: Vec<(usize, f64)> = std::fs::read_to_string(dir.join(LOG))
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str::<LogLine>(l).unwrap())
+            .filter_map(|l| Some((l.step, l.held_out?.h_spec)))
+            .collect();
+        assert_eq!(held_out.iter().map(|c| c.0).collect::<Vec<_>>(), [45, 90]);
+        let top = held_out.iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+        let (best_step, best_path) = done.best.expect("a best checkpoint");
+        assert_eq!(best_step, top.0, "{held_out:?}");
+        let best = NeuralModel::load(&best_path).unwrap();
+        let steps_of = |path: &Path| {
+            let bytes = std::fs::read(path).unwrap();
+            let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
+            meta.metadata().as_ref().unwrap()["physskin.training_steps"].clone()
+        };
+        assert_eq!(steps_of(&best_path), best_step.to_string());
+        drop(best);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
