@@ -10,8 +10,9 @@ pub struct TrainArgs {
     /// Training config (JSON); defaults to the shipped model's, config/training.json.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Output directory: checkpoint.safetensors, log.jsonl, model.safetensors. A checkpoint
-    /// there is resumed.
+    /// Output directory: checkpoint.safetensors, log.jsonl, model.safetensors (the last step)
+    /// and best.safetensors (the checkpoint with the best held-out fields). A checkpoint there
+    /// is resumed.
     #[arg(long, default_value = "target/train")]
     out: PathBuf,
     /// Override the number of steps.

@@ -159,7 +159,7 @@ pub struct TrainingSummary {
 const CHECKPOINT: &str = "checkpoint.safetensors";
 const MODEL: &str = "model.safetensors";
 /// The weights of the checkpoint whose held-out fields were best (highest H_spec): a long run's
-/// last step need not be its best (the shipped run degenerated a column past mid-blend).
+/// last step need not be its best (a 14,000-step run degenerated a column past mid-blend).
 const BEST: &str = "best.safetensors";
 const LOG: &str = "log.jsonl";
 
@@ -330,7 +330,8 @@ pub fn train(
             last = Some(line);
         }
         if at_checkpoint {
-            save_checkpoint(&checkpoint, config, &adam, &momenta, step)?;
+            // The best weights are written before the checkpoint: a run killed between the two
+            // resumes from the older checkpoint, whose log lines cannot claim a best never kept.
             let h_spec = last
                 .as_ref()
                 .and_then(|l| l.held_out.as_ref())
@@ -339,6 +340,7 @@ pub fn train(
                 save_model(&dir.join(BEST), config, &adam, step)?;
                 best = Some((step, h_spec));
             }
+            save_checkpoint(&checkpoint, config, &adam, &momenta, step)?;
         }
         if out_of_time {
             break;
@@ -666,14 +668,13 @@ mod tests {
         let top = held_out.iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
         let (best_step, best_path) = done.best.expect("a best checkpoint");
         assert_eq!(best_step, top.0, "{held_out:?}");
-        let best = NeuralModel::load(&best_path).unwrap();
+        NeuralModel::load(&best_path).expect("the best checkpoint loads");
         let steps_of = |path: &Path| {
             let bytes = std::fs::read(path).unwrap();
             let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
             meta.metadata().as_ref().unwrap()["physskin.training_steps"].clone()
         };
         assert_eq!(steps_of(&best_path), best_step.to_string());
-        drop(best);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
