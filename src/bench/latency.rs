@@ -96,13 +96,7 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
     };
     let result = (|| {
         let ctx = context(domain_id, false)?;
-        let mut client = ctx
-            .new_node(
-                ros2_client::NodeName::new("/", "physskin_bench")
-                    .map_err(|e| dds(format!("{e:?}")))?,
-                ros2_client::NodeOptions::new().enable_rosout(false),
-            )
-            .map_err(|e| dds(format!("{e:?}")))?;
+        let mut client = client_node(&ctx, "physskin_bench")?;
         let points = publisher::<PointCloud2>(&mut client, &topics.points, reliable_qos(5, false))?;
         let deformed = subscription::<PointCloud2>(
             &mut client,
@@ -231,4 +225,13 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
 
 pub(crate) fn dds(message: String) -> Error {
     Error::Node(crate::ros::NodeError::Dds(message))
+}
+
+/// A benchmark's own ROS 2 node (no rosout) named `name`, in `ctx`.
+pub(crate) fn client_node(ctx: &ros2_client::Context, name: &str) -> Result<ros2_client::Node> {
+    ctx.new_node(
+        ros2_client::NodeName::new("/", name).map_err(|e| dds(format!("{e:?}")))?,
+        ros2_client::NodeOptions::new().enable_rosout(false),
+    )
+    .map_err(|e| dds(format!("{e:?}")))
 }

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::latency::{dds, open_interfaces, sample_cloud};
+use super::latency::{client_node, dds, open_interfaces, sample_cloud};
 use crate::bag::read_messages;
 use crate::ros::messages::{
     from_cdr, Header, Interaction, Point, PointCloud2, Status, SubspaceState, Vector3,
@@ -127,13 +127,7 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
     };
     let client_result = (|| {
         let ctx = context(options.domain_id, false)?;
-        let mut client = ctx
-            .new_node(
-                ros2_client::NodeName::new("/", "physskin_soak")
-                    .map_err(|e| dds(format!("{e:?}")))?,
-                ros2_client::NodeOptions::new().enable_rosout(false),
-            )
-            .map_err(|e| dds(format!("{e:?}")))?;
+        let mut client = client_node(&ctx, "physskin_soak")?;
         let points = publisher::<PointCloud2>(&mut client, &topics.points, reliable_qos(5, false))?;
         let pokes =
             publisher::<Interaction>(&mut client, &topics.interaction, reliable_qos(10, false))?;

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::latency::{dds, open_interfaces, sample_cloud};
+use super::latency::{client_node, dds, open_interfaces, sample_cloud};
 use super::stats::median;
 use crate::ros::cloud::decode_cloud;
 use crate::ros::messages::{PointCloud2, Time};
@@ -88,13 +88,7 @@ pub fn run_transport_bench(domain_id: u16, log: impl Fn(&str)) -> Result<Transpo
 
     // DDS: the same frame as a PointCloud2, through RustDDS, reliable.
     let ctx = context(domain_id, false)?;
-    let mut node = ctx
-        .new_node(
-            ros2_client::NodeName::new("/", "physskin_transport_bench")
-                .map_err(|e| dds(format!("{e:?}")))?,
-            ros2_client::NodeOptions::new().enable_rosout(false),
-        )
-        .map_err(|e| dds(format!("{e:?}")))?;
+    let mut node = client_node(&ctx, "physskin_transport_bench")?;
     let topic = "/physskin_bench/deformed_points";
     let writer = publisher::<PointCloud2>(&mut node, topic, reliable_qos(2, false))?;
     let reader = subscription::<PointCloud2>(&mut node, topic, reliable_qos(2, false))?;
