@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use physskin::training::{train, Combine, TrainingConfig};
+use physskin::training::{train_from, Combine, TrainingConfig};
 use physskin::{Error, Result};
 
 #[derive(clap::Args)]
@@ -15,6 +15,10 @@ pub struct TrainArgs {
     /// is resumed.
     #[arg(long, default_value = "target/train")]
     out: PathBuf,
+    /// Start from this model's weights (fine-tuning: a fresh optimizer and schedule); ignored
+    /// when the output directory holds a checkpoint to resume.
+    #[arg(long)]
+    init: Option<PathBuf>,
     /// Override the number of steps.
     #[arg(long)]
     steps: Option<usize>,
@@ -55,7 +59,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
     }
     config.orth_loss &= !args.no_orth;
     config.smooth_loss &= !args.no_smooth;
-    let summary = train(&config, &args.out, args.max_minutes.map(|m| m * 60.0))?;
+    let summary = train_from(
+        &config,
+        &args.out,
+        args.max_minutes.map(|m| m * 60.0),
+        args.init.as_deref(),
+    )?;
     println!(
         "{} of {} steps in {:.0} s; model: {}",
         summary.steps_done,

@@ -22,8 +22,10 @@ pub(crate) struct Batch {
 pub(crate) struct LossOptions {
     pub young: f64,
     pub poisson: f64,
-    /// Standard deviation of the random handle transforms.
+    /// Standard deviation of the random handle translations t_i.
     pub z_std: f64,
+    /// Standard deviation of the random handle matrices A_i (the paper draws them like t_i).
+    pub z_linear_std: f64,
     /// Transforms drawn per step for the Neo-Hookean part (the linear part is exact).
     pub z_samples: usize,
     /// Blend from linear (0) to Neo-Hookean (1) elasticity: the training progress.
@@ -79,8 +81,7 @@ pub(crate) fn compute(
         options.young * options.poisson / ((1.0 + options.poisson) * (1.0 - 2.0 * options.poisson));
     let grad_sq = gradient.sqr()?.sum(D::Minus1)?; // count x learned
     let potential = {
-        let linear =
-            expected_linear_energy(points, &w, &gradient, &grad_sq, mu, lambda, options.z_std)?;
+        let linear = expected_linear_energy(points, &w, &gradient, &grad_sq, mu, lambda, options)?;
         let blend = options.blend.clamp(0.0, 1.0);
         let energy = if blend > 0.0 {
             let neo =
@@ -123,9 +124,11 @@ pub(crate) fn stencil_gradient(values: &Tensor, count: usize, h: f64) -> Result<
     Ok(Tensor::stack(&[axis(0)?, axis(1)?, axis(2)?], D::Minus1)?)
 }
 
-/// E_z[Psi_lin] for z ~ N(0, s^2 I) over the learned handles, exact: the energy is a quadratic
-/// form in z, so its mean is s^2 times the form's trace. Per point and handle the trace is
-/// (2 mu + lambda / 2) ((|X|^2 + 1) |grad w|^2 + 2 w X . grad w + 3 w^2).
+/// E_z[Psi_lin] for translations t_i ~ N(0, s_t^2 I) and matrices A_i ~ N(0, s_A^2 I), exact:
+/// the energy is a quadratic form in z, so its mean is a weighted trace. Per point and handle it
+/// is (2 mu + lambda / 2) (s_t^2 |grad w|^2 + s_A^2 (|X|^2 |grad w|^2 + 2 w X . grad w + 3 w^2)).
+/// The translations alone give the Dirichlet energy of w, the skinning eigenmodes' objective;
+/// the matrices add the energy of the field w X.
 fn expected_linear_energy(
     points: &Tensor,
     w: &Tensor,
@@ -133,16 +136,17 @@ fn expected_linear_energy(
     grad_sq: &Tensor,
     mu: f64,
     lambda: f64,
-    z_std: f64,
+    options: &LossOptions,
 ) -> Result<Tensor> {
-    let radius_sq = (points.sqr()?.sum_keepdim(1)? + 1.0)?; // count x 1
+    let (s_t, s_a) = (options.z_std, options.z_linear_std);
+    let radius_sq = ((points.sqr()?.sum_keepdim(1)? * (s_a * s_a))? + s_t * s_t)?; // count x 1
     let x_dot_grad = gradient
         .broadcast_mul(&points.unsqueeze(1)?)?
         .sum(D::Minus1)?; // count x learned
-    let per_handle =
-        ((grad_sq.broadcast_mul(&radius_sq)? + ((w * x_dot_grad)? * 2.0)?)? + (w.sqr()? * 3.0)?)?;
+    let per_handle = (grad_sq.broadcast_mul(&radius_sq)?
+        + (((w * x_dot_grad)? * 2.0)? + (w.sqr()? * 3.0)?)? * (s_a * s_a))?;
     let trace = per_handle.sum(1)?.mean(0)?;
-    Ok((trace * ((2.0 * mu + 0.5 * lambda) * z_std * z_std))?)
+    Ok((trace * (2.0 * mu + 0.5 * lambda))?)
 }
 
 /// Mean Neo-Hookean energy (the reference code's form, defined for inverted elements too) over
@@ -160,22 +164,20 @@ fn sampled_neo_hookean(
 ) -> Result<Tensor> {
     let samples = options.z_samples.max(1);
     let count = points.dim(0)?;
-    let mut normal = |n: usize| -> Vec<f32> {
+    let mut normal = |n: usize, std: f64| -> Vec<f32> {
         (0..n)
             .map(|_| {
-                (options.z_std
-                    * <StandardNormal as Distribution<f64>>::sample(&StandardNormal, rng))
-                    as f32
+                (std * <StandardNormal as Distribution<f64>>::sample(&StandardNormal, rng)) as f32
             })
             .collect()
     };
     let a = Tensor::from_vec(
-        normal(samples * learned * 9),
+        normal(samples * learned * 9, options.z_linear_std),
         (samples, learned, 3, 3),
         &Device::Cpu,
     )?;
     let t = Tensor::from_vec(
-        normal(samples * learned * 3),
+        normal(samples * learned * 3, options.z_std),
         (samples, learned, 3, 1),
         &Device::Cpu,
     )?;
@@ -301,6 +303,75 @@ mod tests {
     }
 
     #[test]
+    fn the_exact_linear_energy_is_the_mean_over_sampled_transforms() {
+        // Any values and gradients will do: the identity holds point by point.
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let (count, learned) = (4, 3);
+        let mut random =
+            |n: usize| -> Vec<f32> { (0..n).map(|_| rng.random_range(-1.0..1.0)).collect() };
+        let points = Tensor::from_vec(random(count * 3), (count, 3), &Device::Cpu).unwrap();
+        let w = Tensor::from_vec(random(count * learned), (count, learned), &Device::Cpu).unwrap();
+        let gradient = Tensor::from_vec(
+            random(count * learned * 3),
+            (count, learned, 3),
+            &Device::Cpu,
+        )
+        .unwrap();
+        let grad_sq = gradient.sqr().unwrap().sum(D::Minus1).unwrap();
+        let (mu, lambda) = (0.4, 1.3);
+        for (s_t, s_a) in [(0.2, 0.2), (0.2, 0.0), (0.0, 0.3)] {
+            let options = LossOptions {
+                young: 1.0,
+                poisson: 0.45,
+                z_std: s_t,
+                z_linear_std: s_a,
+                z_samples: 1,
+                blend: 0.0,
+                normalize: true,
+            };
+            let exact =
+                expected_linear_energy(&points, &w, &gradient, &grad_sq, mu, lambda, &options)
+                    .unwrap()
+                    .to_scalar::<f32>()
+                    .unwrap() as f64;
+            let samples = 40_000;
+            let mut draw = |n: usize, std: f64| -> Tensor {
+                let v: Vec<f32> = (0..n)
+                    .map(|_| {
+                        (std * <StandardNormal as Distribution<f64>>::sample(
+                            &StandardNormal,
+                            &mut rng,
+                        )) as f32
+                    })
+                    .collect();
+                Tensor::new(v, &Device::Cpu).unwrap()
+            };
+            let a = draw(samples * learned * 9, s_a)
+                .reshape((samples, learned, 3, 3))
+                .unwrap();
+            let t = draw(samples * learned * 3, s_t)
+                .reshape((samples, learned, 3, 1))
+                .unwrap();
+            let f = deformation_gradients(&points, &w, &gradient, &a, &t).unwrap();
+            let f = f.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+            let mut sum = 0.0;
+            for m in f.chunks(9) {
+                let strain = |i: usize, j: usize| {
+                    0.5 * (m[3 * i + j] as f64 + m[3 * j + i] as f64) - f64::from(u8::from(i == j))
+                };
+                let trace = strain(0, 0) + strain(1, 1) + strain(2, 2);
+                let norm_sq: f64 = (0..9).map(|k| strain(k / 3, k % 3).powi(2)).sum();
+                sum += mu * norm_sq + 0.5 * lambda * trace * trace;
+            }
+            let sampled = sum / (count * samples) as f64;
+            assert!(
+                (sampled - exact).abs() < 0.03 * exact,
+                "s_t {s_t}, s_A {s_a}: sampled {sampled} against exact {exact}"
+            );
+        }
+    }
+
+    #[test]
     fn every_parameter_receives_a_gradient() {
         let config = crate::skinning::NetworkConfig {
             width: 16,
@@ -328,6 +399,7 @@ mod tests {
             young: 1.0,
             poisson: 0.45,
             z_std: 0.2,
+            z_linear_std: 0.2,
             z_samples: 2,
             blend: 0.5,
             normalize: true,

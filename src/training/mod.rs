@@ -6,4 +6,4 @@ mod shapes;
 mod trainer;
 
 pub use shapes::{dataset, DatasetSpec, GeneratedShape, ShapeFamily, ShapeSample};
-pub use trainer::{train, Combine, LogLine, TrainingConfig, TrainingSummary};
+pub use trainer::{train, train_from, Combine, LogLine, TrainingConfig, TrainingSummary};

@@ -63,8 +63,16 @@ pub struct TrainingConfig {
     /// Young's modulus and Poisson ratio of the training energy (normalized units). Defaults 1, 0.45.
     pub young: f64,
     pub poisson: f64,
-    /// Standard deviation of the random handle transforms. Default 0.2.
+    /// Standard deviation of the random handle translations. Default 0.2.
     pub z_std: f64,
+    /// Standard deviation of the random handle matrices; `None` (the default, the paper's
+    /// choice) draws them like the translations. 0 trains on the Dirichlet energy of the weights
+    /// alone, the objective of the skinning eigenmodes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub z_linear_std: Option<f64>,
+    /// The Neo-Hookean share of the energy at the last step; it grows linearly from 0 over the
+    /// run. Default 1 (the paper: linear to Neo-Hookean).
+    pub final_blend: f64,
     /// Transforms drawn per step for the Neo-Hookean part. Default 4.
     pub z_samples: usize,
     /// Combine the loss gradients by ConFIG (default) or a weighted sum.
@@ -99,6 +107,8 @@ impl Default for TrainingConfig {
             young: 1.0,
             poisson: 0.45,
             z_std: 0.2,
+            z_linear_std: None,
+            final_blend: 1.0,
             z_samples: 4,
             combine: Combine::MomentumConfig,
             potential_weight: 1.0,
@@ -170,6 +180,17 @@ pub fn train(
     dir: &Path,
     max_seconds: Option<f64>,
 ) -> Result<TrainingSummary> {
+    train_from(config, dir, max_seconds, None)
+}
+
+/// [`train`], starting from the weights of the model file `init` (fine-tuning: a fresh optimizer
+/// and schedule) unless `dir` holds a checkpoint to resume.
+pub fn train_from(
+    config: &TrainingConfig,
+    dir: &Path,
+    max_seconds: Option<f64>,
+    init: Option<&Path>,
+) -> Result<TrainingSummary> {
     config.network.validate()?;
     let io = |path: &Path| {
         let path = path.to_path_buf();
@@ -206,6 +227,9 @@ pub fn train(
     if checkpoint.exists() {
         start = restore(&checkpoint, config, &mut adam, &mut momenta)?;
         eprintln!("resuming from {} at step {start}", checkpoint.display());
+    } else if let Some(init) = init {
+        initialize(init, &config.network, &adam)?;
+        eprintln!("starting from the weights of {}", init.display());
     }
     eprintln!("{} parameters", adam.parameter_count());
     let mut log = std::fs::OpenOptions::new()
@@ -230,8 +254,9 @@ pub fn train(
             young: config.young,
             poisson: config.poisson,
             z_std: config.z_std,
+            z_linear_std: config.z_linear_std.unwrap_or(config.z_std),
             z_samples: config.z_samples,
-            blend: step as f64 / config.steps.max(1) as f64,
+            blend: config.final_blend * step as f64 / config.steps.max(1) as f64,
             normalize: config.normalize,
         };
         let l = losses::compute(model.network(), &batch, &options, &mut rng)?;
@@ -520,6 +545,31 @@ fn save_checkpoint(
 
 /// Loads a checkpoint into `adam`; its config must match the run's except for the step count
 /// and logging, so a run can be extended.
+/// Sets every variable from a model file with the same network config.
+fn initialize(path: &Path, network: &NetworkConfig, adam: &Adam) -> Result<()> {
+    let (tensors, metadata) = load_tensors(path)?;
+    let bad = |reason: String| Error::Model {
+        what: path.display().to_string(),
+        reason,
+    };
+    let saved: Option<NetworkConfig> = metadata
+        .get("physskin.network_config")
+        .and_then(|json| serde_json::from_str(json).ok());
+    if saved.as_ref() != Some(network) {
+        return Err(bad(
+            "its network config differs from the training config's".into()
+        ));
+    }
+    for (name, var) in &adam.vars {
+        let t = tensors
+            .get(name)
+            .filter(|t| t.dims() == var.as_tensor().dims())
+            .ok_or_else(|| bad(format!("no tensor `{name}` of the right shape")))?;
+        var.set(t)?;
+    }
+    Ok(())
+}
+
 fn restore(
     path: &Path,
     config: &TrainingConfig,
@@ -581,6 +631,26 @@ mod tests {
     use super::*;
     use crate::skinning::NetworkConfig;
 
+    #[test]
+    fn the_fine_tuning_configs_parse_and_fit_the_shipped_network() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/fine_tune");
+        let mut count = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            let config: TrainingConfig =
+                serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert_eq!(
+                config.network,
+                TrainingConfig::shipped().network,
+                "{}",
+                path.display()
+            );
+            count += 1;
+        }
+        assert_eq!(count, 4);
+    }
+
     /// The three losses of `model` on fixed held-out batches, linear elasticity only (so the
     /// training's blend towards Neo-Hookean does not move the goalposts).
     fn fixed_losses(model: &NeuralModel, shapes: &[ShapeSample]) -> [f64; 3] {
@@ -592,6 +662,7 @@ mod tests {
                 young: 1.0,
                 poisson: 0.45,
                 z_std: 0.2,
+                z_linear_std: 0.2,
                 z_samples: 1,
                 blend: 0.0,
                 normalize: true,
@@ -675,6 +746,40 @@ mod tests {
             meta.metadata().as_ref().unwrap()["physskin.training_steps"].clone()
         };
         assert_eq!(steps_of(&best_path), best_step.to_string());
+
+        // A fine-tuning run starts from the trained weights, not from a fresh initialization:
+        // with no steps to take it ends with exactly them.
+        let tune_dir = dir.join("fine-tune");
+        let tuned = train_from(
+            &TrainingConfig {
+                steps: 0,
+                ..config.clone()
+            },
+            &tune_dir,
+            None,
+            Some(&done.model_path),
+        )
+        .unwrap();
+        let weights = |path: &Path| load_tensors(path).unwrap().0;
+        let (start, end) = (weights(&done.model_path), weights(&tuned.model_path));
+        assert_eq!(start.len(), end.len());
+        for (name, t) in &start {
+            let difference = (t - &end[name]).unwrap().abs().unwrap().max_all().unwrap();
+            assert_eq!(difference.to_scalar::<f32>().unwrap(), 0.0, "{name}");
+        }
+        // Weights of another network are refused by name.
+        let other = TrainingConfig {
+            network: NetworkConfig {
+                handles: 5,
+                ..config.network.clone()
+            },
+            steps: 0,
+            ..config.clone()
+        };
+        let refused = train_from(&other, &dir.join("other"), None, Some(&done.model_path))
+            .unwrap_err()
+            .to_string();
+        assert!(refused.contains("network config differs"), "{refused}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
