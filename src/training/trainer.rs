@@ -543,8 +543,6 @@ fn save_checkpoint(
     )
 }
 
-/// Loads a checkpoint into `adam`; its config must match the run's except for the step count
-/// and logging, so a run can be extended.
 /// Sets every variable from a model file with the same network config.
 fn initialize(path: &Path, network: &NetworkConfig, adam: &Adam) -> Result<()> {
     let (tensors, metadata) = load_tensors(path)?;
@@ -570,6 +568,8 @@ fn initialize(path: &Path, network: &NetworkConfig, adam: &Adam) -> Result<()> {
     Ok(())
 }
 
+/// Loads a checkpoint into `adam`; its config must match the run's except for the step count
+/// and logging, so a run can be extended.
 fn restore(
     path: &Path,
     config: &TrainingConfig,
