@@ -19,7 +19,7 @@ use super::optim::{config_combine, learning_rate, Adam, LossMomenta};
 use super::shapes::{dataset, DatasetSpec, ShapeSample};
 use crate::geometry::SurfaceSamples;
 use crate::skinning::{
-    load_tensors, save_tensors, FieldMetrics, NetworkConfig, NeuralModel, SkinningField,
+    load_tensors, save_tensors, FieldMetrics, NetworkConfig, NeuralModel, SkinningField, CONFIG_KEY,
 };
 use crate::{Error, Result};
 
@@ -551,7 +551,7 @@ fn initialize(path: &Path, network: &NetworkConfig, adam: &Adam) -> Result<()> {
         reason,
     };
     let saved: Option<NetworkConfig> = metadata
-        .get("physskin.network_config")
+        .get(CONFIG_KEY)
         .and_then(|json| serde_json::from_str(json).ok());
     if saved.as_ref() != Some(network) {
         return Err(bad(

@@ -12,4 +12,4 @@ pub use model::NeuralModel;
 pub use network::{ColumnNormalization, Network, NetworkConfig, ShapeCode};
 
 pub(crate) use layers::inverse_sqrt;
-pub(crate) use model::{load_tensors, save_tensors};
+pub(crate) use model::{load_tensors, save_tensors, CONFIG_KEY};

@@ -17,7 +17,7 @@ use crate::{Error, Result};
 const BUNDLED_WEIGHTS: &[u8] = include_bytes!("../../../config/model/physskin.safetensors");
 
 /// Key of the safetensors metadata entry holding the [`NetworkConfig`] as JSON.
-const CONFIG_KEY: &str = "physskin.network_config";
+pub(crate) const CONFIG_KEY: &str = "physskin.network_config";
 
 /// A network ready to infer skinning fields for new shapes.
 #[derive(Clone, Debug)]
