@@ -1,6 +1,7 @@
 //! The training loop: generated shapes, the PISSL losses combined by ConFIG, Adam with warm-up
 //! and cosine decay, a progress bar, JSON-lines log, and checkpoints that resume exactly.
 
+use std::collections::HashMap;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -559,13 +560,24 @@ fn initialize(path: &Path, network: &NetworkConfig, adam: &Adam) -> Result<()> {
         ));
     }
     for (name, var) in &adam.vars {
-        let t = tensors
-            .get(name)
-            .filter(|t| t.dims() == var.as_tensor().dims())
-            .ok_or_else(|| bad(format!("no tensor `{name}` of the right shape")))?;
-        var.set(t)?;
+        var.set(&tensor_like(&tensors, name, var.as_tensor()).map_err(bad)?)?;
     }
     Ok(())
+}
+
+/// The tensor `name` of a loaded file, which must have the shape of `like`; else why not.
+fn tensor_like(
+    tensors: &HashMap<String, Tensor>,
+    name: &str,
+    like: &Tensor,
+) -> std::result::Result<Tensor, String> {
+    let t = tensors
+        .get(name)
+        .ok_or_else(|| format!("no tensor `{name}`"))?;
+    if t.dims() != like.dims() {
+        return Err(format!("tensor `{name}` has the wrong shape"));
+    }
+    Ok(t.clone())
 }
 
 /// Loads a checkpoint into `adam`; its config must match the run's except for the step count
@@ -600,15 +612,7 @@ fn restore(
             .and_then(|v| v.parse().ok())
             .ok_or_else(|| bad(format!("no `{key}` in the checkpoint")))
     };
-    let get = |name: &str, like: &Tensor| -> Result<Tensor> {
-        let t = tensors
-            .get(name)
-            .ok_or_else(|| bad(format!("no tensor `{name}`")))?;
-        if t.dims() != like.dims() {
-            return Err(bad(format!("tensor `{name}` has the wrong shape")));
-        }
-        Ok(t.clone())
-    };
+    let get = |name: &str, like: &Tensor| tensor_like(&tensors, name, like).map_err(bad);
     for (i, (name, var)) in adam.vars.iter().enumerate() {
         var.set(&get(name, var.as_tensor())?)?;
         adam.first[i] = get(&format!("adam.first.{name}"), var.as_tensor())?;
