@@ -160,7 +160,21 @@ enum SolverArg {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // rcl's arguments (`--ros-args ... [--]`) are taken out before clap reads the rest.
+    let argv: Vec<String> = std::env::args().collect();
+    let (own, ros) = match physskin::ros::split_ros_args(&argv) {
+        Ok(split) => split,
+        Err(e) => {
+            eprintln!("physskin: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let cli = Cli::parse_from(own);
+    let takes_ros_args = matches!(cli.command, Command::Node(_) | Command::Replay(_));
+    if !takes_ros_args && ros != physskin::ros::RosArgs::default() {
+        eprintln!("physskin: --ros-args is taken by `node` and `replay` only");
+        return ExitCode::from(2);
+    }
     let result = match cli.command {
         Command::Simulate {
             shape,
@@ -193,12 +207,12 @@ fn main() -> ExitCode {
             json,
         ),
         Command::Demo(args) => cli::demo::run(args),
-        Command::Replay(args) => cli::bag::run_replay(args),
+        Command::Replay(args) => cli::bag::run_replay(args, ros),
         Command::Recover(args) => cli::bag::run_recover(args),
         Command::Train(args) => cli::train::run(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Infer(args) => cli::infer::run(args),
-        Command::Node(args) => cli::node::run(args),
+        Command::Node(args) => cli::node::run(args, ros),
         Command::Scene(args) => cli::scene::run(args),
         Command::Bench { which } => match which.unwrap_or(BenchCommand::Sim {
             quick: false,

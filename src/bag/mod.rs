@@ -12,7 +12,7 @@ use std::path::PathBuf;
 
 pub use qos::QosProfile;
 pub use reader::{read_messages, read_recording, recover, BagMessage, Recording, Recovered};
-pub use recorder::Recorder;
+pub use recorder::{Recorder, RecorderHealth};
 pub use replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
 pub use schema::schema_text;
 pub use writer::{BagWriter, FileSummary, RecordOptions, RecordSummary, TopicInfo};

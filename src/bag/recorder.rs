@@ -1,8 +1,9 @@
 //! Recording on a thread of its own: callers serialize and hand over bytes; compression and
 //! disk writes never run on the stepping thread.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, SyncSender};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
 use super::writer::{BagWriter, RecordOptions, RecordSummary, TopicInfo};
@@ -26,13 +27,41 @@ pub struct Recorder {
     /// Topics to record; empty: all.
     topics: Vec<String>,
     thread: Mutex<Option<JoinHandle<Result<RecordSummary, BagError>>>>,
+    counters: Arc<Counters>,
+    path: String,
+}
+
+/// What a running recording has taken, for /diagnostics.
+#[derive(Default)]
+struct Counters {
+    messages: AtomicU64,
+    bytes: AtomicU64,
+    /// Messages that could not be handed over: the recording had stopped.
+    dropped: AtomicU64,
+    /// Why the writing thread stopped, once it has failed.
+    failure: Mutex<Option<String>>,
+}
+
+/// A recording's health: where it goes, what it took, what it lost.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RecorderHealth {
+    pub path: String,
+    pub messages: u64,
+    /// Serialized message bytes handed to the writer (before compression).
+    pub bytes: u64,
+    pub dropped: u64,
+    /// The writer's error, once it has failed.
+    pub failure: Option<String>,
 }
 
 impl Recorder {
     /// Creates the first file now (so a bad path fails here) and starts the writing thread.
     /// `topics` limits what is recorded (empty: everything offered).
     pub fn start(options: RecordOptions, topics: Vec<String>) -> Result<Self, BagError> {
+        let path = options.path.display().to_string();
         let mut writer = BagWriter::create(options)?;
+        let counters = Arc::new(Counters::default());
+        let seen_by_writer = counters.clone();
         // Room for a few seconds of 60 Hz output; beyond it callers wait rather than lose data.
         let (sender, receiver) = sync_channel::<Command>(1024);
         let thread = std::thread::Builder::new()
@@ -51,6 +80,9 @@ impl Recorder {
                         Command::Finish => break,
                     };
                     if let Err(e) = result {
+                        if let Ok(mut slot) = seen_by_writer.failure.lock() {
+                            *slot = Some(e.to_string());
+                        }
                         failure = Some(e);
                         break;
                     }
@@ -67,7 +99,21 @@ impl Recorder {
             sender,
             topics,
             thread: Mutex::new(Some(thread)),
+            counters,
+            path,
         })
+    }
+
+    /// What the recording has taken and lost so far.
+    pub fn health(&self) -> RecorderHealth {
+        let c = &self.counters;
+        RecorderHealth {
+            path: self.path.clone(),
+            messages: c.messages.load(Ordering::Relaxed),
+            bytes: c.bytes.load(Ordering::Relaxed),
+            dropped: c.dropped.load(Ordering::Relaxed),
+            failure: c.failure.lock().ok().and_then(|f| f.clone()),
+        }
     }
 
     /// Whether messages on `topic` are recorded.
@@ -116,12 +162,25 @@ impl Recorder {
         if !self.wants(topic) {
             return Ok(());
         }
-        self.send(Command::Message {
+        let data = data();
+        let size = data.len() as u64;
+        let sent = self.send(Command::Message {
             topic: topic.into(),
             log_time,
             publish_time,
-            data: data(),
-        })
+            data,
+        });
+        let c = &self.counters;
+        match &sent {
+            Ok(()) => {
+                c.messages.fetch_add(1, Ordering::Relaxed);
+                c.bytes.fetch_add(size, Ordering::Relaxed);
+            }
+            Err(_) => {
+                c.dropped.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        sent
     }
 
     fn send(&self, command: Command) -> Result<(), BagError> {

@@ -14,9 +14,14 @@ use super::recorder::Recorder;
 use super::writer::{RecordOptions, RecordSummary};
 use super::BagError;
 use crate::ros::messages::{
-    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status, Time,
+    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
+    TFMessage, Time,
 };
-use crate::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
+use crate::ros::{
+    BuildOutcome, BuildRequest, Builder, NameResolver, NodeClock, NodeParams, Outputs, Stage,
+    StageOptions, TfBuffer,
+};
+use crate::ros::{TF, TF_STATIC};
 use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::skinning::NeuralModel;
 
@@ -25,6 +30,9 @@ use crate::skinning::NeuralModel;
 pub struct ReplayOptions {
     /// The node's parameters: topics, rate, material, inference.
     pub params: NodeParams,
+    /// The node whose topics are replayed (its name, namespace and remappings). Default node
+    /// `physskin` in `/`.
+    pub names: NameResolver,
     /// Where and how to record inputs and outputs; None: nothing is written.
     pub record: Option<RecordOptions>,
     /// Topics recorded in `out`; empty: all.
@@ -43,6 +51,7 @@ impl Default for ReplayOptions {
     fn default() -> Self {
         Self {
             params: NodeParams::default(),
+            names: NameResolver::default(),
             record: None,
             record_topics: Vec::new(),
             pace: None,
@@ -121,7 +130,10 @@ pub fn replay(
 ) -> crate::Result<ReplaySummary> {
     let params = &options.params;
     params.validate()?;
-    let topics = &params.topics;
+    let topics = &params
+        .topics
+        .resolved(&options.names)
+        .map_err(|e| crate::Error::Geometry(e.to_string()))?;
     let scene_file = if params.scene.is_empty() {
         None
     } else {
@@ -141,12 +153,14 @@ pub fn replay(
         .into_iter()
         .filter(|m| {
             [
-                &topics.points,
+                topics.points.as_str(),
                 &topics.mesh,
                 &topics.mesh_stamped,
                 &topics.interaction,
+                TF,
+                TF_STATIC,
             ]
-            .contains(&&m.topic)
+            .contains(&m.topic.as_str())
                 || joint_topics.contains_key(&m.topic)
         })
         .collect();
@@ -170,6 +184,7 @@ pub fn replay(
         publish: params.publish.clone(),
         clock: clock.clone(),
         timings: options.timings,
+        log: None,
     };
     outputs.declare_topics();
     if let Some(recorder) = &outputs.recorder {
@@ -199,7 +214,15 @@ pub fn replay(
         last.log_time + (options.tail_s * 1e9) as i64,
     );
     let period = (1e9 / params.rate_hz) as i64;
-    let mut stage = Stage::default();
+    let tf = Arc::new(std::sync::RwLock::new(TfBuffer::new(params.tf.buffer_s)));
+    let mut builder = Builder::default();
+    let mut stage = Stage::immediate(StageOptions {
+        fixed_frame: params.fixed_frame.clone(),
+        tf: Some(tf.clone()),
+        object_timeout_ns: (params.object_timeout_s * 1e9) as i64,
+        marker_every: crate::ros::marker_every(params),
+        registry: Some(builder.registry()),
+    });
     let mut reserved = 0;
     let mut scene_rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
     if let Some(file) = &scene_file {
@@ -215,15 +238,18 @@ pub fn replay(
             reserved = reserved.max(id);
         }
     }
-    let mut builder = Builder::after_reserved_ids(reserved);
+    builder.reserve_ids(reserved);
     let mut rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
     let mut shapes: BTreeMap<u32, ShapeSummary> = BTreeMap::new();
     let mut step_times: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
     let mut scene_moved: BTreeMap<u32, f64> = BTreeMap::new();
     let decoded: Vec<Result<Input, String>> = inputs
         .iter()
-        .map(|m| input(m, source, params, &joint_topics))
+        .map(|m| input(m, source, params, topics, &joint_topics))
         .collect();
+    // Transforms are taken up to tf.timeout_s ahead of an input, as the node waits as long for
+    // the transform of a cloud's stamp.
+    let mut transforms = TransformFeed::new(&inputs, &decoded, params.tf.timeout_s);
     let mut next_input = inputs.iter().zip(&decoded).peekable();
     let wall = Instant::now();
     let mut tick_time = start;
@@ -232,7 +258,23 @@ pub fn replay(
             clock.set(&Time::from_nanos(m.log_time));
             match d {
                 Ok(Input::Geometry(request)) => {
-                    let outcome = builder.build(request, params, model, &outputs);
+                    transforms.feed(&tf, m.log_time, true, &outputs);
+                    let mut request = request.clone();
+                    let placed = tf
+                        .read()
+                        .map_err(|_| "the tf buffer is poisoned".to_string())
+                        .and_then(|buffer| request.into_fixed_frame(params, &buffer));
+                    let outcome = match placed {
+                        Ok(()) => {
+                            stage.seen(&request.frame, &outputs);
+                            builder.build(&request, params, model, &outputs)
+                        }
+                        Err(problem) => {
+                            outputs.report(Status::ERROR, 0, "input_rejected", problem);
+                            BuildOutcome::Rejected
+                        }
+                    };
+                    let request = &request;
                     if let BuildOutcome::Ready(ready, announcement) = outcome {
                         let points: Vec<f32> = request
                             .points
@@ -258,7 +300,11 @@ pub fn replay(
                         summary.rejected += 1;
                     }
                 }
-                Ok(Input::Interaction(i)) => stage.interact(i, &outputs),
+                Ok(Input::Interaction(i)) => {
+                    transforms.feed(&tf, m.log_time, false, &outputs);
+                    stage.interact(i, &outputs)
+                }
+                Ok(Input::Transforms) => transforms.feed(&tf, m.log_time, false, &outputs),
                 Ok(Input::Joints(robots, state)) => stage.set_joints(robots, state, &outputs),
                 Err(problem) => {
                     summary.rejected += 1;
@@ -348,6 +394,8 @@ fn finish(outputs: &Outputs) -> Result<Option<RecordSummary>, BagError> {
 
 enum Input {
     Geometry(BuildRequest),
+    /// /tf or /tf_static, fed to the buffer through [`TransformFeed`].
+    Transforms,
     Interaction(Interaction),
     /// A joint state for the scene robots on its topic.
     Joints(Vec<String>, JointState),
@@ -358,11 +406,13 @@ fn input(
     m: &BagMessage,
     source: &str,
     params: &NodeParams,
+    t: &crate::ros::params::Topics,
     joint_topics: &BTreeMap<String, Vec<String>>,
 ) -> Result<Input, String> {
-    let t = &params.topics;
     let robots = joint_topics.get(&m.topic);
-    let expected = if robots.is_some() {
+    let expected = if m.topic == TF || m.topic == TF_STATIC {
+        TFMessage::type_name()
+    } else if robots.is_some() {
         JointState::type_name()
     } else if m.topic == t.points {
         PointCloud2::type_name()
@@ -382,7 +432,10 @@ fn input(
     }
     let bad = |e: String| format!("{at}: {e}");
     let max = params.max_points;
-    if let Some(robots) = robots {
+    if m.topic == TF || m.topic == TF_STATIC {
+        from_cdr::<TFMessage>(&m.data).map_err(bad)?;
+        Ok(Input::Transforms)
+    } else if let Some(robots) = robots {
         let state: JointState = from_cdr(&m.data).map_err(bad)?;
         Ok(Input::Joints(robots.clone(), state))
     } else if m.topic == t.points {
@@ -390,11 +443,60 @@ fn input(
         BuildRequest::from_cloud(&cloud, max).map(Input::Geometry)
     } else if m.topic == t.mesh {
         let mesh: Mesh = from_cdr(&m.data).map_err(bad)?;
-        BuildRequest::from_mesh(&mesh, &params.mesh_frame, max).map(Input::Geometry)
+        BuildRequest::from_mesh(&mesh, &params.mesh_frame, 0, max).map(Input::Geometry)
     } else if m.topic == t.mesh_stamped {
         let stamped: MeshStamped = from_cdr(&m.data).map_err(bad)?;
-        BuildRequest::from_mesh(&stamped.mesh, &stamped.header.frame_id, max).map(Input::Geometry)
+        let stamp = stamped.header.stamp.nanos();
+        BuildRequest::from_mesh(&stamped.mesh, &stamped.header.frame_id, stamp, max)
+            .map(Input::Geometry)
     } else {
         from_cdr(&m.data).map(Input::Interaction).map_err(bad)
+    }
+}
+
+/// The recording's transforms, fed to the tf buffer in log-time order.
+struct TransformFeed {
+    /// (log time, message, from /tf_static), in log-time order.
+    messages: Vec<(i64, TFMessage, bool)>,
+    next: usize,
+    lookahead_ns: i64,
+}
+
+impl TransformFeed {
+    fn new(inputs: &[BagMessage], decoded: &[Result<Input, String>], lookahead_s: f64) -> Self {
+        let messages = inputs
+            .iter()
+            .zip(decoded)
+            .filter(|(_, d)| matches!(d, Ok(Input::Transforms)))
+            .filter_map(|(m, _)| {
+                let message = from_cdr::<TFMessage>(&m.data).ok()?;
+                Some((m.log_time, message, m.topic == TF_STATIC))
+            })
+            .collect();
+        Self {
+            messages,
+            next: 0,
+            lookahead_ns: (lookahead_s * 1e9) as i64,
+        }
+    }
+
+    /// Every transform logged up to `time` (and the lookahead, for an input waiting for its
+    /// transform) goes into the buffer.
+    fn feed(&mut self, tf: &std::sync::RwLock<TfBuffer>, time: i64, ahead: bool, outputs: &Outputs) {
+        let until = time + if ahead { self.lookahead_ns } else { 0 };
+        let Ok(mut buffer) = tf.write() else {
+            return;
+        };
+        while let Some((at, message, is_static)) = self.messages.get(self.next) {
+            if *at > until {
+                break;
+            }
+            for t in &message.transforms {
+                if let Err(e) = buffer.insert(t, *is_static) {
+                    outputs.report(Status::WARN, 0, "transform_ignored", e.to_string());
+                }
+            }
+            self.next += 1;
+        }
     }
 }

@@ -92,6 +92,7 @@ fn record_overhead(
         BuildRequest::from_cloud(&cloud, params.max_points).map_err(crate::Error::Geometry)?;
     let clock = NodeClock::simulated();
     let outputs = |recorder: Option<Recorder>| Outputs {
+        log: None,
         dds: None,
         recorder,
         shm: None,

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use physskin::bag::{recover, replay, RecordOptions, ReplayOptions};
-use physskin::ros::NodeParams;
+use physskin::ros::RosArgs;
 use physskin::shm::ShmOptions;
 use physskin::skinning::NeuralModel;
 use physskin::Error;
@@ -48,11 +48,14 @@ pub struct ReplayArgs {
     json: bool,
 }
 
-pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
-    let mut params = match &args.params {
-        Some(path) => NodeParams::from_yaml_file(path, "/physskin")?,
-        None => NodeParams::default(),
-    };
+/// Replays `args.input`; `ros` names the replayed node and sets its parameters as for
+/// `physskin node --ros-args ...`.
+pub fn run_replay(args: ReplayArgs, ros: RosArgs) -> physskin::Result<()> {
+    let (names, loader) = super::node::ros_setup(&ros, "physskin", "/", args.params.as_deref())?;
+    for warning in &loader.warnings {
+        eprintln!("[physskin] warn: {warning}");
+    }
+    let mut params = loader.params;
     if let Some(scene) = &args.scene {
         params.scene = scene.display().to_string();
     }
@@ -74,6 +77,7 @@ pub fn run_replay(args: ReplayArgs) -> physskin::Result<()> {
     let model = NeuralModel::bundled()?;
     let options = ReplayOptions {
         params,
+        names,
         record: args.out.map(|path| RecordOptions {
             path,
             split_size_mb: args.split_size_mb,

@@ -1,21 +1,23 @@
-//! `physskin node`: the ROS 2 node until Ctrl-C.
+//! `physskin node`: the ROS 2 node until Ctrl-C. It takes the ROS command line
+//! (`--ros-args ...`) as launch_ros writes it, besides its own flags.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use physskin::ros::{run_node, NodeConfig, NodeError, NodeParams};
+use physskin::ros::{run_node, NameResolver, NodeConfig, NodeError, ParamLoader, RosArgs};
 use physskin::skinning::NeuralModel;
 
 #[derive(clap::Args)]
 pub struct NodeArgs {
-    /// Parameter file in the ROS 2 format (`physskin: ros__parameters: ...`, or `/**`).
+    /// Parameter file in the ROS 2 format (`physskin: ros__parameters: ...`, or `/**`); the
+    /// same as `--ros-args --params-file FILE`, read before those.
     #[arg(long)]
     params: Option<PathBuf>,
-    /// Node name.
+    /// Node name (`--ros-args -r __node:=NAME` overrides it).
     #[arg(long, default_value = "physskin")]
     name: String,
-    /// Node namespace.
+    /// Node namespace (`--ros-args -r __ns:=/NS` overrides it).
     #[arg(long, default_value = "/")]
     namespace: String,
     /// ROS_DOMAIN_ID (default: the environment's, else 0).
@@ -36,20 +38,48 @@ pub struct NodeArgs {
     model: Option<PathBuf>,
 }
 
-pub fn run(args: NodeArgs) -> physskin::Result<()> {
+/// The node's names and parameters from its flags and ROS arguments, in rcl's order: the
+/// parameter files (`--params` first), then each `-p NAME:=VALUE`.
+pub fn ros_setup(
+    ros: &RosArgs,
+    name: &str,
+    namespace: &str,
+    params: Option<&Path>,
+) -> physskin::Result<(NameResolver, ParamLoader)> {
+    let names = NameResolver::new(namespace, name)
+        .with_rules(&ros.remaps)
+        .map_err(NodeError::from)?;
+    let node = names.fully_qualified_name();
+    let mut loader = ParamLoader::default();
+    for file in params.into_iter().chain(ros.params_files.iter().map(PathBuf::as_path)) {
+        loader.apply_file(file, &node)?;
+    }
+    for (name, value) in &ros.params {
+        loader.apply_override(name, value)?;
+    }
+    loader.warnings.extend(
+        ros.ignored
+            .iter()
+            .map(|a| format!("ROS argument `{a}` has no effect on this node")),
+    );
+    Ok((names, loader))
+}
+
+pub fn run(args: NodeArgs, ros: RosArgs) -> physskin::Result<()> {
+    let (names, loader) = ros_setup(&ros, &args.name, &args.namespace, args.params.as_deref())?;
     let mut config = NodeConfig {
-        name: args.name,
-        namespace: args.namespace,
+        names,
+        params: loader.params,
+        qos: loader.qos,
+        warnings: loader.warnings,
         domain_id: args
             .domain_id
             .or_else(|| std::env::var("ROS_DOMAIN_ID").ok()?.parse().ok())
             .unwrap_or(0),
         loopback_only: args.loopback_only,
-        ..NodeConfig::default()
+        log_level: ros.log_level.unwrap_or(physskin::ros::LogLevel::Info),
+        rosout: !ros.rosout_disabled,
     };
-    if let Some(path) = &args.params {
-        config.params = NodeParams::from_yaml_file(path, &config.fully_qualified_name())?;
-    }
     if let Some(path) = &args.record {
         config.params.record.path = path.display().to_string();
     }

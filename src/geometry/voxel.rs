@@ -116,6 +116,46 @@ impl VoxelGrid {
         (full as f64 + 0.5 * cut as f64) * self.cell.powi(3)
     }
 
+    /// The boundary of the solid as a closed triangle mesh (two triangles per cell face between
+    /// a solid cell and an empty one), wound so that normals point out of the solid.
+    pub fn boundary_mesh(&self) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+        let mut corners: std::collections::HashMap<[usize; 3], u32> = Default::default();
+        let mut points = Vec::new();
+        let mut triangles = Vec::new();
+        let mut corner = |c: [usize; 3], points: &mut Vec<Vector3<f64>>| {
+            *corners.entry(c).or_insert_with(|| {
+                points.push(self.cell_corner(c));
+                (points.len() - 1) as u32
+            })
+        };
+        for index in (0..self.len()).filter(|&i| self.solid[i]) {
+            let cell = self.coords(index);
+            for (axis, outward) in [0, 1, 2].into_iter().flat_map(|a| [(a, true), (a, false)]) {
+                let mut next = cell.map(|c| c as isize);
+                next[axis] += if outward { 1 } else { -1 };
+                let inside = (0..3).all(|a| next[a] >= 0 && (next[a] as usize) < self.dims[a]);
+                if inside && self.solid[self.index(next.map(|c| c as usize))] {
+                    continue;
+                }
+                // The face's corners, counter-clockwise seen from outside along +axis.
+                let (b, c) = ((axis + 1) % 3, (axis + 2) % 3);
+                let mut quad = [(0, 0), (1, 0), (1, 1), (0, 1)].map(|(db, dc)| {
+                    let mut at = cell;
+                    at[axis] += outward as usize;
+                    at[b] += db;
+                    at[c] += dc;
+                    corner(at, &mut points)
+                });
+                if !outward {
+                    quad.reverse();
+                }
+                triangles.push([quad[0], quad[1], quad[2]]);
+                triangles.push([quad[0], quad[2], quad[3]]);
+            }
+        }
+        (points, triangles)
+    }
+
     /// The same region on a grid with `resolution` cells across the longest side: a coarse cell is
     /// solid when at least half of the fine cells whose centers fall in it are solid.
     pub fn resample(&self, resolution: usize) -> VoxelGrid {

@@ -58,6 +58,15 @@ impl Lifter {
         self.count
     }
 
+    pub fn handles(&self) -> usize {
+        self.handles
+    }
+
+    /// The weight of `handle` at point `point`.
+    pub fn weight(&self, point: usize, handle: usize) -> f32 {
+        self.weights[(point / LANES) * self.handles + handle][point % LANES]
+    }
+
     pub fn is_empty(&self) -> bool {
         self.count == 0
     }

@@ -329,6 +329,11 @@ impl ReducedSim {
     }
 
     /// Whether a poke acts now or later.
+    /// Drops every force in progress.
+    pub fn clear_pokes(&mut self) {
+        self.pokes.clear();
+    }
+
     pub fn has_active_pokes(&self) -> bool {
         self.pokes.iter().any(|(_, p)| p.end > self.time)
     }

@@ -50,6 +50,8 @@ pub struct BodyOptions {
     pub handles: Option<usize>,
     /// When the body may sleep. Default never.
     pub sleep: Option<SleepRule>,
+    /// Height of the floor of `Support::Floor`; None: the object's lowest point. Default None.
+    pub floor_z: Option<f64>,
 }
 
 /// A body sleeps once its RMS speed has stayed below `speed` for `after` seconds with no force
@@ -98,6 +100,7 @@ impl Default for BodyOptions {
             support: Support::PinBottom,
             handles: None,
             sleep: None,
+            floor_z: None,
         }
     }
 }
@@ -132,6 +135,8 @@ pub struct SoftBody {
     /// Bounds of the deformed input points after the last step (min, max).
     bounds: (Vector3<f64>, Vector3<f64>),
     decision: String,
+    /// The solid the body was built on (world units), for drawing a cloud's surface.
+    grid: VoxelGrid,
 }
 
 /// Whether the body steps, and what it needs to go to sleep or wake.
@@ -285,6 +290,7 @@ impl SoftBody {
             sleep: options.sleep,
             activity: Activity::default(),
             decision,
+            grid,
         })
     }
 
@@ -527,6 +533,27 @@ impl SoftBody {
     /// of a reference mesh: `lifter.lift(body.state(), out)` deforms them like the body.
     pub fn lifter_for(&self, points: &[Vector3<f64>]) -> Lifter {
         Lifter::new(self.field.as_ref(), &self.map, points)
+    }
+
+    /// A closed surface of the body's solid at rest, world units: the boundary of its voxels
+    /// resampled to `resolution` cells across. What a viewer draws for a point cloud.
+    pub fn voxel_surface(&self, resolution: usize) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+        self.grid.resample(resolution).boundary_mesh()
+    }
+
+    /// Back to the rest pose, at rest: forces, pins and contacts stay as they are.
+    pub fn reset(&mut self) {
+        self.sim.reset();
+        self.sim.clear_pokes();
+        self.lifter.lift(self.sim.state(), &mut self.deformed);
+        self.bounds = bounds_of(&self.deformed);
+        self.activity = Activity::default();
+        self.last = None;
+    }
+
+    /// The lifter of the input points (their weights, blocked for lifting).
+    pub fn lifter(&self) -> &Lifter {
+        &self.lifter
     }
 
     /// Skinning weights at the input points: points x handles, row-major.
@@ -774,7 +801,8 @@ fn apply_support(
             sim.add_pins(&points, &masses);
         }
         Support::Floor => {
-            let floor = surface.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+            let lowest = surface.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+            let floor = options.floor_z.unwrap_or(lowest);
             sim.add_contact_points(surface, areas);
             sim.add_obstacle(Obstacle::floor(floor));
         }

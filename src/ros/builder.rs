@@ -2,13 +2,16 @@
 //! objects never wait for inference.
 
 use std::collections::HashMap;
+use std::sync::atomic::Ordering;
 use std::sync::mpsc::{Receiver, Sender};
-use std::sync::{Arc, RwLock};
+use std::sync::{Arc, Mutex, RwLock};
 
-use nalgebra::Vector3;
+use nalgebra::{Isometry3, Point3, Vector3};
 
 use super::cloud::decode_cloud;
+use super::markers::MarkerSurface;
 use super::messages::{Mesh, PointCloud2, Status};
+use super::tf::{TfBuffer, TfError};
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
 use crate::geometry::Shape;
@@ -16,6 +19,7 @@ use crate::pipeline::SoftBody;
 use crate::skinning::NeuralModel;
 
 /// New geometry for the object in `frame`.
+#[derive(Clone, Debug)]
 pub struct BuildRequest {
     pub frame: String,
     /// "cloud" or "mesh", for messages.
@@ -24,19 +28,33 @@ pub struct BuildRequest {
     pub triangles: Vec<[u32; 3]>,
     /// Points dropped while decoding (NaN or Inf).
     pub dropped: usize,
+    /// The input's stamp, ns (0 when it has none: the latest transform is used).
+    pub stamp_ns: i64,
+    /// The frame the points are in once transformed into the fixed frame; None: `frame`.
+    pub fixed_frame: Option<String>,
 }
 
 /// A built body on its way to the stepper.
 pub struct ReadyBody {
     pub id: u32,
+    /// The input's frame: one object per frame.
     pub frame: String,
+    /// The frame its outputs are in: the fixed frame, or `frame`.
+    pub output_frame: String,
     pub body: SoftBody,
+    /// Its surface for ~/markers (None when markers are off).
+    pub surface: Option<MarkerSurface>,
 }
 
 impl BuildRequest {
     /// The geometry of a cloud (its frame from the header); why not, naming the problem.
     pub fn from_cloud(cloud: &PointCloud2, max_points: usize) -> Result<Self, String> {
         let frame = cloud.header.frame_id.clone();
+        if frame.is_empty() {
+            return Err(
+                "cloud with an empty header.frame_id: its frame says where the object is".into(),
+            );
+        }
         let decoded = decode_cloud(cloud, max_points)
             .map_err(|e| format!("cloud in frame `{frame}`: {e}"))?;
         Ok(Self {
@@ -45,11 +63,21 @@ impl BuildRequest {
             points: decoded.points,
             triangles: Vec::new(),
             dropped: decoded.dropped,
+            stamp_ns: cloud.header.stamp.nanos(),
+            fixed_frame: None,
         })
     }
 
-    /// The geometry of a mesh in `frame`.
-    pub fn from_mesh(mesh: &Mesh, frame: &str, max_points: usize) -> Result<Self, String> {
+    /// The geometry of a mesh in `frame`, stamped `stamp_ns` (0: none).
+    pub fn from_mesh(
+        mesh: &Mesh,
+        frame: &str,
+        stamp_ns: i64,
+        max_points: usize,
+    ) -> Result<Self, String> {
+        if frame.is_empty() {
+            return Err("mesh with an empty frame: its frame says where the object is".into());
+        }
         if mesh.vertices.len() > max_points {
             return Err(format!(
                 "mesh in frame `{frame}`: {} vertices, more than max_points = {max_points}",
@@ -66,11 +94,73 @@ impl BuildRequest {
                 .collect(),
             triangles: mesh.triangles.iter().map(|t| t.vertex_indices).collect(),
             dropped: 0,
+            stamp_ns,
+            fixed_frame: None,
         })
     }
 
     fn content_hash(&self) -> u64 {
         crate::geometry::content_hash(&self.points, &self.triangles)
+    }
+
+    /// Moves the points into `fixed` by `transform` (points of `frame` into `fixed`).
+    pub fn transform_into(&mut self, fixed: &str, transform: &Isometry3<f64>) {
+        for p in &mut self.points {
+            *p = (transform * Point3::from(*p)).coords;
+        }
+        self.fixed_frame = Some(fixed.into());
+    }
+
+    /// Into the parameters' fixed frame (when one is set) through `tf`, or why not.
+    pub fn into_fixed_frame(&mut self, params: &NodeParams, tf: &TfBuffer) -> Result<(), String> {
+        if params.fixed_frame.is_empty() {
+            return Ok(());
+        }
+        let transform = tf
+            .lookup(&params.fixed_frame, &self.frame, self.stamp_ns)
+            .map_err(|e| self.no_transform(&params.fixed_frame, &e))?;
+        self.transform_into(&params.fixed_frame.clone(), &transform);
+        Ok(())
+    }
+
+    /// The refusal of an input whose frame cannot be placed in `fixed`.
+    pub fn no_transform(&self, fixed: &str, e: &TfError) -> String {
+        format!(
+            "{} in frame `{}`: no transform from `{}` to `{fixed}` at {:.3} s: {e}",
+            self.source,
+            self.frame,
+            self.frame,
+            self.stamp_ns as f64 / 1e9
+        )
+    }
+}
+
+/// Which geometry each frame runs, shared with the stepper so that a removed object's frame
+/// builds again when the same geometry comes back.
+#[derive(Clone, Default)]
+pub struct BuiltRegistry(Arc<Mutex<HashMap<String, u64>>>);
+
+impl BuiltRegistry {
+    /// Forgets what `frame` runs (None: every frame).
+    pub fn forget(&self, frame: Option<&str>) {
+        if let Ok(mut built) = self.0.lock() {
+            match frame {
+                Some(frame) => {
+                    built.remove(frame);
+                }
+                None => built.clear(),
+            }
+        }
+    }
+
+    fn runs(&self, frame: &str, hash: u64) -> bool {
+        self.0.lock().is_ok_and(|b| b.get(frame) == Some(&hash))
+    }
+
+    fn insert(&self, frame: &str, hash: u64) {
+        if let Ok(mut built) = self.0.lock() {
+            built.insert(frame.into(), hash);
+        }
     }
 }
 
@@ -78,7 +168,7 @@ impl BuildRequest {
 /// runs, reports failures. The node runs it on its build thread; a replay calls it in line.
 #[derive(Default)]
 pub struct Builder {
-    built: HashMap<String, u64>,
+    built: BuiltRegistry,
     next_id: u32,
 }
 
@@ -89,6 +179,16 @@ impl Builder {
             next_id: reserved,
             ..Self::default()
         }
+    }
+
+    /// Ids up to `reserved` belong to others (a scene's objects): new ids follow them.
+    pub fn reserve_ids(&mut self, reserved: u32) {
+        self.next_id = self.next_id.max(reserved);
+    }
+
+    /// The frames' geometry, for whoever removes objects.
+    pub fn registry(&self) -> BuiltRegistry {
+        self.built.clone()
     }
 }
 
@@ -134,7 +234,7 @@ impl Builder {
         outputs: &Outputs,
     ) -> BuildOutcome {
         let hash = request.content_hash();
-        if self.built.get(&request.frame) == Some(&hash) {
+        if self.built.runs(&request.frame, hash) {
             return BuildOutcome::Unchanged;
         }
         self.next_id += 1;
@@ -147,7 +247,11 @@ impl Builder {
                 return BuildOutcome::Rejected;
             }
         };
-        self.built.insert(request.frame.clone(), hash);
+        self.built.insert(&request.frame, hash);
+        let output_frame = request
+            .fixed_frame
+            .clone()
+            .unwrap_or_else(|| request.frame.clone());
         let t = body.timings();
         let dropped = if request.dropped > 0 {
             format!(", {} NaN or Inf points dropped", request.dropped)
@@ -164,7 +268,7 @@ impl Builder {
         };
         let announcement = Announcement {
             id,
-            frame: request.frame.clone(),
+            frame: output_frame.clone(),
             rest: request
                 .points
                 .iter()
@@ -180,10 +284,14 @@ impl Builder {
                 body.handles()
             ),
         };
+        let surface = (params.markers.rate_hz > 0.0)
+            .then(|| MarkerSurface::of(&body, &request.triangles));
         let ready = ReadyBody {
             id,
             frame: request.frame.clone(),
+            output_frame,
             body,
+            surface,
         };
         BuildOutcome::Ready(Box::new(ready), announcement)
     }
@@ -210,17 +318,22 @@ fn build_body(
     SoftBody::build(model, &shape, &request.points, &options)
 }
 
+/// What the build thread shares with the rest of the node.
+pub struct BuildContext {
+    pub params: Arc<RwLock<NodeParams>>,
+    pub model: Arc<NeuralModel>,
+    pub outputs: SharedOutputs,
+    pub tf: Arc<RwLock<TfBuffer>>,
+    pub health: Arc<super::diagnostics::Health>,
+    pub registry: BuiltRegistry,
+    /// Ids up to this belong to the scene's objects.
+    pub reserved_ids: u32,
+}
+
 /// Runs until `requests` closes. When requests arrive faster than inference, only the newest
 /// per frame is built.
-pub fn run_builder(
-    requests: Receiver<BuildRequest>,
-    ready: Sender<ReadyBody>,
-    params: Arc<RwLock<NodeParams>>,
-    model: Arc<NeuralModel>,
-    outputs: SharedOutputs,
-    reserved_ids: u32,
-) {
-    let threads = params.read().map_or(1, |p| p.inference.threads);
+pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<ReadyBody>, cx: BuildContext) {
+    let threads = cx.params.read().map_or(1, |p| p.inference.threads);
     // Inference gets its own thread pool, so it cannot occupy the pool the stepper uses.
     let pool = match rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -230,41 +343,63 @@ pub fn run_builder(
     {
         Ok(pool) => pool,
         Err(e) => {
-            outputs.report(
-                Status::ERROR,
-                0,
-                "node_error",
-                format!("no inference threads: {e}"),
-            );
+            let message = format!("no inference threads: {e}");
+            cx.outputs.report(Status::ERROR, 0, "node_error", message);
             return;
         }
     };
     yield_to_stepping();
-    // Ids up to `reserved_ids` belong to the scene's objects.
     let mut builder = Builder {
-        next_id: reserved_ids,
-        ..Builder::default()
+        next_id: cx.reserved_ids,
+        built: cx.registry.clone(),
     };
     while let Ok(first) = requests.recv() {
         let mut newest: Vec<BuildRequest> = vec![first];
         for request in requests.try_iter() {
+            cx.health.builds_queued.fetch_sub(1, Ordering::Relaxed);
             if let Some(i) = newest.iter().position(|r| r.frame == request.frame) {
                 newest[i] = request;
             } else {
                 newest.push(request);
             }
         }
-        for request in newest {
-            let snapshot = params.read().map(|p| p.clone()).unwrap_or_default();
-            let built = pool.install(|| builder.build(&request, &snapshot, &model, &outputs));
+        for mut request in newest {
+            cx.health.builds_queued.fetch_sub(1, Ordering::Relaxed);
+            let snapshot = cx.params.read().map(|p| p.clone()).unwrap_or_default();
+            if let Err(problem) = wait_for_fixed_frame(&mut request, &snapshot, &cx.tf) {
+                cx.outputs.report(Status::ERROR, 0, "input_rejected", problem);
+                continue;
+            }
+            let built =
+                pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
             if let BuildOutcome::Ready(body, announcement) = built {
                 // The body goes to the stepper first: its first frame must not wait for the
                 // (large) weight messages.
                 if ready.send(*body).is_err() {
                     return;
                 }
-                announcement.publish(&outputs);
+                announcement.publish(&cx.outputs);
             }
         }
+    }
+}
+
+/// Moves a request into the fixed frame, waiting up to `tf.timeout_s` for its transform (a
+/// camera's cloud often arrives before the transform of its stamp).
+fn wait_for_fixed_frame(
+    request: &mut BuildRequest,
+    params: &NodeParams,
+    tf: &RwLock<TfBuffer>,
+) -> Result<(), String> {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs_f64(params.tf.timeout_s);
+    loop {
+        let buffer = tf.read().map_err(|_| "the tf buffer is poisoned".to_string())?;
+        match request.into_fixed_frame(params, &buffer) {
+            Ok(()) => return Ok(()),
+            Err(problem) if std::time::Instant::now() >= deadline => return Err(problem),
+            Err(_) => {}
+        }
+        drop(buffer);
+        std::thread::sleep(std::time::Duration::from_millis(10));
     }
 }

@@ -71,7 +71,7 @@ macro_rules! ros_message {
             const PACKAGE: &'static str = $pkg;
             const NAME: &'static str = stringify!($name);
             fn fields() -> Vec<(&'static str, String)> {
-                vec![$((stringify!($field), <$ty as RosType>::ros_type())),*]
+                vec![$((stringify!($field).trim_start_matches("r#"), <$ty as RosType>::ros_type())),*]
             }
         }
     };
@@ -213,6 +213,7 @@ impl Interaction {
     pub const FORCE: u8 = 0;
     pub const PIN: u8 = 1;
     pub const RELEASE: u8 = 2;
+    pub const REMOVE: u8 = 3;
 }
 
 ros_message!(
@@ -231,6 +232,133 @@ impl Status {
     pub const WARN: u8 = 1;
     pub const ERROR: u8 = 2;
 }
+
+ros_message!(
+    /// geometry_msgs/msg/Quaternion (x, y, z, w).
+    Quaternion = "geometry_msgs" { x: f64, y: f64, z: f64, w: f64 }
+);
+
+ros_message!(
+    /// geometry_msgs/msg/Transform: a frame's pose in its parent.
+    Transform = "geometry_msgs" { translation: Vector3, rotation: Quaternion }
+);
+
+ros_message!(
+    /// geometry_msgs/msg/TransformStamped: `child_frame_id` in `header.frame_id`.
+    TransformStamped = "geometry_msgs" {
+        header: Header,
+        child_frame_id: String,
+        transform: Transform,
+    }
+);
+
+ros_message!(
+    /// tf2_msgs/msg/TFMessage, on /tf and /tf_static.
+    TFMessage = "tf2_msgs" { transforms: Vec<TransformStamped> }
+);
+
+ros_message!(
+    /// diagnostic_msgs/msg/KeyValue.
+    KeyValue = "diagnostic_msgs" { key: String, value: String }
+);
+
+ros_message!(
+    /// diagnostic_msgs/msg/DiagnosticStatus (level: OK 0, WARN 1, ERROR 2, STALE 3).
+    DiagnosticStatus = "diagnostic_msgs" {
+        level: u8,
+        name: String,
+        message: String,
+        hardware_id: String,
+        values: Vec<KeyValue>,
+    }
+);
+
+impl DiagnosticStatus {
+    pub const OK: u8 = 0;
+    pub const WARN: u8 = 1;
+    pub const ERROR: u8 = 2;
+}
+
+ros_message!(
+    /// diagnostic_msgs/msg/DiagnosticArray, on /diagnostics.
+    DiagnosticArray = "diagnostic_msgs" { header: Header, status: Vec<DiagnosticStatus> }
+);
+
+ros_message!(
+    /// geometry_msgs/msg/Pose.
+    Pose = "geometry_msgs" { position: Point, orientation: Quaternion }
+);
+
+ros_message!(
+    /// std_msgs/msg/ColorRGBA, each in [0, 1].
+    ColorRGBA = "std_msgs" { r: f32, g: f32, b: f32, a: f32 }
+);
+
+ros_message!(
+    /// builtin_interfaces/msg/Duration.
+    Duration = "builtin_interfaces" { sec: i32, nanosec: u32 }
+);
+
+ros_message!(
+    /// sensor_msgs/msg/CompressedImage (a Marker's texture; empty here).
+    CompressedImage = "sensor_msgs" { header: Header, format: String, data: Vec<u8> }
+);
+
+ros_message!(
+    /// visualization_msgs/msg/UVCoordinate.
+    UVCoordinate = "visualization_msgs" { u: f32, v: f32 }
+);
+
+ros_message!(
+    /// visualization_msgs/msg/MeshFile.
+    MeshFile = "visualization_msgs" { filename: String, data: Vec<u8> }
+);
+
+ros_message!(
+    /// visualization_msgs/msg/Marker, in its Jazzy layout (with texture and mesh_file).
+    Marker = "visualization_msgs" {
+        header: Header,
+        ns: String,
+        id: i32,
+        r#type: i32,
+        action: i32,
+        pose: Pose,
+        scale: Vector3,
+        color: ColorRGBA,
+        lifetime: Duration,
+        frame_locked: bool,
+        points: Vec<Point>,
+        colors: Vec<ColorRGBA>,
+        texture_resource: String,
+        texture: CompressedImage,
+        uv_coordinates: Vec<UVCoordinate>,
+        text: String,
+        mesh_resource: String,
+        mesh_file: MeshFile,
+        mesh_use_embedded_materials: bool,
+    }
+);
+
+impl Marker {
+    pub const TRIANGLE_LIST: i32 = 11;
+    pub const ADD: i32 = 0;
+    pub const DELETE: i32 = 2;
+}
+
+ros_message!(
+    /// visualization_msgs/msg/MarkerArray.
+    MarkerArray = "visualization_msgs" { markers: Vec<Marker> }
+);
+
+ros_message!(
+    /// std_srvs/srv/Trigger's request: no field, so IDL gives it one placeholder byte.
+    TriggerRequest = "std_srvs" { structure_needs_at_least_one_member: u8 }
+);
+
+ros_message!(
+    /// std_srvs/srv/Trigger's response.
+    TriggerResponse = "std_srvs" { success: bool, message: String }
+);
 
 /// Serializes a message to CDR little-endian with its 4-byte encapsulation header, as on the
 /// wire and in MCAP.

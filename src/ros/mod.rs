@@ -1,20 +1,39 @@
-//! ROS 2: message types, the PointCloud2 codec, parameters, and the node.
+//! ROS 2: message types, the PointCloud2 codec, names and the command line, parameters, tf2,
+//! and the node.
 
+mod args;
 mod builder;
 mod clock;
 pub mod cloud;
+mod diagnostics;
+mod markers;
 pub mod messages;
+mod names;
+mod network;
+mod node_inputs;
 mod node;
 mod outputs;
+mod param_file;
 pub mod params;
+mod qos_overrides;
+mod services;
+mod stage;
 mod stepper;
+mod tf;
 
+pub use args::{split_ros_args, LogLevel, RosArgs, RosArgsError};
 pub use builder::{BuildOutcome, BuildRequest, Builder, ReadyBody};
 pub use clock::NodeClock;
+pub use diagnostics::Health;
+pub use names::{NameError, NameResolver, Remap};
 pub use node::{
-    context, publisher, qos_of, reliable_qos, run_node, sensor_qos, subscription, NodeConfig,
-    NodeError,
+    context, marker_every, publisher, qos_of, reliable_qos, run_node, sensor_qos, subscription,
+    NodeConfig, NodeError,
 };
-pub use outputs::{topic_table, Outputs};
+pub use outputs::{topic_table, Outputs, TF, TF_STATIC};
+pub use param_file::ParamLoader;
 pub use params::NodeParams;
-pub use stepper::{Stage, StepperStats};
+pub use qos_overrides::{Endpoint, QosOverrides};
+pub use stage::{Stage, StageOptions};
+pub use stepper::StepperStats;
+pub use tf::{TfBuffer, TfError};

@@ -2,12 +2,9 @@
 //! and step threads. Subscriptions only decode and forward; nothing slow runs on the executor.
 
 use std::net::Ipv4Addr;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::channel;
+use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, RwLock};
-use std::time::Duration;
 
-use futures::StreamExt;
 use ros2_client::ros2::policy::{Durability, History, Reliability, ResourceLimits};
 use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
 use ros2_client::rustdds::DomainParticipantBuilder;
@@ -16,15 +13,17 @@ use ros2_client::{
     Subscription,
 };
 
-use super::builder::{run_builder, BuildRequest};
+use super::args::LogLevel;
 use super::clock::NodeClock;
-use super::messages::{
-    Clock, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
-};
-use super::outputs::{topic_table, Outputs, Publishers};
+use super::diagnostics::Health;
+use super::messages::{RosMessage, Status};
+use super::names::NameResolver;
+use super::outputs::{topic_table, NodeLog, Outputs, Publishers};
 use super::params::NodeParams;
-use super::stepper::{run_stepper, StepperCommand, StepperStats};
-use crate::bag::{QosProfile, RecordOptions, Recorder, TopicInfo};
+use super::qos_overrides::{Endpoint, QosOverrides};
+use super::stepper::{StepperCommand, StepperStats};
+use super::tf::TfBuffer;
+use crate::bag::{QosProfile, RecordOptions, Recorder};
 use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::shm::{ShmOptions, ShmPublisher};
 use crate::skinning::NeuralModel;
@@ -41,6 +40,10 @@ pub enum NodeError {
     #[error("signal handler: {0}")]
     Signal(String),
     #[error(transparent)]
+    Names(#[from] super::names::NameError),
+    #[error(transparent)]
+    RosArgs(#[from] super::args::RosArgsError),
+    #[error(transparent)]
     Record(#[from] crate::bag::BagError),
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
@@ -50,31 +53,42 @@ pub enum NodeError {
 #[derive(Clone, Debug)]
 pub struct NodeConfig {
     pub params: NodeParams,
-    /// Default "physskin".
-    pub name: String,
-    /// Default "/".
-    pub namespace: String,
+    /// The node's name and namespace after `__node:=`/`__ns:=`, and the remapping rules.
+    /// Default node `physskin` in `/`.
+    pub names: NameResolver,
+    /// `qos_overrides.*` parameters.
+    pub qos: QosOverrides,
     /// ROS_DOMAIN_ID. Default 0.
     pub domain_id: u16,
     /// Restrict DDS to 127.0.0.1 (tests and benchmarks outside a private network namespace).
     pub loopback_only: bool,
+    /// Log lines below this level are dropped. Default info.
+    pub log_level: LogLevel,
+    /// Log lines also go to /rosout. Default true.
+    pub rosout: bool,
+    /// Said once the node has started (on stderr and /rosout): ignored parameters and
+    /// arguments.
+    pub warnings: Vec<String>,
 }
 
 impl Default for NodeConfig {
     fn default() -> Self {
         Self {
             params: NodeParams::default(),
-            name: "physskin".into(),
-            namespace: "/".into(),
+            names: NameResolver::default(),
+            qos: QosOverrides::default(),
             domain_id: 0,
             loopback_only: false,
+            log_level: LogLevel::Info,
+            rosout: true,
+            warnings: Vec::new(),
         }
     }
 }
 
 impl NodeConfig {
     pub fn fully_qualified_name(&self) -> String {
-        format!("{}/{}", self.namespace.trim_end_matches('/'), self.name)
+        self.names.fully_qualified_name()
     }
 }
 
@@ -167,6 +181,27 @@ pub fn subscription<M: RosMessage>(
         .map_err(|e| NodeError::Dds(format!("subscription `{name}`: {e:?}")))
 }
 
+/// QoS of each endpoint: the topic table's profile, then the `qos_overrides.*` parameters.
+pub(super) struct QosTable {
+    profiles: Vec<crate::bag::TopicInfo>,
+    overrides: QosOverrides,
+}
+
+impl QosTable {
+    fn profile(&self, topic: &str, endpoint: Endpoint) -> QosProfile {
+        let base = self
+            .profiles
+            .iter()
+            .find(|info| info.name == topic)
+            .map_or(QosProfile::sensor(5), |info| info.qos);
+        self.overrides.apply(topic, endpoint, base)
+    }
+
+    pub(super) fn of(&self, topic: &str, endpoint: Endpoint) -> QosPolicies {
+        qos_of(self.profile(topic, endpoint))
+    }
+}
+
 /// Runs the node until `stop` is set; returns the stepper's counters.
 pub fn run_node(
     config: NodeConfig,
@@ -180,18 +215,109 @@ pub fn run_node(
             name: "parameters".into(),
             reason: e.to_string(),
         })?;
-    let params = Arc::new(RwLock::new(config.params.clone()));
     let p = config.params.clone();
-    let context = context(config.domain_id, config.loopback_only)?;
+    let topics = p.topics.resolved(&config.names)?;
+    let network = super::network::choose(config.loopback_only);
+    let context = context(config.domain_id, network.loopback_only)?;
+    let params = Arc::new(RwLock::new(p.clone()));
+    let mut node = create_node(&context, &config, &params)?;
+    let qos = QosTable {
+        profiles: topic_table(&topics),
+        overrides: config.qos.clone(),
+    };
+    let clock = if p.use_sim_time {
+        NodeClock::simulated()
+    } else {
+        NodeClock::Wall
+    };
+    let dds = make_publishers(&mut node, &topics, &qos, &p)?;
+    let log = NodeLog {
+        rosout: config.rosout.then(|| node.logging_handle()),
+        name: config.fully_qualified_name(),
+        level: config.log_level,
+    };
+    let outputs = Arc::new(Outputs {
+        dds: Some(dds),
+        recorder: start_recorder(&p)?,
+        shm: start_shm(&p),
+        topics: topics.clone(),
+        publish: p.publish.clone(),
+        clock: clock.clone(),
+        timings: true,
+        log: Some(log),
+    });
+    outputs.declare_topics();
+    for warning in config.warnings.iter().chain(&network.warnings) {
+        outputs.report(Status::WARN, 0, "node_warning", warning.clone());
+    }
+    let scene_file = if p.scene.is_empty() {
+        None
+    } else {
+        Some(SceneFile::load(std::path::Path::new(&p.scene))?)
+    };
+    let inputs =
+        super::node_inputs::Inputs::create(&mut node, &topics, &qos, scene_file.as_ref(), &outputs)?;
+    let shared = Shared {
+        params,
+        outputs: outputs.clone(),
+        tf: Arc::new(RwLock::new(TfBuffer::new(p.tf.buffer_s))),
+        health: Arc::new(Health::default()),
+    };
+    let threads = Threads::start(&shared, &model, scene_file, &p)?;
+    let control = super::node_inputs::Control::create(&mut node, &config.names)?;
+    let diagnostics = publisher(&mut node, "/diagnostics", reliable_qos(10, false))?;
+    outputs.report(Status::INFO, 0, "node_started", started_line(&config, &topics));
 
-    let mut options = NodeOptions::new().enable_rosout(true);
+    let executor = smol::Executor::new();
+    let spinner = node
+        .spinner()
+        .map_err(|e| NodeError::Dds(format!("{e:?}")))?;
+    executor.spawn(spinner.spin()).detach();
+    let node_name = config.fully_qualified_name();
+    let served = super::node_inputs::serve(
+        inputs,
+        control,
+        diagnostics,
+        &shared,
+        &threads.build_tx,
+        &threads.step_tx,
+        &node_name,
+    );
+    let stopped = async {
+        while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+            smol::Timer::after(std::time::Duration::from_millis(50)).await;
+        }
+    };
+    smol::block_on(executor.run(smol::future::race(served, stopped)));
+    let stats = threads.join();
+    finish(&outputs, &stats);
+    node.stop_spinner();
+    drop(executor);
+    Ok(stats)
+}
+
+/// What the executor, the build thread and the stepper share.
+pub(super) struct Shared {
+    pub params: Arc<RwLock<NodeParams>>,
+    pub outputs: Arc<Outputs>,
+    pub tf: Arc<RwLock<TfBuffer>>,
+    pub health: Arc<Health>,
+}
+
+/// The ROS node with its parameters declared: `ros2 param set` is checked like the file.
+fn create_node(
+    context: &Context,
+    config: &NodeConfig,
+    params: &Arc<RwLock<NodeParams>>,
+) -> Result<Node, NodeError> {
+    let p = &config.params;
+    let mut options = NodeOptions::new().enable_rosout(config.rosout);
     for (name, value) in p.to_ros() {
         if name != "use_sim_time" {
             options = options.declare_parameter(&name, value);
         }
     }
-    let check = params.clone();
-    let apply = params.clone();
+    let (check, apply) = (params.clone(), params.clone());
     options = options
         .parameter_validator(Box::new(move |name: &str, value: &ParameterValue| {
             let current = check.read().map_err(|_| "parameters poisoned".to_string())?.clone();
@@ -207,265 +333,101 @@ pub fn run_node(
             eprintln!("[physskin] info: parameter {name} set to {value:?}; it applies to shapes that arrive from now on");
             Ok(())
         }));
-    let node_name = NodeName::new(&config.namespace, &config.name)
+    let names = &config.names;
+    let node_name = NodeName::new(&names.namespace, &names.node)
         .map_err(|e| NodeError::Name(format!("{e:?}")))?;
-    let mut node = context
+    let node = context
         .new_node(node_name, options)
         .map_err(|e| NodeError::Dds(format!("{e:?}")))?;
     if p.use_sim_time {
         let _ = node.set_parameter("use_sim_time", ParameterValue::Boolean(true));
     }
+    Ok(node)
+}
 
-    let clock = if p.use_sim_time {
-        NodeClock::simulated()
-    } else {
-        NodeClock::Wall
-    };
-    let t = &p.topics;
-    let table = topic_table(t);
-    let qos = |topic: &str| {
-        qos_of(
-            table
-                .iter()
-                .find(|info| info.name == topic)
-                .map_or(QosProfile::sensor(5), |info| info.qos),
-        )
-    };
-    let recorder = if p.record.path.is_empty() {
-        None
-    } else {
-        let options = RecordOptions {
-            path: p.record.path.clone().into(),
-            split_size_mb: p.record.split_size_mb,
-            split_duration_s: p.record.split_duration_s,
-            ..Default::default()
-        };
-        Some(Recorder::start(options, p.record.topics.clone()).map_err(NodeError::Record)?)
-    };
+fn make_publishers(
+    node: &mut Node,
+    t: &super::params::Topics,
+    qos: &QosTable,
+    p: &NodeParams,
+) -> Result<Publishers, NodeError> {
     let pubs = &p.publish;
-    let dds = Publishers {
+    let out = |topic: &str| qos.of(topic, Endpoint::Publisher);
+    Ok(Publishers {
         deformed_points: pubs
             .deformed_points
-            .then(|| publisher(&mut node, &t.deformed_points, qos(&t.deformed_points)))
+            .then(|| publisher(node, &t.deformed_points, out(&t.deformed_points)))
             .transpose()?,
         weights: pubs
             .weights
-            .then(|| publisher(&mut node, &t.weights, qos(&t.weights)))
+            .then(|| publisher(node, &t.weights, out(&t.weights)))
             .transpose()?,
         weights_cloud: pubs
             .weights_cloud
-            .then(|| publisher(&mut node, &t.weights_cloud, qos(&t.weights_cloud)))
+            .then(|| publisher(node, &t.weights_cloud, out(&t.weights_cloud)))
             .transpose()?,
         state: pubs
             .state
-            .then(|| publisher(&mut node, &t.state, qos(&t.state)))
+            .then(|| publisher(node, &t.state, out(&t.state)))
             .transpose()?,
-        status: publisher(&mut node, &t.status, qos(&t.status))?,
-    };
-    let shm = if p.shm.enabled {
-        let options = ShmOptions {
-            deformed_service: p.shm.deformed_service.clone(),
-            weights_service: p.shm.weights_service.clone(),
-            ..Default::default()
-        };
-        match ShmPublisher::create(&options) {
-            Ok(shm) => Some(shm),
-            Err(e) => {
-                // Local zero-copy consumers are optional: DDS and the recording go on.
-                eprintln!("[physskin] error: no iceoryx2 hand-off: {e}");
-                None
-            }
-        }
-    } else {
-        None
-    };
-    let outputs = Arc::new(Outputs {
-        dds: Some(dds),
-        recorder,
-        shm,
-        topics: t.clone(),
-        publish: p.publish.clone(),
-        clock: clock.clone(),
-        timings: true,
-    });
-    outputs.declare_topics();
-    let points_sub = subscription::<PointCloud2>(&mut node, &t.points, qos(&t.points))?;
-    let mesh_sub = subscription::<Mesh>(&mut node, &t.mesh, qos(&t.mesh))?;
-    let stamped_sub =
-        subscription::<MeshStamped>(&mut node, &t.mesh_stamped, qos(&t.mesh_stamped))?;
-    let interaction_sub =
-        subscription::<Interaction>(&mut node, &t.interaction, qos(&t.interaction))?;
-    let clock_sub = subscription::<Clock>(&mut node, "/clock", sensor_qos())?;
-    // A scene file is read (and its mistakes refused) before anything starts; its objects are
-    // built on a thread of their own, and join the stepper when ready.
-    let scene_file = if p.scene.is_empty() {
-        None
-    } else {
-        Some(SceneFile::load(std::path::Path::new(&p.scene))?)
-    };
-    let mut joint_subs = Vec::new();
-    let mut scene_objects = 0u32;
-    if let Some(file) = &scene_file {
-        scene_objects = file
-            .objects
-            .iter()
-            .filter(|o| o.kind == crate::scene::ObjectKind::Deformable && o.topic.is_none())
-            .count() as u32;
-        // One subscription per topic, for every robot on it (a JointState may carry the joints
-        // of several robots).
-        let mut topics: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
-        for r in &file.robots {
-            topics
-                .entry(r.joint_states.as_str())
-                .or_default()
-                .push(r.name.clone());
-        }
-        for (topic, robots) in topics {
-            if let Some(recorder) = &outputs.recorder {
-                let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
-                if let Err(e) = recorder.declare(info) {
-                    eprintln!("[physskin] error: recording: {e}");
-                }
-            }
-            let sub = subscription::<JointState>(&mut node, topic, sensor_qos())?;
-            joint_subs.push((robots, topic.to_string(), sub));
-        }
-    }
+        status: publisher(node, &t.status, out(&t.status))?,
+        markers: (p.markers.rate_hz > 0.0)
+            .then(|| publisher(node, &t.markers, out(&t.markers)))
+            .transpose()?,
+    })
+}
 
-    let (build_tx, build_rx) = channel::<BuildRequest>();
-    let (ready_tx, ready_rx) = channel();
-    let (step_tx, step_rx) = channel::<StepperCommand>();
-    let builder = {
-        let (params, outputs) = (params.clone(), outputs.clone());
-        std::thread::Builder::new()
-            .name("physskin-build".into())
-            .spawn({
-                let model = model.clone();
-                move || run_builder(build_rx, ready_tx, params, model, outputs, scene_objects)
-            })
-            .map_err(|e| NodeError::Dds(format!("cannot start the build thread: {e}")))?
+fn start_recorder(p: &NodeParams) -> Result<Option<Recorder>, NodeError> {
+    if p.record.path.is_empty() {
+        return Ok(None);
+    }
+    let options = RecordOptions {
+        path: p.record.path.clone().into(),
+        split_size_mb: p.record.split_size_mb,
+        split_duration_s: p.record.split_duration_s,
+        ..Default::default()
     };
-    let scene_builder = scene_file.map(|file| {
-        let (outputs, step_tx, frame) = (outputs.clone(), step_tx.clone(), p.mesh_frame.clone());
-        std::thread::spawn(move || build_scene(&file, &model, &outputs, &step_tx, frame))
-    });
-    // Ready bodies reach the stepper through its own channel, so it waits on one queue only.
-    let forward = {
-        let step_tx = step_tx.clone();
-        std::thread::spawn(move || {
-            for ready in ready_rx {
-                if step_tx.send(StepperCommand::Add(Box::new(ready))).is_err() {
-                    break;
-                }
-            }
+    Ok(Some(
+        Recorder::start(options, p.record.topics.clone()).map_err(NodeError::Record)?,
+    ))
+}
+
+fn start_shm(p: &NodeParams) -> Option<ShmPublisher> {
+    if !p.shm.enabled {
+        return None;
+    }
+    let options = ShmOptions {
+        deformed_service: p.shm.deformed_service.clone(),
+        weights_service: p.shm.weights_service.clone(),
+        ..Default::default()
+    };
+    ShmPublisher::create(&options)
+        .map_err(|e| {
+            // Local zero-copy consumers are optional: DDS and the recording go on.
+            eprintln!("[physskin] error: no iceoryx2 hand-off: {e}");
         })
-    };
-    let stepper = {
-        let outputs = outputs.clone();
-        let rate = p.rate_hz;
-        std::thread::Builder::new()
-            .name("physskin-step".into())
-            .spawn(move || run_stepper(step_rx, rate, outputs))
-            .map_err(|e| NodeError::Dds(format!("cannot start the step thread: {e}")))?
-    };
-    outputs.report(
-        Status::INFO,
-        0,
-        "node_started",
-        format!(
-            "{} listening on {} and {}, stepping at {} Hz{}",
-            config.fully_qualified_name(),
-            t.points,
-            t.mesh,
-            p.rate_hz,
-            if p.use_sim_time {
-                " of /clock time"
-            } else {
-                ""
-            }
-        ),
-    );
+        .ok()
+}
 
-    let executor = smol::Executor::new();
-    let spinner = node
-        .spinner()
-        .map_err(|e| NodeError::Dds(format!("{e:?}")))?;
-    executor.spawn(spinner.spin()).detach();
-    let max_points = p.max_points;
-    let mesh_frame = p.mesh_frame.clone();
-    let work = async {
-        let submit = |request: Result<BuildRequest, String>| match request {
-            Ok(request) => {
-                let _ = build_tx.send(request);
-            }
-            Err(problem) => outputs.report(Status::ERROR, 0, "input_rejected", problem),
-        };
-        let clouds = points_sub.async_stream().for_each(|m| {
-            if let Ok((cloud, _)) = m {
-                outputs.record_input(&t.points, Some(cloud.header.stamp.nanos()), &cloud);
-                submit(BuildRequest::from_cloud(&cloud, max_points));
-            }
-            async {}
-        });
-        let meshes = mesh_sub.async_stream().for_each(|m| {
-            if let Ok((mesh, _)) = m {
-                outputs.record_input(&t.mesh, None, &mesh);
-                submit(BuildRequest::from_mesh(&mesh, &mesh_frame, max_points));
-            }
-            async {}
-        });
-        let stamped = stamped_sub.async_stream().for_each(|m| {
-            if let Ok((m, _)) = m {
-                outputs.record_input(&t.mesh_stamped, Some(m.header.stamp.nanos()), &m);
-                submit(BuildRequest::from_mesh(
-                    &m.mesh,
-                    &m.header.frame_id,
-                    max_points,
-                ));
-            }
-            async {}
-        });
-        let interactions = interaction_sub.async_stream().for_each(|m| {
-            if let Ok((i, _)) = m {
-                outputs.record_input(&t.interaction, Some(i.header.stamp.nanos()), &i);
-                let _ = step_tx.send(StepperCommand::Interact(i));
-            }
-            async {}
-        });
-        let ticks = clock_sub.async_stream().for_each(|m| {
-            if let Ok((c, _)) = m {
-                clock.set(&c.clock);
-            }
-            async {}
-        });
-        let (outputs, step_tx) = (&outputs, &step_tx);
-        let joints = futures::future::join_all(joint_subs.iter().map(|(robots, topic, sub)| {
-            sub.async_stream().for_each(move |m| {
-                if let Ok((state, _)) = m {
-                    outputs.record_input(topic, Some(state.header.stamp.nanos()), &state);
-                    let robots = robots.clone();
-                    let _ = step_tx.send(StepperCommand::Joints { robots, state });
-                }
-                async {}
-            })
-        }));
-        futures::join!(clouds, meshes, stamped, interactions, ticks, joints);
+fn started_line(config: &NodeConfig, t: &super::params::Topics) -> String {
+    let p = &config.params;
+    let frame = if p.fixed_frame.is_empty() {
+        String::new()
+    } else {
+        format!(", simulating in frame `{}`", p.fixed_frame)
     };
-    let stopped = async {
-        while !stop.load(Ordering::Relaxed) {
-            smol::Timer::after(Duration::from_millis(50)).await;
-        }
-    };
-    smol::block_on(executor.run(smol::future::race(work, stopped)));
+    format!(
+        "{} listening on {}, {} and {}, stepping at {} Hz{}{frame}",
+        config.fully_qualified_name(),
+        t.points,
+        t.mesh,
+        t.mesh_stamped,
+        p.rate_hz,
+        if p.use_sim_time { " of /clock time" } else { "" }
+    )
+}
 
-    drop(build_tx);
-    drop(step_tx);
-    let _ = builder.join();
-    let _ = forward.join();
-    if let Some(scene_builder) = scene_builder {
-        let _ = scene_builder.join();
-    }
-    let stats = stepper.join().unwrap_or_default();
+fn finish(outputs: &Outputs, stats: &StepperStats) {
     outputs.report(
         Status::INFO,
         0,
@@ -487,9 +449,118 @@ pub fn run_node(
             Err(e) => eprintln!("[physskin] error: recording: {e}"),
         }
     }
-    node.stop_spinner();
-    drop(executor);
-    Ok(stats)
+}
+
+/// The build thread, the stepper and what feeds them.
+struct Threads {
+    build_tx: std::sync::mpsc::Sender<super::builder::BuildRequest>,
+    step_tx: std::sync::mpsc::Sender<StepperCommand>,
+    builder: std::thread::JoinHandle<()>,
+    forward: std::thread::JoinHandle<()>,
+    scene_builder: Option<std::thread::JoinHandle<()>>,
+    stepper: std::thread::JoinHandle<StepperStats>,
+}
+
+impl Threads {
+    fn start(
+        shared: &Shared,
+        model: &Arc<NeuralModel>,
+        scene_file: Option<SceneFile>,
+        p: &NodeParams,
+    ) -> Result<Self, NodeError> {
+        use std::sync::mpsc::channel;
+        let spawn_error = |e: std::io::Error| NodeError::Dds(format!("cannot start a thread: {e}"));
+        let scene_objects = scene_file.as_ref().map_or(0, |file| {
+            file.objects
+                .iter()
+                .filter(|o| o.kind == crate::scene::ObjectKind::Deformable && o.topic.is_none())
+                .count() as u32
+        });
+        let (build_tx, build_rx) = channel();
+        let (ready_tx, ready_rx) = channel();
+        let (step_tx, step_rx) = channel::<StepperCommand>();
+        let registry = super::builder::BuiltRegistry::default();
+        let cx = super::builder::BuildContext {
+            params: shared.params.clone(),
+            model: model.clone(),
+            outputs: shared.outputs.clone(),
+            tf: shared.tf.clone(),
+            health: shared.health.clone(),
+            registry: registry.clone(),
+            reserved_ids: scene_objects,
+        };
+        let builder = std::thread::Builder::new()
+            .name("physskin-build".into())
+            .spawn(move || super::builder::run_builder(build_rx, ready_tx, cx))
+            .map_err(spawn_error)?;
+        let scene_builder = scene_file.map(|file| {
+            let (outputs, step_tx) = (shared.outputs.clone(), step_tx.clone());
+            let (model, frame) = (model.clone(), scene_frame(p));
+            std::thread::spawn(move || build_scene(&file, &model, &outputs, &step_tx, frame))
+        });
+        // Ready bodies reach the stepper through its own channel, so it waits on one queue only.
+        let forward = {
+            let step_tx = step_tx.clone();
+            std::thread::spawn(move || {
+                for ready in ready_rx {
+                    if step_tx.send(StepperCommand::Add(Box::new(ready))).is_err() {
+                        break;
+                    }
+                }
+            })
+        };
+        let stage = super::stage::Stage::on_the_beat(super::stage::StageOptions {
+            fixed_frame: p.fixed_frame.clone(),
+            tf: Some(shared.tf.clone()),
+            object_timeout_ns: (p.object_timeout_s * 1e9) as i64,
+            marker_every: marker_every(p),
+            registry: Some(registry),
+        });
+        let stepper = {
+            let (outputs, health, rate) = (shared.outputs.clone(), shared.health.clone(), p.rate_hz);
+            std::thread::Builder::new()
+                .name("physskin-step".into())
+                .spawn(move || super::stepper::run_stepper(step_rx, rate, stage, outputs, health))
+                .map_err(spawn_error)?
+        };
+        Ok(Self {
+            build_tx,
+            step_tx,
+            builder,
+            forward,
+            scene_builder,
+            stepper,
+        })
+    }
+
+    fn join(self) -> StepperStats {
+        drop(self.build_tx);
+        drop(self.step_tx);
+        let _ = self.builder.join();
+        let _ = self.forward.join();
+        if let Some(scene_builder) = self.scene_builder {
+            let _ = scene_builder.join();
+        }
+        self.stepper.join().unwrap_or_default()
+    }
+}
+
+/// The frame a scene's objects are simulated and published in.
+fn scene_frame(p: &NodeParams) -> String {
+    if p.fixed_frame.is_empty() {
+        p.mesh_frame.clone()
+    } else {
+        p.fixed_frame.clone()
+    }
+}
+
+/// Markers go out every this many ticks (0: never), at most once a tick.
+pub fn marker_every(p: &NodeParams) -> u64 {
+    if p.markers.rate_hz <= 0.0 {
+        0
+    } else {
+        (p.rate_hz / p.markers.rate_hz).round().max(1.0) as u64
+    }
 }
 
 /// Builds a scene's objects off the stepping thread, at low priority, and hands the scene to

@@ -3,13 +3,15 @@
 
 use std::sync::Arc;
 
-use ros2_client::Publisher;
+use ros2_client::{NodeLoggingHandle, Publisher, RosoutRaw};
 
+use super::args::LogLevel;
 use super::clock::NodeClock;
 use super::cloud::encode_cloud;
+use super::markers::{delete_marker, MarkerSurface};
 use super::messages::{
-    Header, Interaction, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights, Status,
-    SubspaceState,
+    Header, Interaction, MarkerArray, Mesh, MeshStamped, PointCloud2, RosMessage,
+    SkinningWeights, Status, SubspaceState, TFMessage,
 };
 use super::params::{PublishParams, Topics};
 use crate::bag::{QosProfile, Recorder, TopicInfo};
@@ -23,6 +25,39 @@ pub struct Publishers {
     pub weights_cloud: Option<Publisher<PointCloud2>>,
     pub state: Option<Publisher<SubspaceState>>,
     pub status: Publisher<Status>,
+    pub markers: Option<Publisher<MarkerArray>>,
+}
+
+/// Where the node's log lines go besides stderr: /rosout, as rcl_interfaces/msg/Log.
+pub struct NodeLog {
+    /// None with `--disable-rosout-logs`.
+    pub rosout: Option<NodeLoggingHandle>,
+    /// The logger's name: the node's fully qualified name.
+    pub name: String,
+    /// Lines below this level are dropped (`--log-level`).
+    pub level: LogLevel,
+}
+
+impl NodeLog {
+    /// Writes `line` to stderr and /rosout when its level passes.
+    pub fn write(&self, level: LogLevel, line: &str) {
+        if level < self.level {
+            return;
+        }
+        eprintln!("{line}");
+        if let Some(rosout) = &self.rosout {
+            let now = ros2_client::ros2::Timestamp::now();
+            use ros2_client::ros2::LogLevel as Rcl;
+            let rcl = match level {
+                LogLevel::Debug => Rcl::Debug,
+                LogLevel::Info => Rcl::Info,
+                LogLevel::Warn => Rcl::Warn,
+                LogLevel::Error => Rcl::Error,
+                LogLevel::Fatal => Rcl::Fatal,
+            };
+            rosout.rosout_raw(now, rcl, &self.name, line, file!(), "report", line!());
+        }
+    }
 }
 
 /// Every topic the node uses, with its type and QoS: what DDS offers and what a recording says
@@ -39,8 +74,15 @@ pub fn topic_table(topics: &Topics) -> Vec<TopicInfo> {
         TopicInfo::of::<SkinningWeights>(&t.weights, QosProfile::reliable(4, true)),
         TopicInfo::of::<SubspaceState>(&t.state, QosProfile::reliable(10, false)),
         TopicInfo::of::<Status>(&t.status, QosProfile::reliable(50, true)),
+        TopicInfo::of::<MarkerArray>(&t.markers, QosProfile::reliable(2, false)),
+        TopicInfo::of::<TFMessage>(TF, QosProfile::reliable(100, false)),
+        TopicInfo::of::<TFMessage>(TF_STATIC, QosProfile::reliable(100, true)),
     ]
 }
+
+/// tf2's topics: global names, never remapped by the node's namespace.
+pub const TF: &str = "/tf";
+pub const TF_STATIC: &str = "/tf_static";
 
 /// Where outputs go, shared by the build and step threads.
 pub struct Outputs {
@@ -54,6 +96,8 @@ pub struct Outputs {
     /// Put wall-clock timings (step_time_ms, build times) into messages. Replays leave them
     /// out so that two replays give identical bytes; they print them instead.
     pub timings: bool,
+    /// The node's log (a replay has none: its lines go to stderr only).
+    pub log: Option<NodeLog>,
 }
 
 impl Outputs {
@@ -102,10 +146,15 @@ impl Outputs {
         }
     }
 
-    /// Publishes a status and writes the same line to the log (stderr).
+    /// Publishes a status and writes the same line to the log (stderr, and /rosout in a node).
     pub fn report(&self, level: u8, shape_id: u32, event: &str, message: String) {
         let tag = ["info", "warn", "error"][level.min(2) as usize];
-        eprintln!("[physskin] {tag} {event} (shape {shape_id}): {message}");
+        let line = format!("[physskin] {tag} {event} (shape {shape_id}): {message}");
+        let severity = [LogLevel::Info, LogLevel::Warn, LogLevel::Error][level.min(2) as usize];
+        match &self.log {
+            Some(log) => log.write(severity, &line),
+            None => eprintln!("{line}"),
+        }
         let status = Status {
             header: self.header(""),
             shape_id,
@@ -156,9 +205,22 @@ impl Outputs {
         }
     }
 
-    /// The deformed points and the state of a body after a step.
-    pub fn publish_step(&self, shape_id: u32, frame: &str, body: &SoftBody) {
+    /// The deformed points and the state of a body after a step, and its surface marker when
+    /// `surface` is given (under one header, so a viewer can match them).
+    pub fn publish_step(
+        &self,
+        shape_id: u32,
+        frame: &str,
+        body: &SoftBody,
+        surface: Option<(&mut MarkerSurface, &str)>,
+    ) {
         let header = self.header(frame);
+        if let Some((surface, ns)) = surface {
+            let marker = surface.marker(body, header.clone(), ns, shape_id);
+            self.publish_markers(MarkerArray {
+                markers: vec![marker],
+            });
+        }
         if let Some(shm) = &self.shm {
             let stamp = header.stamp.nanos();
             if let Err(e) = shm.publish_deformed(shape_id, stamp, body.handles(), body.deformed()) {
@@ -201,6 +263,21 @@ impl Outputs {
             let publisher = self.dds.as_ref().and_then(|d| d.state.as_ref());
             self.emit(&self.topics.state, publisher, state);
         }
+    }
+}
+
+impl Outputs {
+    fn publish_markers(&self, markers: MarkerArray) {
+        let publisher = self.dds.as_ref().and_then(|d| d.markers.as_ref());
+        self.emit(&self.topics.markers, publisher, markers);
+    }
+
+    /// Tells viewers that an object went away: its marker is deleted.
+    pub fn publish_removed(&self, shape_id: u32, frame: &str, ns: &str) {
+        let marker = delete_marker(self.header(frame), ns, shape_id);
+        self.publish_markers(MarkerArray {
+            markers: vec![marker],
+        });
     }
 }
 

@@ -4,13 +4,12 @@
 //! The parameters live as one serde struct. Loading and setting go through its JSON form, so a
 //! file, a `ros2 param set` and the defaults all pass the same type checks and validation.
 
-use std::path::Path;
-
 use nalgebra::Vector3;
 use ros2_client::ParameterValue;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
+use super::names::{NameError, NameResolver};
 use crate::physics::{SimParams, Solver};
 use crate::pipeline::{BodyOptions, Support};
 
@@ -23,36 +22,41 @@ pub enum ParamError {
     Format { path: String, reason: String },
     #[error("parameter `{name}`: {reason}")]
     Invalid { name: String, reason: String },
+    #[error("parameter `{name}`: no such parameter")]
+    Unknown { name: String },
 }
 
-/// Topic names (absolute, or relative to the node's namespace).
+/// Topic names, resolved by ROS 2 name rules: `~/x` is private to the node (`/ns/node/x`), a
+/// relative name lives in the node's namespace, and `--ros-args -r FROM:=TO` remaps them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Topics {
-    /// sensor_msgs/PointCloud2 in. Default /physskin/points.
+    /// sensor_msgs/PointCloud2 in. Default ~/points.
     pub points: String,
-    /// shape_msgs/Mesh in (its frame is `mesh_frame`). Default /physskin/mesh.
+    /// shape_msgs/Mesh in (its frame is `mesh_frame`). Default ~/mesh.
     pub mesh: String,
-    /// physskin/MeshStamped in. Default /physskin/mesh_stamped.
+    /// physskin/MeshStamped in. Default ~/mesh_stamped.
     pub mesh_stamped: String,
-    /// physskin/Interaction in: forces, pins, releases. Default /physskin/interaction.
+    /// physskin/Interaction in: forces, pins, releases. Default ~/interaction.
     pub interaction: String,
-    /// PointCloud2 out: the deformed input points, every step. Default /physskin/deformed_points.
+    /// PointCloud2 out: the deformed input points, every step. Default ~/deformed_points.
     pub deformed_points: String,
     /// PointCloud2 out: x, y, z and one float32 field w0..wK per handle, once per shape.
-    /// Default /physskin/weights_cloud.
+    /// Default ~/weights_cloud.
     pub weights_cloud: String,
-    /// physskin/SkinningWeights out, once per shape. Default /physskin/weights.
+    /// physskin/SkinningWeights out, once per shape. Default ~/weights.
     pub weights: String,
-    /// physskin/SubspaceState out, every step. Default /physskin/state.
+    /// physskin/SubspaceState out, every step. Default ~/state.
     pub state: String,
-    /// physskin/Status out: accepted and rejected inputs, errors. Default /physskin/status.
+    /// physskin/Status out: accepted and rejected inputs, errors. Default ~/status.
     pub status: String,
+    /// visualization_msgs/MarkerArray out: each object's deformed surface. Default ~/markers.
+    pub markers: String,
 }
 
 impl Default for Topics {
     fn default() -> Self {
-        let t = |name: &str| format!("/physskin/{name}");
+        let t = |name: &str| format!("~/{name}");
         Self {
             points: t("points"),
             mesh: t("mesh"),
@@ -63,7 +67,35 @@ impl Default for Topics {
             weights: t("weights"),
             state: t("state"),
             status: t("status"),
+            markers: t("markers"),
         }
+    }
+}
+
+impl Topics {
+    /// Every name resolved for the node of `names` (fully qualified, remapped).
+    pub fn resolved(&self, names: &NameResolver) -> Result<Self, NameError> {
+        let r = |name: &String| names.resolve(name);
+        Ok(Self {
+            points: r(&self.points)?,
+            mesh: r(&self.mesh)?,
+            mesh_stamped: r(&self.mesh_stamped)?,
+            interaction: r(&self.interaction)?,
+            deformed_points: r(&self.deformed_points)?,
+            weights_cloud: r(&self.weights_cloud)?,
+            weights: r(&self.weights)?,
+            state: r(&self.state)?,
+            status: r(&self.status)?,
+            markers: r(&self.markers)?,
+        })
+    }
+
+    /// The names of node `physskin` in `/`, unremapped: what recordings made with the default
+    /// topics hold.
+    pub fn default_resolved() -> Self {
+        Self::default()
+            .resolved(&NameResolver::default())
+            .expect("the default names are valid")
     }
 }
 
@@ -211,6 +243,39 @@ impl Default for ShmParams {
     }
 }
 
+/// tf2: the transforms of /tf and /tf_static.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TfParams {
+    /// How long dynamic transforms are kept, s. Default 10.
+    pub buffer_s: f64,
+    /// How long an input waits for its transform before it is refused, s. Default 0.5.
+    pub timeout_s: f64,
+}
+
+impl Default for TfParams {
+    fn default() -> Self {
+        Self {
+            buffer_s: 10.0,
+            timeout_s: 0.5,
+        }
+    }
+}
+
+/// The deformed surfaces as RViz markers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MarkerParams {
+    /// Marker arrays per second (at most the step rate); 0: none. Default 15.
+    pub rate_hz: f64,
+}
+
+impl Default for MarkerParams {
+    fn default() -> Self {
+        Self { rate_hz: 15.0 }
+    }
+}
+
 /// Every node parameter. Names in ROS are the dotted paths (`material.young`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -223,6 +288,18 @@ pub struct NodeParams {
     pub max_points: usize,
     /// Frame of shape_msgs/Mesh inputs, which carry none. Default "world".
     pub mesh_frame: String,
+    /// With a frame here, inputs are transformed into it (tf2, at their stamp) and simulated
+    /// there: gravity, the floor and the outputs are in this frame. Default "": each object
+    /// lives in its input's own frame.
+    pub fixed_frame: String,
+    /// Height of the floor (support: floor) in the fixed frame, m. Without a fixed frame the
+    /// floor is the object's lowest point. Default 0.
+    pub floor_z: f64,
+    /// An object whose frame (or label) sends no geometry for this long is removed, s; 0: never.
+    /// Default 0.
+    pub object_timeout_s: f64,
+    pub tf: TfParams,
+    pub markers: MarkerParams,
     pub topics: Topics,
     pub material: MaterialParams,
     pub simulation: SimulationParams,
@@ -242,6 +319,11 @@ impl Default for NodeParams {
             use_sim_time: false,
             max_points: 1_000_000,
             mesh_frame: "world".into(),
+            fixed_frame: String::new(),
+            floor_z: 0.0,
+            object_timeout_s: 0.0,
+            tf: TfParams::default(),
+            markers: MarkerParams::default(),
             topics: Topics::default(),
             material: MaterialParams::default(),
             simulation: SimulationParams::default(),
@@ -255,8 +337,11 @@ impl Default for NodeParams {
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-const READ_ONLY: [&str; 7] = [
+const READ_ONLY: [&str; 10] = [
     "rate_hz",
+    "fixed_frame",
+    "tf.",
+    "markers.",
     "scene",
     "use_sim_time",
     "topics.",
@@ -266,62 +351,6 @@ const READ_ONLY: [&str; 7] = [
 ];
 
 impl NodeParams {
-    /// Defaults overridden by the entries of `path` that apply to the node `/namespace/name`.
-    pub fn from_yaml_file(path: &Path, fully_qualified_name: &str) -> Result<Self, ParamError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ParamError::File {
-            path: path.display().to_string(),
-            reason: e.to_string(),
-        })?;
-        Self::from_yaml(&text, fully_qualified_name).map_err(|e| match e {
-            ParamError::Format { reason, .. } => ParamError::Format {
-                path: path.display().to_string(),
-                reason,
-            },
-            other => other,
-        })
-    }
-
-    /// Parses the ROS 2 parameter file format: `node: ros__parameters: {...}` where the node
-    /// key may be a name, `/namespace/name`, nested namespace keys, or a `/**` or `*` wildcard.
-    /// Later matching sections override earlier ones.
-    pub fn from_yaml(text: &str, fully_qualified_name: &str) -> Result<Self, ParamError> {
-        let format = |reason: String| ParamError::Format {
-            path: "<text>".into(),
-            reason,
-        };
-        let yaml: serde_yaml::Value =
-            serde_yaml::from_str(text).map_err(|e| format(e.to_string()))?;
-        let json = serde_json::to_value(yaml).map_err(|e| format(e.to_string()))?;
-        let Value::Object(top) = json else {
-            return Err(format(
-                "the top level must map node names to sections".into(),
-            ));
-        };
-        let mut sections = Vec::new();
-        collect_sections(&top, "", &mut sections).map_err(format)?;
-        let mut params = Self::default();
-        let mut matched = false;
-        for (pattern, section) in sections {
-            if node_matches(&pattern, fully_qualified_name) {
-                matched = true;
-                for (name, value) in flatten(&section, "") {
-                    params = params.with(&name, value)?;
-                }
-                check_groups(
-                    &section,
-                    &serde_json::to_value(&params).unwrap_or_default(),
-                    "",
-                )?;
-            }
-        }
-        if !matched {
-            return Err(format(format!(
-                "no section applies to node {fully_qualified_name} (use its name or /**)"
-            )));
-        }
-        Ok(params)
-    }
-
     /// A copy with one dotted parameter replaced, type-checked and validated.
     pub fn with(&self, name: &str, value: Value) -> Result<Self, ParamError> {
         let invalid = |reason: String| ParamError::Invalid {
@@ -334,7 +363,7 @@ impl NodeParams {
             slot = slot
                 .as_object_mut()
                 .and_then(|o| o.get_mut(part))
-                .ok_or_else(|| invalid("no such parameter".into()))?;
+                .ok_or_else(|| ParamError::Unknown { name: name.into() })?;
         }
         if slot.is_object() {
             return Err(invalid("a group of parameters, not one".into()));
@@ -402,6 +431,22 @@ impl NodeParams {
             "record.split_size_mb",
             || "split sizes and durations are 0 (off) or positive".into(),
         )?;
+        ensure(
+            self.tf.buffer_s > 0.0 && self.tf.timeout_s >= 0.0 && self.tf.timeout_s.is_finite(),
+            "tf.buffer_s",
+            || "the buffer is positive and the timeout 0 or more seconds".into(),
+        )?;
+        ensure(
+            self.markers.rate_hz >= 0.0 && self.markers.rate_hz.is_finite(),
+            "markers.rate_hz",
+            || format!("{} is not 0 (off) or a positive rate", self.markers.rate_hz),
+        )?;
+        ensure(
+            self.object_timeout_s >= 0.0 && self.object_timeout_s.is_finite(),
+            "object_timeout_s",
+            || format!("{} is not 0 (never) or a positive time", self.object_timeout_s),
+        )?;
+        ensure(self.floor_z.is_finite(), "floor_z", || "not finite".into())?;
         self.solver()?;
         self.sim_params().validate()
     }
@@ -440,6 +485,7 @@ impl NodeParams {
             sim: self.sim_params(),
             solver: self.solver()?,
             support: self.simulation.support,
+            floor_z: (!self.fixed_frame.is_empty()).then_some(self.floor_z),
             ..BodyOptions::default()
         })
     }
@@ -457,69 +503,8 @@ impl NodeParams {
     }
 }
 
-/// (node pattern, its ros__parameters) for every section, nested namespaces joined with '/'.
-fn collect_sections(
-    map: &Map<String, Value>,
-    prefix: &str,
-    out: &mut Vec<(String, Map<String, Value>)>,
-) -> Result<(), String> {
-    for (key, value) in map {
-        let Value::Object(inner) = value else {
-            return Err(format!("`{prefix}{key}` must be a mapping"));
-        };
-        let path = format!("{prefix}/{}", key.trim_matches('/'));
-        match inner.get("ros__parameters") {
-            Some(Value::Object(params)) => out.push((path.clone(), params.clone())),
-            Some(_) => return Err(format!("`{path}: ros__parameters` must be a mapping")),
-            None => collect_sections(inner, &path, out)?,
-        }
-    }
-    Ok(())
-}
-
-/// ROS 2 node-name matching: `/**` matches everything, `*` one name segment, a pattern without
-/// a leading namespace matches that node name in the root namespace.
-fn node_matches(pattern: &str, name: &str) -> bool {
-    fn matches(p: &[&str], n: &[&str]) -> bool {
-        match (p.first(), n.first()) {
-            (None, None) => true,
-            (Some(&"**"), _) => (0..=n.len()).any(|i| matches(&p[1..], &n[i..])),
-            (Some(&"*"), Some(_)) => matches(&p[1..], &n[1..]),
-            (Some(a), Some(b)) if a == b => matches(&p[1..], &n[1..]),
-            _ => false,
-        }
-    }
-    let split = |s: &str| -> Vec<String> {
-        s.split('/')
-            .filter(|x| !x.is_empty())
-            .map(String::from)
-            .collect()
-    };
-    let (p, n) = (split(pattern), split(name));
-    let p: Vec<&str> = p.iter().map(String::as_str).collect();
-    let n: Vec<&str> = n.iter().map(String::as_str).collect();
-    matches(&p, &n)
-}
-
-/// Refuses groups of a parameter file that name nothing (an empty `materiel: {}` flattens to
-/// no parameter at all, so `with` never sees it).
-fn check_groups(map: &Map<String, Value>, known: &Value, prefix: &str) -> Result<(), ParamError> {
-    for (key, value) in map {
-        let name = format!("{prefix}{key}");
-        let Some(slot) = known.get(key) else {
-            return Err(ParamError::Invalid {
-                name,
-                reason: "no such parameter".into(),
-            });
-        };
-        if let Value::Object(inner) = value {
-            check_groups(inner, slot, &format!("{name}."))?;
-        }
-    }
-    Ok(())
-}
-
-fn flatten(map: &Map<String, Value>, prefix: &str) -> Vec<(String, Value)> {
+/// Every leaf of a parameter map by dotted name.
+pub(super) fn flatten(map: &Map<String, Value>, prefix: &str) -> Vec<(String, Value)> {
     let mut out = Vec::new();
     for (key, value) in map {
         let name = format!("{prefix}{key}");
@@ -579,62 +564,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn wildcard_namespaced_and_nested_sections_apply_in_order() {
-        let yaml = r#"
-/**:
-  ros__parameters:
-    rate_hz: 30.0
-    material: {young: 1.0e6}
-/robots:
-  physskin:
-    ros__parameters:
-      material:
-        poisson: 0.3
-      simulation: {support: floor, gravity: [0.0, -9.81, 0.0]}
-other_node:
-  ros__parameters:
-    rate_hz: 5.0
-"#;
-        let p = NodeParams::from_yaml(yaml, "/robots/physskin").unwrap();
-        assert_eq!(p.rate_hz, 30.0);
-        assert_eq!(p.material.young, 1e6);
-        assert_eq!(p.material.poisson, 0.3);
-        assert_eq!(p.simulation.support, Support::Floor);
-        assert_eq!(p.simulation.gravity, [0.0, -9.81, 0.0]);
-        // The namespaced section does not apply to /physskin in the root namespace.
-        let root = NodeParams::from_yaml(yaml, "/physskin").unwrap();
-        assert_eq!(root.material.poisson, 0.45);
-    }
-
-    #[test]
-    fn bad_files_name_the_parameter() {
-        let typo = "physskin:\n  ros__parameters:\n    material: {yung: 3.0}\n";
-        let e = NodeParams::from_yaml(typo, "/physskin")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("material.yung"), "{e}");
-        let negative = "/**:\n  ros__parameters:\n    material: {young: -1.0}\n";
-        let e = NodeParams::from_yaml(negative, "/physskin")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("material.young") && e.contains("young"), "{e}");
-        let wrong_type = "/**:\n  ros__parameters:\n    rate_hz: fast\n";
-        let e = NodeParams::from_yaml(wrong_type, "/physskin")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("rate_hz"), "{e}");
-        let nobody = "someone_else:\n  ros__parameters: {rate_hz: 5.0}\n";
-        assert!(NodeParams::from_yaml(nobody, "/physskin").is_err());
-    }
-
-    #[test]
     fn ros_names_round_trip_and_read_only_is_refused() {
         let p = NodeParams::default();
         let declared = p.to_ros();
         assert!(declared.contains(&("material.young".into(), ParameterValue::Double(2e5))));
         assert!(declared.contains(&(
             "topics.points".into(),
-            ParameterValue::String("/physskin/points".into())
+            ParameterValue::String("~/points".into())
         )));
         let q = p
             .with_ros("material.young", &ParameterValue::Double(5e5))
@@ -655,6 +591,7 @@ other_node:
 #[cfg(test)]
 mod shipped_file {
     use super::*;
+    use std::path::Path;
 
     /// config/physskin.yaml states the defaults: loading it changes nothing.
     #[test]

@@ -1,0 +1,221 @@
+//! What the node's executor serves: its subscriptions (decoded and forwarded, nothing slow),
+//! tf2, the `~/reset` and `~/clear` services, and /diagnostics once a second.
+
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::Sender;
+use std::time::Duration;
+
+use futures::StreamExt;
+use ros2_client::{Node, Publisher, Server, Subscription};
+
+use super::builder::BuildRequest;
+use super::messages::{
+    Clock, DiagnosticArray, Interaction, JointState, Mesh, MeshStamped, PointCloud2, Status,
+    TFMessage,
+};
+use super::names::NameResolver;
+use super::node::{subscription, NodeError, QosTable, Shared};
+use super::outputs::{Outputs, TF, TF_STATIC};
+use super::params::Topics;
+use super::qos_overrides::Endpoint;
+use super::services::{serve as serve_trigger, trigger_server, Control as Kind, Trigger};
+use super::stepper::StepperCommand;
+use crate::bag::{QosProfile, TopicInfo};
+use crate::scene::SceneFile;
+
+/// The node's subscriptions.
+pub struct Inputs {
+    topics: Topics,
+    points: Subscription<PointCloud2>,
+    mesh: Subscription<Mesh>,
+    mesh_stamped: Subscription<MeshStamped>,
+    interaction: Subscription<Interaction>,
+    clock: Subscription<Clock>,
+    tf: Subscription<TFMessage>,
+    tf_static: Subscription<TFMessage>,
+    /// Per joint-state topic: the scene robots on it, the topic, its subscription.
+    joints: Vec<(Vec<String>, String, Subscription<JointState>)>,
+}
+
+impl Inputs {
+    pub fn create(
+        node: &mut Node,
+        t: &Topics,
+        qos: &QosTable,
+        scene: Option<&SceneFile>,
+        outputs: &Outputs,
+    ) -> Result<Self, NodeError> {
+        let q = |topic: &str| qos.of(topic, Endpoint::Subscription);
+        let mut inputs = Self {
+            topics: t.clone(),
+            points: subscription(node, &t.points, q(&t.points))?,
+            mesh: subscription(node, &t.mesh, q(&t.mesh))?,
+            mesh_stamped: subscription(node, &t.mesh_stamped, q(&t.mesh_stamped))?,
+            interaction: subscription(node, &t.interaction, q(&t.interaction))?,
+            clock: subscription(node, "/clock", super::node::sensor_qos())?,
+            tf: subscription(node, TF, q(TF))?,
+            tf_static: subscription(node, TF_STATIC, q(TF_STATIC))?,
+            joints: Vec::new(),
+        };
+        // One subscription per joint-state topic, for every robot on it (a JointState may
+        // carry the joints of several robots).
+        let mut topics: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
+        for r in scene.iter().flat_map(|f| &f.robots) {
+            topics
+                .entry(r.joint_states.as_str())
+                .or_default()
+                .push(r.name.clone());
+        }
+        for (topic, robots) in topics {
+            if let Some(recorder) = &outputs.recorder {
+                let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
+                if let Err(e) = recorder.declare(info) {
+                    eprintln!("[physskin] error: recording: {e}");
+                }
+            }
+            let sub = subscription::<JointState>(node, topic, q(topic))?;
+            inputs.joints.push((robots, topic.to_string(), sub));
+        }
+        Ok(inputs)
+    }
+}
+
+/// The `~/reset` and `~/clear` services.
+pub struct Control {
+    reset: Server<Trigger>,
+    clear: Server<Trigger>,
+}
+
+impl Control {
+    pub fn create(node: &mut Node, names: &NameResolver) -> Result<Self, NodeError> {
+        Ok(Self {
+            reset: trigger_server(node, &names.resolve("~/reset")?)?,
+            clear: trigger_server(node, &names.resolve("~/clear")?)?,
+        })
+    }
+}
+
+/// Serves everything until the executor stops.
+pub async fn serve(
+    inputs: Inputs,
+    control: Control,
+    diagnostics: Publisher<DiagnosticArray>,
+    shared: &Shared,
+    build_tx: &Sender<BuildRequest>,
+    step_tx: &Sender<StepperCommand>,
+    node_name: &str,
+) {
+    let outputs = &shared.outputs;
+    let (max_points, mesh_frame) = shared
+        .params
+        .read()
+        .map(|p| (p.max_points, p.mesh_frame.clone()))
+        .unwrap_or((1_000_000, "world".into()));
+    let submit = |request: Result<BuildRequest, String>| match request {
+        Ok(request) => {
+            let _ = step_tx.send(StepperCommand::Seen(request.frame.clone()));
+            shared.health.builds_queued.fetch_add(1, Ordering::Relaxed);
+            let _ = build_tx.send(request);
+        }
+        Err(problem) => outputs.report(Status::ERROR, 0, "input_rejected", problem),
+    };
+    let t = &inputs.topics;
+    let clouds = inputs.points.async_stream().for_each(|m| {
+        if let Ok((cloud, _)) = m {
+            outputs.record_input(&t.points, Some(cloud.header.stamp.nanos()), &cloud);
+            submit(BuildRequest::from_cloud(&cloud, max_points));
+        }
+        async {}
+    });
+    let meshes = inputs.mesh.async_stream().for_each(|m| {
+        if let Ok((mesh, _)) = m {
+            outputs.record_input(&t.mesh, None, &mesh);
+            submit(BuildRequest::from_mesh(&mesh, &mesh_frame, 0, max_points));
+        }
+        async {}
+    });
+    let stamped = inputs.mesh_stamped.async_stream().for_each(|m| {
+        if let Ok((m, _)) = m {
+            let stamp = m.header.stamp.nanos();
+            outputs.record_input(&t.mesh_stamped, Some(stamp), &m);
+            submit(BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, max_points));
+        }
+        async {}
+    });
+    let interactions = inputs.interaction.async_stream().for_each(|m| {
+        if let Ok((i, _)) = m {
+            outputs.record_input(&t.interaction, Some(i.header.stamp.nanos()), &i);
+            let _ = step_tx.send(StepperCommand::Interact(i));
+        }
+        async {}
+    });
+    let ticks = inputs.clock.async_stream().for_each(|m| {
+        if let Ok((c, _)) = m {
+            outputs.clock.set(&c.clock);
+        }
+        async {}
+    });
+    let tf = transforms(&inputs.tf, TF, false, shared);
+    let tf_static = transforms(&inputs.tf_static, TF_STATIC, true, shared);
+    let joints = futures::future::join_all(inputs.joints.iter().map(|(robots, topic, sub)| {
+        sub.async_stream().for_each(move |m| {
+            if let Ok((state, _)) = m {
+                outputs.record_input(topic, Some(state.header.stamp.nanos()), &state);
+                let robots = robots.clone();
+                let _ = step_tx.send(StepperCommand::Joints { robots, state });
+            }
+            async {}
+        })
+    }));
+    let reset = serve_trigger(control.reset, Kind::Reset, step_tx.clone());
+    let clear = serve_trigger(control.clear, Kind::Clear, step_tx.clone());
+    let health = report_health(diagnostics, shared, node_name);
+    futures::join!(
+        clouds,
+        meshes,
+        stamped,
+        interactions,
+        ticks,
+        tf,
+        tf_static,
+        joints,
+        reset,
+        clear,
+        health
+    );
+}
+
+/// /tf or /tf_static into the buffer (and the recording); a bad transform is reported once
+/// per child frame.
+async fn transforms(sub: &Subscription<TFMessage>, topic: &str, is_static: bool, shared: &Shared) {
+    let mut reported = std::collections::HashSet::new();
+    let mut stream = std::pin::pin!(sub.async_stream());
+    while let Some(m) = stream.next().await {
+        let Ok((message, _)) = m else { continue };
+        shared.outputs.record_input(topic, None, &message);
+        let Ok(mut buffer) = shared.tf.write() else {
+            continue;
+        };
+        for t in &message.transforms {
+            if let Err(e) = buffer.insert(t, is_static) {
+                if reported.insert(t.child_frame_id.clone()) {
+                    let problem = format!("{topic}: {e}");
+                    shared.outputs.report(Status::WARN, 0, "transform_ignored", problem);
+                }
+            }
+        }
+    }
+}
+
+/// /diagnostics once a second.
+async fn report_health(publisher: Publisher<DiagnosticArray>, shared: &Shared, node_name: &str) {
+    loop {
+        smol::Timer::after(Duration::from_secs(1)).await;
+        let outputs = &shared.outputs;
+        let recording = outputs.recorder.as_ref().map(|r| r.health());
+        let report = shared.health.report(outputs.header(""), node_name, recording);
+        if let Err(e) = publisher.publish(report) {
+            eprintln!("[physskin] warn: /diagnostics not published: {e:?}");
+        }
+    }
+}

@@ -1,0 +1,440 @@
+//! The running objects: one per input frame (or label), and a scene's. The stepper thread
+//! ticks the stage on the clock; a replay ticks it on the log's time. Objects are reset,
+//! removed on request or when their input stops, and their surfaces drawn as markers.
+
+use std::sync::{Arc, RwLock};
+
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+
+use super::builder::{BuiltRegistry, ReadyBody};
+use super::messages::{Interaction, JointState, Status};
+use super::outputs::Outputs;
+use super::tf::TfBuffer;
+use crate::pipeline::SoftBody;
+use crate::scene::Scene;
+
+/// How a stage treats its objects beyond stepping them.
+#[derive(Clone, Default)]
+pub struct StageOptions {
+    /// The frame objects are simulated in ("" : each in its input's frame).
+    pub fixed_frame: String,
+    /// Transforms for interactions named in other frames.
+    pub tf: Option<Arc<RwLock<TfBuffer>>>,
+    /// An object whose input frame sent nothing for this long is removed, ns; 0: never.
+    pub object_timeout_ns: i64,
+    /// Surface markers go out every this many ticks; 0: never.
+    pub marker_every: u64,
+    /// Forgotten when objects go, so that their geometry builds again when it comes back.
+    pub registry: Option<BuiltRegistry>,
+}
+
+/// The running objects.
+#[derive(Default)]
+pub struct Stage {
+    bodies: Vec<ReadyBody>,
+    /// Per body: its last step is computed but not yet published (on-the-beat mode).
+    unpublished: Vec<bool>,
+    /// Per body: when its frame last sent geometry, ns of the node's clock.
+    last_seen: Vec<i64>,
+    on_the_beat: bool,
+    scene: Option<SceneOnStage>,
+    options: StageOptions,
+    ticks: u64,
+}
+
+/// A scene's objects and robots, stepped with the other bodies.
+struct SceneOnStage {
+    scene: Scene,
+    first_id: u32,
+    frame: String,
+    /// Its last step is computed but not yet published.
+    unpublished: bool,
+    /// Joint-state problems already reported (each once, not at the topic's rate).
+    reported: std::collections::HashSet<String>,
+}
+
+impl SceneOnStage {
+    /// (shape id, name, body) of each deformable object.
+    fn bodies(&self) -> impl Iterator<Item = (u32, &str, &SoftBody)> {
+        let first = self.first_id;
+        self.scene
+            .bodies_named()
+            .enumerate()
+            .map(move |(i, (name, body))| (first + i as u32, name, body))
+    }
+
+    /// Shape ids: `first_id` plus the object's place among the scene's deformable objects.
+    fn id_of(&self, index: usize) -> u32 {
+        self.first_id + index as u32
+    }
+}
+
+impl Stage {
+    /// A stage that publishes on the beat: each tick first publishes the steps computed in the
+    /// previous one, then computes the next. Publication then happens at the tick, whatever a
+    /// step costs (one period of added delay); the node runs this way.
+    pub fn on_the_beat(options: StageOptions) -> Self {
+        Self {
+            on_the_beat: true,
+            options,
+            ..Self::default()
+        }
+    }
+
+    /// A stage that publishes each step as soon as it is computed (a replay).
+    pub fn immediate(options: StageOptions) -> Self {
+        Self {
+            options,
+            ..Self::default()
+        }
+    }
+
+    /// Steps every object once and publishes its outputs. Objects are independent: they step
+    /// in parallel, and publish one after another in a fixed order.
+    pub fn tick(&mut self, outputs: &Outputs) {
+        self.remove_stale(outputs);
+        if self.on_the_beat {
+            self.publish_pending(outputs);
+        }
+        let scene = &mut self.scene;
+        rayon::join(
+            || {
+                self.bodies.par_iter_mut().for_each(|b| {
+                    b.body.step();
+                })
+            },
+            || {
+                if let Some(s) = scene {
+                    s.scene.step();
+                    s.unpublished = true;
+                }
+            },
+        );
+        self.ticks += 1;
+        self.unpublished.iter_mut().for_each(|u| *u = true);
+        if !self.on_the_beat {
+            self.publish_pending(outputs);
+        }
+    }
+
+    /// (objects, awake objects), scene objects included.
+    pub fn counts(&self) -> (usize, usize) {
+        let scene: Vec<bool> = self.scene_bodies().map(|(_, _, b)| b.is_sleeping()).collect();
+        let asleep = scene.iter().filter(|s| **s).count();
+        let all = self.bodies.len() + scene.len();
+        (all, all - asleep)
+    }
+
+    fn publish_pending(&mut self, outputs: &Outputs) {
+        let markers_due = self.options.marker_every > 0
+            && self.ticks % self.options.marker_every == u64::from(self.on_the_beat);
+        for (b, unpublished) in self.bodies.iter_mut().zip(&mut self.unpublished) {
+            if std::mem::take(unpublished) {
+                publish_last_step(b, outputs, markers_due);
+            }
+        }
+        if let Some(s) = &mut self.scene {
+            if std::mem::take(&mut s.unpublished) {
+                // A sleeping object is published once, as it falls asleep.
+                for (id, _, body) in s.bodies() {
+                    if !body.is_sleeping() || body.fell_asleep() {
+                        publish_step_of(id, &s.frame, body, None, outputs);
+                    }
+                }
+            }
+        }
+    }
+
+    /// A scene joins (or replaces the scene on) the stage: its objects are announced with
+    /// their weights and what was decided for each.
+    pub fn set_scene(&mut self, scene: Scene, first_id: u32, frame: String, outputs: &Outputs) {
+        let s = SceneOnStage {
+            scene,
+            first_id,
+            frame,
+            unpublished: false,
+            reported: Default::default(),
+        };
+        for (id, name, body) in s.bodies() {
+            let rest = rest_points(body);
+            outputs.publish_weights(id, &s.frame, &rest, body.weights(), body.handles());
+            outputs.report(
+                Status::INFO,
+                id,
+                "shape_ready",
+                format!("scene object `{name}`: {}", body.decision()),
+            );
+        }
+        self.scene = Some(s);
+    }
+
+    /// Robots' joints move (a JointState from their topic).
+    pub fn set_joints(&mut self, robots: &[String], state: &JointState, outputs: &Outputs) {
+        let Some(s) = &mut self.scene else {
+            return;
+        };
+        if let Err(problem) = s
+            .scene
+            .set_joint_positions(robots, &state.name, &state.position)
+        {
+            if s.reported.insert(problem.clone()) {
+                outputs.report(Status::WARN, 0, "joint_state_ignored", problem);
+            }
+        }
+    }
+
+    pub fn bodies(&self) -> &[ReadyBody] {
+        &self.bodies
+    }
+
+    /// The scene's deformable objects: (shape id, name, body).
+    pub fn scene_bodies(&self) -> impl Iterator<Item = (u32, &str, &SoftBody)> {
+        self.scene.iter().flat_map(|s| s.bodies())
+    }
+
+    /// A new body replaces the one in its frame. With `step_now` it makes its first step at
+    /// once, so its first deformed cloud does not wait for the next tick.
+    pub fn add(&mut self, mut ready: ReadyBody, outputs: &Outputs, step_now: bool) {
+        if step_now {
+            ready.body.step();
+            publish_last_step(&mut ready, outputs, true);
+        }
+        let now = outputs.clock.now_nanos().unwrap_or(0);
+        if let Some(i) = self.bodies.iter().position(|b| b.frame == ready.frame) {
+            self.bodies[i] = ready;
+            self.unpublished[i] = false;
+            self.last_seen[i] = now;
+        } else {
+            self.bodies.push(ready);
+            self.unpublished.push(false);
+            self.last_seen.push(now);
+        }
+    }
+
+    /// Geometry arrived for `frame`: its object is still wanted.
+    pub fn seen(&mut self, frame: &str, outputs: &Outputs) {
+        let now = outputs.clock.now_nanos().unwrap_or(0);
+        for (b, seen) in self.bodies.iter().zip(&mut self.last_seen) {
+            if b.frame == frame {
+                *seen = now;
+            }
+        }
+    }
+
+    /// Every object back to its rest state, at rest; the rest state is published at once.
+    pub fn reset(&mut self, outputs: &Outputs) -> String {
+        for (b, unpublished) in self.bodies.iter_mut().zip(&mut self.unpublished) {
+            b.body.reset();
+            *unpublished = false;
+            outputs.publish_step(b.id, &b.output_frame, &b.body, None);
+        }
+        let stamp = outputs.clock.now();
+        let message = format!(
+            "{} objects back at rest; their rest state is stamped {}.{:09}",
+            self.bodies.len(),
+            stamp.sec,
+            stamp.nanosec
+        );
+        outputs.report(Status::INFO, 0, "reset", message.clone());
+        message
+    }
+
+    /// Removes every object (a scene's stays: it is part of the node's configuration).
+    pub fn clear(&mut self, outputs: &Outputs) -> String {
+        let count = self.bodies.len();
+        while !self.bodies.is_empty() {
+            self.remove_at(0, outputs, "cleared");
+        }
+        format!("{count} objects removed")
+    }
+
+    /// Removes the bodies whose frame sent nothing within the object timeout.
+    fn remove_stale(&mut self, outputs: &Outputs) {
+        let timeout = self.options.object_timeout_ns;
+        let Some(now) = outputs.clock.now_nanos().filter(|_| timeout > 0) else {
+            return;
+        };
+        while let Some(i) = self.last_seen.iter().position(|&t| now - t > timeout) {
+            let why = format!("no input for {:.1} s", (now - self.last_seen[i]) as f64 / 1e9);
+            self.remove_at(i, outputs, &why);
+        }
+    }
+
+    fn remove_at(&mut self, i: usize, outputs: &Outputs, why: &str) {
+        let b = self.bodies.remove(i);
+        self.unpublished.remove(i);
+        self.last_seen.remove(i);
+        if let Some(registry) = &self.options.registry {
+            registry.forget(Some(&b.frame));
+        }
+        outputs.publish_removed(b.id, &b.output_frame, &b.frame);
+        let message = format!("the object of frame `{}` is removed: {why}", b.frame);
+        outputs.report(Status::INFO, b.id, "shape_removed", message);
+    }
+
+    pub fn interact(&mut self, i: &Interaction, outputs: &Outputs) {
+        if i.kind == Interaction::REMOVE {
+            return self.remove_matching(i, outputs);
+        }
+        let (filter, point, force) = match self.in_simulation_frame(i) {
+            Ok(placed) => placed,
+            Err(problem) => {
+                return outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem)
+            }
+        };
+        let scene_bodies = self.scene.iter_mut().flat_map(|s| {
+            let count = s.scene.bodies_named().count();
+            let ids: Vec<u32> = (0..count).map(|n| s.id_of(n)).collect();
+            let frame = &s.frame;
+            s.scene
+                .bodies_named_mut()
+                .zip(ids)
+                .map(move |((_, body), id)| (id, frame.as_str(), body))
+        });
+        let bodies = self
+            .bodies
+            .iter_mut()
+            .map(|b| (b.id, b.frame.as_str(), &mut b.body))
+            .chain(scene_bodies);
+        let acted = Acted { filter, point, force };
+        interact(bodies, i, &acted, outputs)
+    }
+
+    /// REMOVE: the shape `shape_id` (0: any) of the interaction's frame (empty: any).
+    fn remove_matching(&mut self, i: &Interaction, outputs: &Outputs) {
+        let frame = &i.header.frame_id;
+        let matches = |b: &ReadyBody| {
+            (i.shape_id == 0 || b.id == i.shape_id) && (frame.is_empty() || &b.frame == frame)
+        };
+        let mut removed = 0;
+        while let Some(at) = self.bodies.iter().position(matches) {
+            self.remove_at(at, outputs, "REMOVE requested");
+            removed += 1;
+        }
+        if removed == 0 {
+            let problem = format!(
+                "REMOVE: no shape matches shape_id {} in frame `{frame}`",
+                i.shape_id
+            );
+            outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem);
+        }
+    }
+
+    /// The interaction's point and force in the frame objects are simulated in, and the input
+    /// frame it is limited to (None: any object, by shape id).
+    fn in_simulation_frame(
+        &self,
+        i: &Interaction,
+    ) -> Result<(Option<String>, Vector3<f64>, Vector3<f64>), String> {
+        let point = Vector3::new(i.point.x, i.point.y, i.point.z);
+        let force = Vector3::new(i.force.x, i.force.y, i.force.z);
+        let frame = &i.header.frame_id;
+        let fixed = &self.options.fixed_frame;
+        if fixed.is_empty() {
+            return Ok(((!frame.is_empty()).then(|| frame.clone()), point, force));
+        }
+        let names_an_object = self.bodies.iter().any(|b| &b.frame == frame);
+        let filter = names_an_object.then(|| frame.clone());
+        if frame.is_empty() || frame == fixed {
+            return Ok((filter, point, force));
+        }
+        let tf = self.options.tf.as_ref().ok_or("no tf buffer")?;
+        let tf = tf.read().map_err(|_| "the tf buffer is poisoned")?;
+        let t = tf.lookup(fixed, frame, 0).map_err(|e| {
+            format!("no transform from `{frame}` to the fixed frame `{fixed}`: {e}")
+        })?;
+        Ok((filter, (t * Point3::from(point)).coords, t.rotation * force))
+    }
+}
+
+/// A body's points before any step: its weights are published against them.
+fn rest_points(body: &SoftBody) -> Vec<f32> {
+    body.deformed().to_vec()
+}
+
+/// Publishes a body's last step, with its surface marker when markers are due.
+fn publish_last_step(b: &mut ReadyBody, outputs: &Outputs, markers_due: bool) {
+    let surface = b.surface.as_mut().filter(|_| markers_due);
+    let surface = surface.map(|s| (s, b.frame.as_str()));
+    publish_step_of(b.id, &b.output_frame, &b.body, surface, outputs);
+}
+
+/// Publishes a step (and a warning if it did not converge).
+fn publish_step_of(
+    id: u32,
+    frame: &str,
+    body: &SoftBody,
+    surface: Option<(&mut super::markers::MarkerSurface, &str)>,
+    outputs: &Outputs,
+) {
+    let Some(report) = body.last_step() else {
+        return;
+    };
+    if !report.converged {
+        let message = format!(
+            "step did not converge ({} iterations, decrement {:e})",
+            report.iterations, report.decrement
+        );
+        outputs.report(Status::WARN, id, "step_unconverged", message);
+    }
+    outputs.publish_step(id, frame, body, surface);
+}
+
+/// Where an interaction acts, in the simulation's frame.
+struct Acted {
+    /// Only objects of this input frame; None: any.
+    filter: Option<String>,
+    point: Vector3<f64>,
+    force: Vector3<f64>,
+}
+
+fn interact<'a>(
+    bodies: impl Iterator<Item = (u32, &'a str, &'a mut SoftBody)>,
+    i: &Interaction,
+    acted: &Acted,
+    outputs: &Outputs,
+) {
+    let (point, force) = (acted.point, acted.force);
+    let frame = &i.header.frame_id;
+    let finite = point.iter().chain(force.iter()).all(|c| c.is_finite())
+        && i.duration.is_finite()
+        && i.radius.is_finite();
+    let ignored =
+        |problem: String| outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem);
+    if !finite {
+        return ignored("non-finite point, force, duration or radius".into());
+    }
+    if i.kind > Interaction::REMOVE {
+        return ignored(format!(
+            "unknown kind {} (FORCE 0, PIN 1, RELEASE 2, REMOVE 3)",
+            i.kind
+        ));
+    }
+    let mut matched = 0;
+    for (_, _, body) in bodies.filter(|(id, name, _)| {
+        (i.shape_id == 0 || *id == i.shape_id) && acted.filter.as_deref().is_none_or(|f| f == *name)
+    }) {
+        matched += 1;
+        match i.kind {
+            Interaction::FORCE => body.push(point, force, i.duration.max(0.0)),
+            Interaction::PIN => {
+                if body.hold(&point, i.radius) == 0 {
+                    ignored(format!(
+                        "no material within {} m of the pin point",
+                        i.radius
+                    ));
+                }
+            }
+            _ => {
+                body.release(&point, i.radius);
+            }
+        }
+    }
+    if matched == 0 {
+        ignored(format!(
+            "no shape matches shape_id {} in frame `{frame}`",
+            i.shape_id
+        ));
+    }
+}
