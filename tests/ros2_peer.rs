@@ -13,13 +13,18 @@ use std::process::Command;
 fn ros_venv() -> PathBuf {
     common::venv(
         "ros-venv",
-        "import rclpy, sensor_msgs.msg, shape_msgs.msg, numpy",
+        "import rclpy, sensor_msgs.msg, shape_msgs.msg, std_srvs.srv, diagnostic_msgs.msg, \
+         visualization_msgs.msg, geometry_msgs.msg, rcl_interfaces.msg, numpy",
         &[
             "ros-rclpy",
             "ros-sensor-msgs",
             "ros-std-msgs",
             "ros-shape-msgs",
             "ros-rmw-fastrtps-cpp",
+            "ros-std-srvs",
+            "ros-diagnostic-msgs",
+            "ros-visualization-msgs",
+            "ros-geometry-msgs",
             "numpy",
         ],
     )
@@ -57,6 +62,137 @@ fn node_with_peer(domain: u16, node_args: &str, peer: &str, log_name: &str) -> (
     );
     eprintln!("{stdout}");
     (stdout, log)
+}
+
+/// Runs a bash `script` in a private network namespace; fails the test, with its output and
+/// the named logs, unless it exits 0. Returns its stdout.
+fn in_private_net(script: &str, logs: &[&Path]) -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = Command::new("unshare")
+        .arg("-n")
+        .arg(root.join("tests/peers/private_net.sh"))
+        .args(["bash", "-c", script])
+        .output()
+        .expect("unshare runs (root is needed for a private network namespace)");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let logs: String = logs
+        .iter()
+        .map(|p| format!("--- {}:\n{}\n", p.display(), std::fs::read_to_string(p).unwrap_or_default()))
+        .collect();
+    assert!(
+        out.status.success(),
+        "failed\nstdout:\n{stdout}\nstderr:\n{}\n{logs}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    eprintln!("{stdout}");
+    stdout
+}
+
+/// Two instances started as launch_ros starts a Node action (`--ros-args -r __node:=skin
+/// -r __ns:=/cell --params-file ... -p rate_hz:=30.0 -r ~/points:=/camera/points`), and one in
+/// /cell2: rclpy lists and reads them, gets deformed clouds at 30 Hz, /rosout, /diagnostics,
+/// markers, and calls ~/reset and ~/clear; /cell2 hears nothing of /cell; SIGINT exits 0.
+#[test]
+fn launch_ros_argv_names_rosout_diagnostics_services_and_markers() {
+    let python = ros_venv();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let target = root.join("target");
+    // What launch_ros writes for `parameters=[{'material.young': 3e5}]`: the node's full name,
+    // dotted keys; and a shared file with a parameter of another node.
+    let dict = target.join("launch_params_graph.yaml");
+    std::fs::write(&dict, "/cell/skin:\n  ros__parameters:\n    material.young: 300000.0\n").unwrap();
+    let shared = target.join("graph-shared.yaml");
+    std::fs::write(
+        &shared,
+        "/**:\n  ros__parameters:\n    camera_fps: 30\n    markers:\n      rate_hz: 15.0\n",
+    )
+    .unwrap();
+    let (log_a, log_b) = (target.join("graph-cell.log"), target.join("graph-cell2.log"));
+    let node = env!("CARGO_BIN_EXE_physskin");
+    let script = format!(
+        "{node} node --domain-id 33 --ros-args -r __node:=skin -r __ns:=/cell \
+           --params-file {dict} --params-file {shared} -p rate_hz:=30.0 \
+           -r ~/points:=/camera/points > {a} 2>&1 & A=$!; \
+         {node} node --domain-id 33 --ros-args -r __node:=skin -r __ns:=/cell2 \
+           -p shm.enabled:=false > {b} 2>&1 & B=$!; \
+         ROS_DOMAIN_ID=33 timeout 200 {python} {peer}; RC=$?; \
+         kill -INT $A $B; wait $A; RA=$?; wait $B; RB=$?; \
+         echo node exits $RA $RB; exit $(( RC != 0 ? RC : (RA != 0 ? RA : RB) ))",
+        dict = dict.display(),
+        shared = shared.display(),
+        a = log_a.display(),
+        b = log_b.display(),
+        python = python.display(),
+        peer = root.join("tests/peers/graph_peer.py").display(),
+    );
+    let stdout = in_private_net(&script, &[&log_a, &log_b]);
+    assert!(stdout.contains("ok: graph"), "{stdout}");
+    assert!(stdout.contains("node exits 0 0"), "{stdout}");
+    let log = std::fs::read_to_string(&log_a).unwrap();
+    // The shared section's parameter of another node is a warning, not a stop.
+    assert!(log.contains("camera_fps") && log.contains("ignored"), "{log}");
+    assert!(log.contains("/cell/skin listening on /camera/points"), "{log}");
+}
+
+/// A mesh published once (reliable, transient local) before the node starts is built.
+#[test]
+fn a_mesh_published_before_the_node_starts_is_built() {
+    let python = ros_venv();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let log = root.join("target/late-mesh-node.log");
+    let script = format!(
+        "ROS_DOMAIN_ID=34 timeout 120 {python} {peer} & P=$!; sleep 3; \
+         {node} node --domain-id 34 > {log} 2>&1 & N=$!; \
+         wait $P; RC=$?; kill -INT $N; wait $N; NODE_RC=$?; \
+         echo node exit $NODE_RC; exit $(( RC != 0 ? RC : NODE_RC ))",
+        node = env!("CARGO_BIN_EXE_physskin"),
+        python = python.display(),
+        peer = root.join("tests/peers/late_mesh_peer.py").display(),
+        log = log.display(),
+    );
+    let stdout = in_private_net(&script, &[&log]);
+    assert!(stdout.contains("ok: late mesh"), "{stdout}");
+}
+
+/// tf2 with a bag written by the official MCAP writer: /tf_static puts an optical frame 0.5 m
+/// above world, looking along world +x; a box cloud in that frame, replayed with
+/// `fixed_frame: world` and `support: free`, falls along world -z (checked by the official
+/// reader).
+#[test]
+fn a_cloud_in_an_optical_frame_falls_along_world_minus_z() {
+    let python = common::venv(
+        "bag-venv",
+        "import mcap, mcap_ros2, rosbags, yaml",
+        &["mcap", "mcap-ros2-support", "rosbags", "pyyaml"],
+    );
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (bag, out) = (root.join("target/tf-input.mcap"), root.join("target/tf-replayed.mcap"));
+    let peer = root.join("tests/peers/tf_bag.py");
+    let run = |args: &[&std::ffi::OsStr], what: &str| {
+        let o = Command::new(&python).arg(&peer).args(args).output().unwrap();
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(o.status.success(), "{what}: {text}{}", String::from_utf8_lossy(&o.stderr));
+        text
+    };
+    run(&["write".as_ref(), bag.as_os_str()], "writing the bag");
+    let replayed = Command::new(env!("CARGO_BIN_EXE_physskin"))
+        .arg("replay")
+        .arg(&bag)
+        .arg("--out")
+        .arg(&out)
+        .args(["--json", "--ros-args", "-p", "fixed_frame:=world"])
+        .args(["-p", "simulation.support:=free"])
+        .output()
+        .unwrap();
+    assert!(
+        replayed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&replayed.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&replayed.stdout).unwrap();
+    assert_eq!(json["rejected"], 0, "{json}");
+    let checked = run(&["check".as_ref(), out.as_os_str()], "checking the replay");
+    assert!(checked.contains("ok: tf2"), "{checked}");
 }
 
 #[test]

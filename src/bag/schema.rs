@@ -2,8 +2,9 @@
 //! (transitively), each after a line of 80 `=` and `MSG: pkg/msg/Name`, as rosbag2 writes them.
 
 use crate::ros::messages::{
-    Clock, Header, JointState, Mesh, MeshTriangle, Point, PointCloud2, PointField, RosMessage,
-    Time, Vector3,
+    Clock, ColorRGBA, CompressedImage, Duration, Header, JointState, Marker, MarkerArray, Mesh,
+    MeshFile, MeshTriangle, Point, PointCloud2, PointField, Pose, Quaternion, RosMessage,
+    TFMessage, Time, Transform, TransformStamped, UVCoordinate, Vector3,
 };
 
 /// The fields of a known message type ("pkg/Name", as in .msg files) and its own text.
@@ -29,6 +30,21 @@ fn definition(ros_type: &str) -> Option<String> {
         "sensor_msgs/JointState" => generated(JointState::fields()),
         "shape_msgs/MeshTriangle" => generated(MeshTriangle::fields()),
         "shape_msgs/Mesh" => generated(Mesh::fields()),
+        "geometry_msgs/Quaternion" => generated(Quaternion::fields()),
+        "geometry_msgs/Transform" => generated(Transform::fields()),
+        "geometry_msgs/TransformStamped" => generated(TransformStamped::fields()),
+        "tf2_msgs/TFMessage" => generated(TFMessage::fields()),
+        "geometry_msgs/Pose" => generated(Pose::fields()),
+        "std_msgs/ColorRGBA" => generated(ColorRGBA::fields()),
+        "builtin_interfaces/Duration" => generated(Duration::fields()),
+        "sensor_msgs/CompressedImage" => generated(CompressedImage::fields()),
+        "visualization_msgs/UVCoordinate" => generated(UVCoordinate::fields()),
+        "visualization_msgs/MeshFile" => generated(MeshFile::fields()),
+        "visualization_msgs/Marker" => format!(
+            "int32 TRIANGLE_LIST=11\nint32 ADD=0\nint32 DELETE=2\n{}",
+            generated(Marker::fields())
+        ),
+        "visualization_msgs/MarkerArray" => generated(MarkerArray::fields()),
         "physskin/MeshStamped" => include_str!("../../msg/MeshStamped.msg").into(),
         "physskin/SkinningWeights" => include_str!("../../msg/SkinningWeights.msg").into(),
         "physskin/SubspaceState" => include_str!("../../msg/SubspaceState.msg").into(),

@@ -210,11 +210,10 @@ impl Outputs {
     pub fn publish_step(
         &self,
         shape_id: u32,
-        frame: &str,
+        header: Header,
         body: &SoftBody,
         surface: Option<(&mut MarkerSurface, &str)>,
     ) {
-        let header = self.header(frame);
         if let Some((surface, ns)) = surface {
             let marker = surface.marker(body, header.clone(), ns, shape_id);
             self.publish_markers(MarkerArray {

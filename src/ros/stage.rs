@@ -224,12 +224,16 @@ impl Stage {
 
     /// Every object back to its rest state, at rest; the rest state is published at once.
     pub fn reset(&mut self, outputs: &Outputs) -> String {
+        let stamp = outputs.clock.now();
         for (b, unpublished) in self.bodies.iter_mut().zip(&mut self.unpublished) {
             b.body.reset();
             *unpublished = false;
-            outputs.publish_step(b.id, &b.output_frame, &b.body, None);
+            let header = super::messages::Header {
+                stamp: stamp.clone(),
+                frame_id: b.output_frame.clone(),
+            };
+            outputs.publish_step(b.id, header, &b.body, None);
         }
-        let stamp = outputs.clock.now();
         let message = format!(
             "{} objects back at rest; their rest state is stamped {}.{:09}",
             self.bodies.len(),
@@ -378,7 +382,7 @@ fn publish_step_of(
         );
         outputs.report(Status::WARN, id, "step_unconverged", message);
     }
-    outputs.publish_step(id, frame, body, surface);
+    outputs.publish_step(id, outputs.header(frame), body, surface);
 }
 
 /// Where an interaction acts, in the simulation's frame.

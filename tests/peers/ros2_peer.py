@@ -69,7 +69,10 @@ def main():
     node.create_subscription(PointCloud2, "/physskin/weights_cloud",
                              lambda m: got["weights"].__setitem__(m.header.frame_id, m), reliable)
     cloud_pub = node.create_publisher(PointCloud2, "/physskin/points", sensor)
-    mesh_pub = node.create_publisher(Mesh, "/physskin/mesh", reliable)
+    # Meshes are one-shot data: the node reads them reliable and transient local.
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    mesh_pub = node.create_publisher(Mesh, "/physskin/mesh", latched)
     n = 3000
     pts, cloud = box_cloud(n, "peer_cloud")
     deadline = time.time() + 60
