@@ -112,7 +112,7 @@ fn launch_ros_argv_names_rosout_diagnostics_services_and_markers() {
     let script = format!(
         "{node} node --domain-id 33 --ros-args -r __node:=skin -r __ns:=/cell \
            --params-file {dict} --params-file {shared} -p rate_hz:=30.0 \
-           -r ~/points:=/camera/points > {a} 2>&1 & A=$!; \
+           -r '~/points:=/camera/points' > {a} 2>&1 & A=$!; \
          {node} node --domain-id 33 --ros-args -r __node:=skin -r __ns:=/cell2 \
            -p shm.enabled:=false > {b} 2>&1 & B=$!; \
          ROS_DOMAIN_ID=33 timeout 200 {python} {peer}; RC=$?; \

@@ -185,6 +185,7 @@ pub fn replay(
         clock: clock.clone(),
         timings: options.timings,
         log: None,
+        dropped: Default::default(),
     };
     outputs.declare_topics();
     if let Some(recorder) = &outputs.recorder {

@@ -93,6 +93,7 @@ fn record_overhead(
     let clock = NodeClock::simulated();
     let outputs = |recorder: Option<Recorder>| Outputs {
         log: None,
+        dropped: Default::default(),
         dds: None,
         recorder,
         shm: None,

@@ -44,11 +44,13 @@ impl Health {
     }
 
     /// The report of the last window (which then starts anew).
+    /// `dropped`: publications DDS refused so far (readers too far behind).
     pub fn report(
         &self,
         header: Header,
         node: &str,
         recording: Option<RecorderHealth>,
+        dropped: u64,
     ) -> DiagnosticArray {
         let window = self
             .window
@@ -78,6 +80,7 @@ impl Health {
             kv("step_ms_p50", format!("{:.3}", quantile(0.5))),
             kv("step_ms_p99", format!("{:.3}", quantile(0.99))),
             kv("builds_queued", self.builds_queued.load(Ordering::Relaxed).max(0)),
+            kv("publications_dropped", dropped),
         ];
         let rec = recording.clone().unwrap_or_default();
         values.extend([
@@ -126,14 +129,14 @@ mod tests {
         for ms in 1..=100 {
             h.tick(2, 1, ms as f64);
         }
-        let a = h.report(Header::default(), "/cell/skin", None);
+        let a = h.report(Header::default(), "/cell/skin", None, 0);
         assert_eq!(a.status[0].level, DiagnosticStatus::OK);
         assert_eq!(value(&a, "objects"), "2");
         assert_eq!(value(&a, "awake_objects"), "1");
         assert_eq!(value(&a, "step_ms_p50"), "51.000");
         assert_eq!(value(&a, "step_ms_p99"), "100.000");
         h.missed(3);
-        let b = h.report(Header::default(), "/cell/skin", None);
+        let b = h.report(Header::default(), "/cell/skin", None, 0);
         assert_eq!(b.status[0].level, DiagnosticStatus::WARN);
         assert_eq!(value(&b, "ticks_last_second"), "0");
         assert_eq!(value(&b, "objects"), "2");
@@ -141,7 +144,7 @@ mod tests {
             failure: Some("disk full".into()),
             ..Default::default()
         };
-        let c = h.report(Header::default(), "/cell/skin", Some(failed));
+        let c = h.report(Header::default(), "/cell/skin", Some(failed), 0);
         assert_eq!(c.status[0].level, DiagnosticStatus::ERROR);
         assert_eq!(value(&c, "missed_ticks"), "3");
     }

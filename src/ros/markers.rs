@@ -8,8 +8,9 @@ use super::messages::{ColorRGBA, Header, Marker, Point, Pose, Quaternion, Vector
 use crate::physics::Lifter;
 use crate::pipeline::SoftBody;
 
-/// Cells across the longest side of the surface drawn for a cloud: a few thousand triangles.
-const CLOUD_SURFACE_CELLS: usize = 24;
+/// Cells across the longest side of the surface drawn for a cloud: about a thousand triangles
+/// for a compact object (a 2:1:1 box: 1,280), so a marker stays near 150 KB.
+const CLOUD_SURFACE_CELLS: usize = 16;
 
 /// The triangles drawn for one object and the colour of each vertex.
 pub struct MarkerSurface {

@@ -198,8 +198,25 @@ impl QosTable {
     }
 
     pub(super) fn of(&self, topic: &str, endpoint: Endpoint) -> QosPolicies {
-        qos_of(self.profile(topic, endpoint))
+        let profile = self.profile(topic, endpoint);
+        match endpoint {
+            Endpoint::Publisher if profile.reliable => never_blocking(qos_of(profile)),
+            _ => qos_of(profile),
+        }
     }
+}
+
+/// The node's writers never wait for a reader: the stepping thread publishes, and a reader
+/// that falls `depth` samples behind loses the next ones instead of stalling every object
+/// (the publish is counted as dropped in /diagnostics).
+fn never_blocking(qos: QosPolicies) -> QosPolicies {
+    qos.modify_by(
+        &QosPolicyBuilder::new()
+            .reliability(Reliability::Reliable {
+                max_blocking_time: ros2_client::ros2::Duration::ZERO,
+            })
+            .build(),
+    )
 }
 
 /// Runs the node until `stop` is set; returns the stepper's counters.
@@ -245,6 +262,7 @@ pub fn run_node(
         clock: clock.clone(),
         timings: true,
         log: Some(log),
+        dropped: Default::default(),
     });
     outputs.declare_topics();
     for warning in config.warnings.iter().chain(&network.warnings) {

@@ -213,7 +213,8 @@ async fn report_health(publisher: Publisher<DiagnosticArray>, shared: &Shared, n
         smol::Timer::after(Duration::from_secs(1)).await;
         let outputs = &shared.outputs;
         let recording = outputs.recorder.as_ref().map(|r| r.health());
-        let report = shared.health.report(outputs.header(""), node_name, recording);
+        let dropped = outputs.dropped.load(Ordering::Relaxed);
+        let report = shared.health.report(outputs.header(""), node_name, recording, dropped);
         if let Err(e) = publisher.publish(report) {
             eprintln!("[physskin] warn: /diagnostics not published: {e:?}");
         }

@@ -66,15 +66,18 @@ pub fn topic_table(topics: &Topics) -> Vec<TopicInfo> {
     let t = topics;
     vec![
         TopicInfo::of::<PointCloud2>(&t.points, QosProfile::sensor(5)),
-        TopicInfo::of::<Mesh>(&t.mesh, QosProfile::sensor(5)),
-        TopicInfo::of::<MeshStamped>(&t.mesh_stamped, QosProfile::sensor(5)),
+        // Meshes are one-shot data: a mesh published before the node started still arrives.
+        TopicInfo::of::<Mesh>(&t.mesh, QosProfile::reliable(5, true)),
+        TopicInfo::of::<MeshStamped>(&t.mesh_stamped, QosProfile::reliable(5, true)),
         TopicInfo::of::<Interaction>(&t.interaction, QosProfile::reliable(10, false)),
-        TopicInfo::of::<PointCloud2>(&t.deformed_points, QosProfile::reliable(2, false)),
+        // Per-step outputs: room for several objects' samples of a tick before their readers
+        // acknowledge (the writers never wait; see node::never_blocking).
+        TopicInfo::of::<PointCloud2>(&t.deformed_points, QosProfile::reliable(10, false)),
         TopicInfo::of::<PointCloud2>(&t.weights_cloud, QosProfile::reliable(4, true)),
         TopicInfo::of::<SkinningWeights>(&t.weights, QosProfile::reliable(4, true)),
         TopicInfo::of::<SubspaceState>(&t.state, QosProfile::reliable(10, false)),
         TopicInfo::of::<Status>(&t.status, QosProfile::reliable(50, true)),
-        TopicInfo::of::<MarkerArray>(&t.markers, QosProfile::reliable(2, false)),
+        TopicInfo::of::<MarkerArray>(&t.markers, QosProfile::reliable(10, false)),
         TopicInfo::of::<TFMessage>(TF, QosProfile::reliable(100, false)),
         TopicInfo::of::<TFMessage>(TF_STATIC, QosProfile::reliable(100, true)),
     ]
@@ -98,6 +101,8 @@ pub struct Outputs {
     pub timings: bool,
     /// The node's log (a replay has none: its lines go to stderr only).
     pub log: Option<NodeLog>,
+    /// Publications DDS refused because a reader was too far behind.
+    pub dropped: std::sync::atomic::AtomicU64,
 }
 
 impl Outputs {
@@ -140,9 +145,21 @@ impl Outputs {
         }
         if let Some(p) = publisher {
             if let Err(e) = p.publish(message) {
-                // Not through `report`: a failing status publisher would recurse.
-                eprintln!("[physskin] warn: {topic} not published: {e:?}");
+                self.dropped(topic, &e);
             }
+        }
+    }
+
+    /// Counts a publication DDS refused (a reader too far behind); says so on the first and
+    /// then every 100th. Not through `report`: a failing status publisher would recurse.
+    fn dropped<D>(&self, topic: &str, e: &ros2_client::ros2::WriteError<D>) {
+        let n = self.dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if n % 100 == 0 {
+            // Display, not Debug: the Debug form carries the whole message.
+            eprintln!(
+                "[physskin] warn: {topic} not published ({e}: a reader is behind); {} publications dropped so far",
+                n + 1
+            );
         }
     }
 

@@ -183,7 +183,9 @@ fn node_matches(pattern: &str, name: &str) -> bool {
 fn check_groups(map: &Map<String, Value>, known: &Value, prefix: &str) -> Result<(), ParamError> {
     for (key, value) in map {
         let name = format!("{prefix}{key}");
-        let Some(slot) = known.get(key) else {
+        // A dotted key (`material.young: 1.0`, as launch_ros writes them) is a path.
+        let slot = key.split('.').try_fold(known, |slot, part| slot.get(part));
+        let Some(slot) = slot else {
             return Err(ParamError::Unknown { name });
         };
         if let Value::Object(inner) = value {
@@ -252,13 +254,14 @@ other_node:
         let shared = "/**:\n  ros__parameters:\n    camera_fps: 30\n    rate_hz: 20.0\n    \
                       qos_overrides:\n      /physskin/points:\n        subscription:\n          \
                       reliability: reliable\n";
-        let own = "/cell/skin:\n  ros__parameters:\n    rate_hz: 25.0\n";
+        let own = "/cell/skin:\n  ros__parameters:\n    rate_hz: 25.0\n    material.poisson: 0.4\n";
         let mut loader = ParamLoader::default();
         loader.apply_yaml(shared, "/cell/skin").unwrap();
         loader.apply_yaml(own, "/cell/skin").unwrap();
         loader.apply_override("material.young", "1.0e5").unwrap();
         loader.apply_override("someone.else", "3").unwrap();
         assert_eq!(loader.params.rate_hz, 25.0);
+        assert_eq!(loader.params.material.poisson, 0.4);
         assert_eq!(loader.params.material.young, 1e5);
         assert_eq!(loader.warnings.len(), 2, "{:?}", loader.warnings);
         assert!(loader.warnings[0].contains("camera_fps"));

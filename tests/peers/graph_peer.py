@@ -80,8 +80,6 @@ class Peer:
                               QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
         n.create_subscription(DiagnosticArray, "/diagnostics",
                               lambda m: self.diags.append((time.time(), m)), RELIABLE)
-        n.create_subscription(MarkerArray, "/cell/skin/markers",
-                              lambda m: self.markers.extend(m.markers), RELIABLE)
         self.cloud_pub = n.create_publisher(PointCloud2, "/camera/points", RELIABLE)
         self.mesh_pub = n.create_publisher(Mesh, "/cell/skin/mesh", LATCHED)
 
@@ -159,6 +157,10 @@ def check_diagnostics(peer):
 
 
 def check_markers(peer):
+    # Markers are subscribed to only now: rclpy decodes each point as a Python object, and the
+    # cloud's surface markers would slow the peer down.
+    peer.node.create_subscription(MarkerArray, "/cell/skin/markers",
+                                  lambda m: peer.markers.extend(m.markers), RELIABLE)
     peer.mesh_pub.publish(box_mesh())
 
     def matched():
