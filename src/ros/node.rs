@@ -200,20 +200,28 @@ impl QosTable {
     pub(super) fn of(&self, topic: &str, endpoint: Endpoint) -> QosPolicies {
         let profile = self.profile(topic, endpoint);
         match endpoint {
-            Endpoint::Publisher if profile.reliable => never_blocking(qos_of(profile)),
+            Endpoint::Publisher if profile.reliable => never_blocking(qos_of(profile), profile.depth),
             _ => qos_of(profile),
         }
     }
 }
 
 /// The node's writers never wait for a reader: the stepping thread publishes, and a reader
-/// that falls `depth` samples behind loses the next ones instead of stalling every object
-/// (the publish is counted as dropped in /diagnostics).
-fn never_blocking(qos: QosPolicies) -> QosPolicies {
+/// that falls behind loses samples instead of stalling every object (each refused publication
+/// is counted in /diagnostics). The writer holds up to 4 x depth unacknowledged samples, so
+/// the acknowledgements' round trip on a loaded machine does not cost samples, and memory
+/// stays bounded.
+fn never_blocking(qos: QosPolicies, depth: u32) -> QosPolicies {
+    let held = 4 * depth.max(1) as i32;
     qos.modify_by(
         &QosPolicyBuilder::new()
             .reliability(Reliability::Reliable {
                 max_blocking_time: ros2_client::ros2::Duration::ZERO,
+            })
+            .resource_limits(ResourceLimits {
+                max_samples: held,
+                max_instances: 1,
+                max_samples_per_instance: held,
             })
             .build(),
     )
