@@ -89,7 +89,11 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
         ..NodeConfig::default()
     };
     let rate_hz = config.params.rate_hz;
-    let topics = config.params.topics.clone();
+    let topics = config
+        .params
+        .topics
+        .resolved(&config.names)
+        .expect("the default names are valid");
     let node = {
         let stop = stop.clone();
         std::thread::spawn(move || run_node(config, model, stop))

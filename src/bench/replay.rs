@@ -97,7 +97,7 @@ fn record_overhead(
         dds: None,
         recorder,
         shm: None,
-        topics: params.topics.clone(),
+        topics: crate::ros::params::Topics::default_resolved(),
         publish: params.publish.clone(),
         clock: clock.clone(),
         timings: true,

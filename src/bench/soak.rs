@@ -112,7 +112,11 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
         domain_id: options.domain_id,
         ..NodeConfig::default()
     };
-    let topics = config.params.topics.clone();
+    let topics = config
+        .params
+        .topics
+        .resolved(&config.names)
+        .expect("the default names are valid");
     config.params.record.path = options.record.display().to_string();
     config.params.record.split_duration_s = 60.0;
     config.params.record.topics = vec![

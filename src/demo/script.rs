@@ -206,8 +206,7 @@ pub fn cloud_points(shape: &Shape, count: usize) -> Vec<Vector3<f64>> {
 
 /// Writes the script's inputs as an MCAP recording, as the node would have recorded them.
 pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary, BagError> {
-    let params = NodeParams::default();
-    let t = &params.topics;
+    let t = &crate::ros::params::Topics::default_resolved();
     let mut writer = BagWriter::create(RecordOptions {
         path: path.into(),
         ..Default::default()

@@ -1,6 +1,8 @@
-//! Which network DDS uses. On a host where only loopback is up (a container or a robot with
-//! its network down), RustDDS and Fast DDS discover each other but exchange no sample unless
-//! the node keeps to 127.0.0.1; the node then does so, and says why.
+//! Which network DDS uses, and what the node says about it. Measured here: on a host where
+//! only loopback is up, RustDDS and Fast DDS discover each other and Fast DDS's samples reach
+//! the node, but the node's samples never reach Fast DDS readers (their acknowledgements never
+//! come), with the node on 127.0.0.1 or not, with Fast DDS on UDPv4 only, and with multicast on
+//! lo. The node cannot fix that from its side, so it says so at start, with what to do.
 
 /// The choice, with what to tell the user.
 pub struct NetworkChoice {
@@ -8,49 +10,62 @@ pub struct NetworkChoice {
     pub warnings: Vec<String>,
 }
 
-/// Loopback only when asked, when the environment asks ROS 2 for localhost-only discovery,
-/// or when no other interface is up.
+/// What to do on a loopback-only host: give it an interface that is not loopback.
+const FIX: &str = "bring up an interface besides loopback, e.g. `ip link add physskin0 type \
+     veth peer name physskin1 && ip addr add 10.213.0.1/24 dev physskin0 && ip link set \
+     physskin0 up && ip link set physskin1 up && ip route add 224.0.0.0/4 dev physskin0` (as \
+     tests/peers/private_net.sh does)";
+
+/// Loopback only when asked; warnings when the host or the environment keep DDS on loopback.
 pub fn choose(asked: bool) -> NetworkChoice {
     let mut warnings = Vec::new();
     let env = |name: &str| std::env::var(name).unwrap_or_default();
-    let localhost_env =
-        env("ROS_LOCALHOST_ONLY") == "1" || env("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST";
-    let others = interfaces_up_besides_loopback();
-    if localhost_env && !asked {
-        warnings.push(
-            "ROS_LOCALHOST_ONLY=1 or ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST is set: DDS keeps to \
-             127.0.0.1. Fast DDS peers started with it use shared memory and loopback; if no \
-             sample arrives, start the peers without it (ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET)"
-                .into(),
-        );
+    if env("ROS_LOCALHOST_ONLY") == "1" || env("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST" {
+        warnings.push(format!(
+            "ROS_LOCALHOST_ONLY=1 or ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST is set: Fast DDS \
+             peers started with it keep to loopback, where they discover this node but receive \
+             none of its samples. Start them with ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET (and \
+             ROS_LOCALHOST_ONLY unset) and keep traffic on this host with a private network \
+             namespace, or {FIX}"
+        ));
     }
-    let only_loopback = others.is_some_and(|n| n == 0);
-    if only_loopback && !asked && !localhost_env {
-        warnings.push(
-            "no network interface but loopback is up: DDS keeps to 127.0.0.1 so that peers on \
-             this host receive samples (with loopback alone, Fast DDS announces locators the \
-             node cannot reach otherwise); bring an interface up to talk to other hosts"
-                .into(),
-        );
+    if !asked && interfaces_up_besides_loopback() == Some(0) {
+        warnings.push(format!(
+            "only loopback is up: Fast DDS peers will discover this node and send to it, but \
+             will receive none of its samples (RustDDS and Fast DDS exchange no user data over \
+             loopback alone); {FIX}"
+        ));
     }
     NetworkChoice {
-        loopback_only: asked || localhost_env || only_loopback,
+        loopback_only: asked,
         warnings,
     }
 }
 
-/// How many interfaces other than loopback are up; None when /sys cannot tell.
+/// How many interfaces other than loopback are up with an IPv4 address, in this process's
+/// network namespace (getifaddrs: /sys may show another namespace's); None if it cannot tell.
 fn interfaces_up_besides_loopback() -> Option<usize> {
-    let entries = std::fs::read_dir("/sys/class/net").ok()?;
-    let up = entries
-        .filter_map(Result::ok)
-        .filter(|e| e.file_name() != "lo")
-        .filter(|e| {
-            let flags = std::fs::read_to_string(e.path().join("flags")).unwrap_or_default();
-            let flags = u32::from_str_radix(flags.trim().trim_start_matches("0x"), 16).unwrap_or(0);
-            // IFF_UP and not IFF_LOOPBACK.
-            flags & 0x1 != 0 && flags & 0x8 == 0
-        })
-        .count();
-    Some(up)
+    let mut list: *mut libc::ifaddrs = std::ptr::null_mut();
+    // SAFETY: getifaddrs fills `list` with a linked list that we only read and then free once.
+    if unsafe { libc::getifaddrs(&mut list) } != 0 {
+        return None;
+    }
+    let mut count = 0;
+    let mut at = list;
+    while !at.is_null() {
+        // SAFETY: `at` is a node of the list getifaddrs returned, not yet freed.
+        let entry = unsafe { &*at };
+        let flags = entry.ifa_flags;
+        let up = flags & libc::IFF_UP as u32 != 0 && flags & libc::IFF_LOOPBACK as u32 == 0;
+        // SAFETY: ifa_addr is null or points to a sockaddr of the entry.
+        let ipv4 = !entry.ifa_addr.is_null()
+            && unsafe { (*entry.ifa_addr).sa_family } == libc::AF_INET as libc::sa_family_t;
+        if up && ipv4 {
+            count += 1;
+        }
+        at = entry.ifa_next;
+    }
+    // SAFETY: `list` came from getifaddrs and is freed once.
+    unsafe { libc::freeifaddrs(list) };
+    Some(count)
 }
