@@ -17,7 +17,7 @@ use crate::ros::messages::{
     to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
     Vector3 as RosVector3,
 };
-use crate::ros::{topic_table, NodeParams};
+use crate::ros::topic_table;
 
 /// Log time of the demo's first message: 2026-01-01T00:00:00Z, ns.
 pub const DEMO_START_NS: i64 = 1_767_225_600_000_000_000;
