@@ -77,7 +77,13 @@ fn in_private_net(script: &str, logs: &[&Path]) -> String {
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let logs: String = logs
         .iter()
-        .map(|p| format!("--- {}:\n{}\n", p.display(), std::fs::read_to_string(p).unwrap_or_default()))
+        .map(|p| {
+            format!(
+                "--- {}:\n{}\n",
+                p.display(),
+                std::fs::read_to_string(p).unwrap_or_default()
+            )
+        })
         .collect();
     assert!(
         out.status.success(),
@@ -100,14 +106,21 @@ fn launch_ros_argv_names_rosout_diagnostics_services_and_markers() {
     // What launch_ros writes for `parameters=[{'material.young': 3e5}]`: the node's full name,
     // dotted keys; and a shared file with a parameter of another node.
     let dict = target.join("launch_params_graph.yaml");
-    std::fs::write(&dict, "/cell/skin:\n  ros__parameters:\n    material.young: 300000.0\n").unwrap();
+    std::fs::write(
+        &dict,
+        "/cell/skin:\n  ros__parameters:\n    material.young: 300000.0\n",
+    )
+    .unwrap();
     let shared = target.join("graph-shared.yaml");
     std::fs::write(
         &shared,
         "/**:\n  ros__parameters:\n    camera_fps: 30\n    markers:\n      rate_hz: 15.0\n",
     )
     .unwrap();
-    let (log_a, log_b) = (target.join("graph-cell.log"), target.join("graph-cell2.log"));
+    let (log_a, log_b) = (
+        target.join("graph-cell.log"),
+        target.join("graph-cell2.log"),
+    );
     let node = env!("CARGO_BIN_EXE_physskin");
     let script = format!(
         "{node} node --domain-id 33 --ros-args -r __node:=skin -r __ns:=/cell \
@@ -130,8 +143,14 @@ fn launch_ros_argv_names_rosout_diagnostics_services_and_markers() {
     assert!(stdout.contains("node exits 0 0"), "{stdout}");
     let log = std::fs::read_to_string(&log_a).unwrap();
     // The shared section's parameter of another node is a warning, not a stop.
-    assert!(log.contains("camera_fps") && log.contains("ignored"), "{log}");
-    assert!(log.contains("/cell/skin listening on /camera/points"), "{log}");
+    assert!(
+        log.contains("camera_fps") && log.contains("ignored"),
+        "{log}"
+    );
+    assert!(
+        log.contains("/cell/skin listening on /camera/points"),
+        "{log}"
+    );
 }
 
 /// A mesh published once (reliable, transient local) before the node starts is built.
@@ -166,12 +185,23 @@ fn a_cloud_in_an_optical_frame_falls_along_world_minus_z() {
         &["mcap", "mcap-ros2-support", "rosbags", "pyyaml"],
     );
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let (bag, out) = (root.join("target/tf-input.mcap"), root.join("target/tf-replayed.mcap"));
+    let (bag, out) = (
+        root.join("target/tf-input.mcap"),
+        root.join("target/tf-replayed.mcap"),
+    );
     let peer = root.join("tests/peers/tf_bag.py");
     let run = |args: &[&std::ffi::OsStr], what: &str| {
-        let o = Command::new(&python).arg(&peer).args(args).output().unwrap();
+        let o = Command::new(&python)
+            .arg(&peer)
+            .args(args)
+            .output()
+            .unwrap();
         let text = String::from_utf8_lossy(&o.stdout).into_owned();
-        assert!(o.status.success(), "{what}: {text}{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{what}: {text}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         text
     };
     run(&["write".as_ref(), bag.as_os_str()], "writing the bag");

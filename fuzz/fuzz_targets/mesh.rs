@@ -8,7 +8,7 @@ use physskin::ros::messages::{from_cdr, Mesh, MeshStamped};
 use physskin::ros::BuildRequest;
 
 fn shape_of(mesh: &Mesh) {
-    if let Ok(request) = BuildRequest::from_mesh(mesh, "fuzz", 100_000) {
+    if let Ok(request) = BuildRequest::from_mesh(mesh, "fuzz", 0, 100_000) {
         let _ = Shape::new(request.points, None, request.triangles);
     }
 }

@@ -483,7 +483,13 @@ impl TransformFeed {
 
     /// Every transform logged up to `time` (and the lookahead, for an input waiting for its
     /// transform) goes into the buffer.
-    fn feed(&mut self, tf: &std::sync::RwLock<TfBuffer>, time: i64, ahead: bool, outputs: &Outputs) {
+    fn feed(
+        &mut self,
+        tf: &std::sync::RwLock<TfBuffer>,
+        time: i64,
+        ahead: bool,
+        outputs: &Outputs,
+    ) {
         let until = time + if ahead { self.lookahead_ns } else { 0 };
         let Ok(mut buffer) = tf.write() else {
             return;

@@ -51,7 +51,10 @@ pub fn ros_setup(
         .map_err(NodeError::from)?;
     let node = names.fully_qualified_name();
     let mut loader = ParamLoader::default();
-    for file in params.into_iter().chain(ros.params_files.iter().map(PathBuf::as_path)) {
+    for file in params
+        .into_iter()
+        .chain(ros.params_files.iter().map(PathBuf::as_path))
+    {
         loader.apply_file(file, &node)?;
     }
     for (name, value) in &ros.params {

@@ -11,9 +11,9 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use super::cloud::decode_cloud;
 use super::markers::MarkerSurface;
 use super::messages::{Mesh, PointCloud2, Status};
-use super::tf::{TfBuffer, TfError};
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
+use super::tf::{TfBuffer, TfError};
 use crate::geometry::Shape;
 use crate::pipeline::SoftBody;
 use crate::skinning::NeuralModel;
@@ -284,8 +284,8 @@ impl Builder {
                 body.handles()
             ),
         };
-        let surface = (params.markers.rate_hz > 0.0)
-            .then(|| MarkerSurface::of(&body, &request.triangles));
+        let surface =
+            (params.markers.rate_hz > 0.0).then(|| MarkerSurface::of(&body, &request.triangles));
         let ready = ReadyBody {
             id,
             frame: request.frame.clone(),
@@ -367,11 +367,11 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<ReadyBody>, c
             cx.health.builds_queued.fetch_sub(1, Ordering::Relaxed);
             let snapshot = cx.params.read().map(|p| p.clone()).unwrap_or_default();
             if let Err(problem) = wait_for_fixed_frame(&mut request, &snapshot, &cx.tf) {
-                cx.outputs.report(Status::ERROR, 0, "input_rejected", problem);
+                cx.outputs
+                    .report(Status::ERROR, 0, "input_rejected", problem);
                 continue;
             }
-            let built =
-                pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
+            let built = pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
             if let BuildOutcome::Ready(body, announcement) = built {
                 // The body goes to the stepper first: its first frame must not wait for the
                 // (large) weight messages.
@@ -391,9 +391,12 @@ fn wait_for_fixed_frame(
     params: &NodeParams,
     tf: &RwLock<TfBuffer>,
 ) -> Result<(), String> {
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs_f64(params.tf.timeout_s);
+    let deadline =
+        std::time::Instant::now() + std::time::Duration::from_secs_f64(params.tf.timeout_s);
     loop {
-        let buffer = tf.read().map_err(|_| "the tf buffer is poisoned".to_string())?;
+        let buffer = tf
+            .read()
+            .map_err(|_| "the tf buffer is poisoned".to_string())?;
         match request.into_fixed_frame(params, &buffer) {
             Ok(()) => return Ok(()),
             Err(problem) if std::time::Instant::now() >= deadline => return Err(problem),

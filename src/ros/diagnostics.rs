@@ -79,7 +79,10 @@ impl Health {
             kv("ticks_last_second", times.len()),
             kv("step_ms_p50", format!("{:.3}", quantile(0.5))),
             kv("step_ms_p99", format!("{:.3}", quantile(0.99))),
-            kv("builds_queued", self.builds_queued.load(Ordering::Relaxed).max(0)),
+            kv(
+                "builds_queued",
+                self.builds_queued.load(Ordering::Relaxed).max(0),
+            ),
             kv("publications_dropped", dropped),
         ];
         let rec = recording.clone().unwrap_or_default();
@@ -92,7 +95,10 @@ impl Health {
         let (level, message) = match (&rec.failure, window.missed) {
             (Some(e), _) => (DiagnosticStatus::ERROR, format!("recording failed: {e}")),
             (None, 0) => (DiagnosticStatus::OK, "stepping on time".to_string()),
-            (None, n) => (DiagnosticStatus::WARN, format!("{n} ticks missed in the last second")),
+            (None, n) => (
+                DiagnosticStatus::WARN,
+                format!("{n} ticks missed in the last second"),
+            ),
         };
         DiagnosticArray {
             header,

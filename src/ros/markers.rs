@@ -62,7 +62,12 @@ impl MarkerSurface {
             }
         };
         let mut marker = base(header, ns, id, Marker::ADD);
-        marker.points = self.triangles.iter().flatten().map(|&v| corner(v)).collect();
+        marker.points = self
+            .triangles
+            .iter()
+            .flatten()
+            .map(|&v| corner(v))
+            .collect();
         marker.colors = self
             .triangles
             .iter()
@@ -114,7 +119,12 @@ fn dominant_colors(lifter: &Lifter) -> Vec<ColorRGBA> {
         .map(|p| {
             let dominant = (1..handles.max(2))
                 .filter(|&h| h < handles)
-                .max_by(|&a, &b| lifter.weight(p, a).abs().total_cmp(&lifter.weight(p, b).abs()))
+                .max_by(|&a, &b| {
+                    lifter
+                        .weight(p, a)
+                        .abs()
+                        .total_cmp(&lifter.weight(p, b).abs())
+                })
                 .unwrap_or(0);
             palette(dominant, handles)
         })
@@ -155,7 +165,9 @@ mod tests {
                 *edges.entry((a, b)).or_insert(0) += 1;
             }
         }
-        assert!(edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1)));
+        assert!(edges
+            .iter()
+            .all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1)));
         // Outward: the signed volume is the solid's.
         let volume: f64 = triangles
             .iter()
@@ -165,6 +177,9 @@ mod tests {
             })
             .sum();
         let solid = grid.solid_count() as f64 * grid.cell.powi(3);
-        assert!((volume - solid).abs() < 1e-9 * solid.max(1.0), "{volume} vs {solid}");
+        assert!(
+            (volume - solid).abs() < 1e-9 * solid.max(1.0),
+            "{volume} vs {solid}"
+        );
     }
 }

@@ -76,7 +76,11 @@ impl NameResolver {
     /// names. Rules for another node are kept but never match.
     pub fn with_rules(mut self, rules: &[Remap]) -> Result<Self, NameError> {
         for rule in rules {
-            if rule.node.as_deref().is_some_and(|n| n != self.original_node) {
+            if rule
+                .node
+                .as_deref()
+                .is_some_and(|n| n != self.original_node)
+            {
                 continue;
             }
             match rule.from.as_str() {

@@ -200,7 +200,9 @@ impl QosTable {
     pub(super) fn of(&self, topic: &str, endpoint: Endpoint) -> QosPolicies {
         let profile = self.profile(topic, endpoint);
         match endpoint {
-            Endpoint::Publisher if profile.reliable => never_blocking(qos_of(profile), profile.depth),
+            Endpoint::Publisher if profile.reliable => {
+                never_blocking(qos_of(profile), profile.depth)
+            }
             _ => qos_of(profile),
         }
     }
@@ -281,8 +283,13 @@ pub fn run_node(
     } else {
         Some(SceneFile::load(std::path::Path::new(&p.scene))?)
     };
-    let inputs =
-        super::node_inputs::Inputs::create(&mut node, &topics, &qos, scene_file.as_ref(), &outputs)?;
+    let inputs = super::node_inputs::Inputs::create(
+        &mut node,
+        &topics,
+        &qos,
+        scene_file.as_ref(),
+        &outputs,
+    )?;
     let shared = Shared {
         params,
         outputs: outputs.clone(),
@@ -292,7 +299,12 @@ pub fn run_node(
     let threads = Threads::start(&shared, &model, scene_file, &p)?;
     let control = super::node_inputs::Control::create(&mut node, &config.names)?;
     let diagnostics = publisher(&mut node, "/diagnostics", reliable_qos(10, false))?;
-    outputs.report(Status::INFO, 0, "node_started", started_line(&config, &topics));
+    outputs.report(
+        Status::INFO,
+        0,
+        "node_started",
+        started_line(&config, &topics),
+    );
 
     let executor = smol::Executor::new();
     let spinner = node
@@ -449,7 +461,11 @@ fn started_line(config: &NodeConfig, t: &super::params::Topics) -> String {
         t.mesh,
         t.mesh_stamped,
         p.rate_hz,
-        if p.use_sim_time { " of /clock time" } else { "" }
+        if p.use_sim_time {
+            " of /clock time"
+        } else {
+            ""
+        }
     )
 }
 
@@ -543,7 +559,8 @@ impl Threads {
             registry: Some(registry),
         });
         let stepper = {
-            let (outputs, health, rate) = (shared.outputs.clone(), shared.health.clone(), p.rate_hz);
+            let (outputs, health, rate) =
+                (shared.outputs.clone(), shared.health.clone(), p.rate_hz);
             std::thread::Builder::new()
                 .name("physskin-step".into())
                 .spawn(move || super::stepper::run_stepper(step_rx, rate, stage, outputs, health))

@@ -138,7 +138,12 @@ pub async fn serve(
         if let Ok((m, _)) = m {
             let stamp = m.header.stamp.nanos();
             outputs.record_input(&t.mesh_stamped, Some(stamp), &m);
-            submit(BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, max_points));
+            submit(BuildRequest::from_mesh(
+                &m.mesh,
+                &m.header.frame_id,
+                stamp,
+                max_points,
+            ));
         }
         async {}
     });
@@ -200,7 +205,9 @@ async fn transforms(sub: &Subscription<TFMessage>, topic: &str, is_static: bool,
             if let Err(e) = buffer.insert(t, is_static) {
                 if reported.insert(t.child_frame_id.clone()) {
                     let problem = format!("{topic}: {e}");
-                    shared.outputs.report(Status::WARN, 0, "transform_ignored", problem);
+                    shared
+                        .outputs
+                        .report(Status::WARN, 0, "transform_ignored", problem);
                 }
             }
         }
@@ -214,7 +221,9 @@ async fn report_health(publisher: Publisher<DiagnosticArray>, shared: &Shared, n
         let outputs = &shared.outputs;
         let recording = outputs.recorder.as_ref().map(|r| r.health());
         let dropped = outputs.dropped.load(Ordering::Relaxed);
-        let report = shared.health.report(outputs.header(""), node_name, recording, dropped);
+        let report = shared
+            .health
+            .report(outputs.header(""), node_name, recording, dropped);
         if let Err(e) = publisher.publish(report) {
             eprintln!("[physskin] warn: /diagnostics not published: {e:?}");
         }

@@ -10,8 +10,8 @@ use super::clock::NodeClock;
 use super::cloud::encode_cloud;
 use super::markers::{delete_marker, MarkerSurface};
 use super::messages::{
-    Header, Interaction, MarkerArray, Mesh, MeshStamped, PointCloud2, RosMessage,
-    SkinningWeights, Status, SubspaceState, TFMessage,
+    Header, Interaction, MarkerArray, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights,
+    Status, SubspaceState, TFMessage,
 };
 use super::params::{PublishParams, Topics};
 use crate::bag::{QosProfile, Recorder, TopicInfo};
@@ -153,7 +153,9 @@ impl Outputs {
     /// Counts a publication DDS refused (a reader too far behind); says so on the first and
     /// then every 100th. Not through `report`: a failing status publisher would recurse.
     fn dropped<D>(&self, topic: &str, e: &ros2_client::ros2::WriteError<D>) {
-        let n = self.dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let n = self
+            .dropped
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         if n % 100 == 0 {
             // Display, not Debug: the Debug form carries the whole message.
             eprintln!(

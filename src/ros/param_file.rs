@@ -24,7 +24,11 @@ const QOS_PREFIX: &str = "qos_overrides.";
 
 impl ParamLoader {
     /// Applies the sections of the file at `path` that match `fully_qualified_name`.
-    pub fn apply_file(&mut self, path: &Path, fully_qualified_name: &str) -> Result<(), ParamError> {
+    pub fn apply_file(
+        &mut self,
+        path: &Path,
+        fully_qualified_name: &str,
+    ) -> Result<(), ParamError> {
         let text = std::fs::read_to_string(path).map_err(|e| ParamError::File {
             path: path.display().to_string(),
             reason: e.to_string(),
@@ -87,7 +91,11 @@ impl ParamLoader {
         self.apply_one(name, value, true)
     }
 
-    fn apply_section(&mut self, section: &Map<String, Value>, shared: bool) -> Result<(), ParamError> {
+    fn apply_section(
+        &mut self,
+        section: &Map<String, Value>,
+        shared: bool,
+    ) -> Result<(), ParamError> {
         for (name, value) in flatten(section, "") {
             self.apply_one(&name, value, shared)?;
         }
@@ -109,9 +117,9 @@ impl ParamLoader {
         }
         match self.params.with(name, value) {
             Ok(params) => self.params = params,
-            Err(ParamError::Unknown { name }) if shared => self
-                .warnings
-                .push(format!("parameter `{name}` is not one of this node's: ignored")),
+            Err(ParamError::Unknown { name }) if shared => self.warnings.push(format!(
+                "parameter `{name}` is not one of this node's: ignored"
+            )),
             Err(e) => return Err(e),
         }
         Ok(())

@@ -444,7 +444,12 @@ impl NodeParams {
         ensure(
             self.object_timeout_s >= 0.0 && self.object_timeout_s.is_finite(),
             "object_timeout_s",
-            || format!("{} is not 0 (never) or a positive time", self.object_timeout_s),
+            || {
+                format!(
+                    "{} is not 0 (never) or a positive time",
+                    self.object_timeout_s
+                )
+            },
         )?;
         ensure(self.floor_z.is_finite(), "floor_z", || "not finite".into())?;
         self.solver()?;

@@ -31,9 +31,12 @@ impl QosOverrides {
             reason: reason.into(),
         };
         let mut parts = rest.rsplitn(3, '.');
-        let (Some(policy), Some(endpoint), Some(topic)) = (parts.next(), parts.next(), parts.next())
+        let (Some(policy), Some(endpoint), Some(topic)) =
+            (parts.next(), parts.next(), parts.next())
         else {
-            return Err(invalid("expected qos_overrides.<topic>.<publisher|subscription>.<policy>"));
+            return Err(invalid(
+                "expected qos_overrides.<topic>.<publisher|subscription>.<policy>",
+            ));
         };
         if !topic.starts_with('/') {
             return Err(invalid("the topic must be fully qualified (start with /)"));
@@ -83,19 +86,25 @@ fn apply_one(profile: &mut QosProfile, policy: &str, value: &Value) -> Result<()
         ("reliability" | "durability" | "history", "system_default") => {}
         ("history", "keep_last") => {}
         ("history", "keep_all") => {
-            return Err("keep_all is not offered: the node keeps every history bounded \
+            return Err(
+                "keep_all is not offered: the node keeps every history bounded \
                         (use keep_last with a depth)"
-                .into())
+                    .into(),
+            )
         }
         ("depth", _) => match value.as_u64() {
             Some(depth @ 1..=10_000) => profile.depth = depth as u32,
             _ => return Err(format!("depth {value} is not an integer in 1..=10000")),
         },
         ("reliability", _) => {
-            return Err(format!("{value} is none of reliable, best_effort, system_default"))
+            return Err(format!(
+                "{value} is none of reliable, best_effort, system_default"
+            ))
         }
         ("durability", _) => {
-            return Err(format!("{value} is none of volatile, transient_local, system_default"))
+            return Err(format!(
+                "{value} is none of volatile, transient_local, system_default"
+            ))
         }
         ("history", _) => return Err(format!("{value} is neither keep_last nor system_default")),
         _ => {
@@ -114,14 +123,20 @@ mod tests {
     #[test]
     fn overrides_apply_to_their_topic_and_side_only() {
         let mut o = QosOverrides::default();
-        o.insert("/cell/skin/points.subscription.reliability", "reliable".into())
-            .unwrap();
+        o.insert(
+            "/cell/skin/points.subscription.reliability",
+            "reliable".into(),
+        )
+        .unwrap();
         o.insert("/cell/skin/points.subscription.depth", 20.into())
             .unwrap();
         let base = QosProfile::sensor(5);
         let got = o.apply("/cell/skin/points", Endpoint::Subscription, base);
         assert_eq!(got, QosProfile::reliable(20, false));
-        assert_eq!(o.apply("/cell/skin/points", Endpoint::Publisher, base), base);
+        assert_eq!(
+            o.apply("/cell/skin/points", Endpoint::Publisher, base),
+            base
+        );
         assert_eq!(o.apply("/other", Endpoint::Subscription, base), base);
     }
 

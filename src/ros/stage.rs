@@ -120,7 +120,10 @@ impl Stage {
 
     /// (objects, awake objects), scene objects included.
     pub fn counts(&self) -> (usize, usize) {
-        let scene: Vec<bool> = self.scene_bodies().map(|(_, _, b)| b.is_sleeping()).collect();
+        let scene: Vec<bool> = self
+            .scene_bodies()
+            .map(|(_, _, b)| b.is_sleeping())
+            .collect();
         let asleep = scene.iter().filter(|s| **s).count();
         let all = self.bodies.len() + scene.len();
         (all, all - asleep)
@@ -260,7 +263,10 @@ impl Stage {
             return;
         };
         while let Some(i) = self.last_seen.iter().position(|&t| now - t > timeout) {
-            let why = format!("no input for {:.1} s", (now - self.last_seen[i]) as f64 / 1e9);
+            let why = format!(
+                "no input for {:.1} s",
+                (now - self.last_seen[i]) as f64 / 1e9
+            );
             self.remove_at(i, outputs, &why);
         }
     }
@@ -301,7 +307,11 @@ impl Stage {
             .iter_mut()
             .map(|b| (b.id, b.frame.as_str(), &mut b.body))
             .chain(scene_bodies);
-        let acted = Acted { filter, point, force };
+        let acted = Acted {
+            filter,
+            point,
+            force,
+        };
         interact(bodies, i, &acted, outputs)
     }
 

@@ -54,7 +54,9 @@ impl TfBuffer {
         let (parent, child) = (t.header.frame_id.clone(), t.child_frame_id.clone());
         let (p, q) = (&t.transform.translation, &t.transform.rotation);
         let quaternion = Quaternion::new(q.w, q.x, q.y, q.z);
-        let finite = [p.x, p.y, p.z, q.x, q.y, q.z, q.w].iter().all(|v| v.is_finite());
+        let finite = [p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+            .iter()
+            .all(|v| v.is_finite());
         if !finite || quaternion.norm() < 1e-9 {
             return Err(TfError::NotFinite { parent, child });
         }
@@ -200,16 +202,34 @@ mod tests {
     fn an_optical_frame_maps_forward_to_world_x_and_down_to_world_minus_z() {
         let mut buffer = TfBuffer::new(10.0);
         buffer
-            .insert(&tf("world", "camera_link", 0.0, [0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 1.0]), true)
+            .insert(
+                &tf(
+                    "world",
+                    "camera_link",
+                    0.0,
+                    [0.0, 0.0, 0.5],
+                    [0.0, 0.0, 0.0, 1.0],
+                ),
+                true,
+            )
             .unwrap();
         buffer
-            .insert(&tf("camera_link", "camera_optical", 0.0, [0.0; 3], OPTICAL), true)
+            .insert(
+                &tf("camera_link", "camera_optical", 0.0, [0.0; 3], OPTICAL),
+                true,
+            )
             .unwrap();
         let t = buffer.lookup("world", "camera_optical", 5).unwrap();
         let ahead = t * Point3::new(0.0, 0.0, 1.0);
-        assert!((ahead.coords - Vector3::new(1.0, 0.0, 0.5)).norm() < 1e-12, "{ahead}");
+        assert!(
+            (ahead.coords - Vector3::new(1.0, 0.0, 0.5)).norm() < 1e-12,
+            "{ahead}"
+        );
         let below = t * Point3::new(0.0, 1.0, 0.0);
-        assert!((below.coords - Vector3::new(0.0, 0.0, -0.5)).norm() < 1e-12, "{below}");
+        assert!(
+            (below.coords - Vector3::new(0.0, 0.0, -0.5)).norm() < 1e-12,
+            "{below}"
+        );
         // And back: world into the optical frame.
         let back = buffer.lookup("camera_optical", "world", 0).unwrap() * ahead;
         assert!((back.coords - Vector3::new(0.0, 0.0, 1.0)).norm() < 1e-12);
@@ -219,8 +239,12 @@ mod tests {
     fn dynamic_transforms_interpolate_and_refuse_extrapolation() {
         let mut buffer = TfBuffer::new(10.0);
         let id = [0.0, 0.0, 0.0, 1.0];
-        buffer.insert(&tf("odom", "base", 1.0, [0.0; 3], id), false).unwrap();
-        buffer.insert(&tf("odom", "base", 2.0, [1.0, 0.0, 0.0], id), false).unwrap();
+        buffer
+            .insert(&tf("odom", "base", 1.0, [0.0; 3], id), false)
+            .unwrap();
+        buffer
+            .insert(&tf("odom", "base", 2.0, [1.0, 0.0, 0.0], id), false)
+            .unwrap();
         let half = buffer.lookup("odom", "base", 1_500_000_000).unwrap();
         assert!((half.translation.vector.x - 0.5).abs() < 1e-12);
         let latest = buffer.lookup("odom", "base", 0).unwrap();
@@ -228,11 +252,15 @@ mod tests {
         let e = buffer.lookup("odom", "base", 3_000_000_000).unwrap_err();
         assert!(matches!(e, TfError::Extrapolation { .. }), "{e}");
         // Siblings meet at their common parent.
-        buffer.insert(&tf("odom", "arm", 0.0, [0.0, 2.0, 0.0], id), true).unwrap();
+        buffer
+            .insert(&tf("odom", "arm", 0.0, [0.0, 2.0, 0.0], id), true)
+            .unwrap();
         let t = buffer.lookup("arm", "base", 2_000_000_000).unwrap();
         assert!((t.translation.vector - Vector3::new(1.0, -2.0, 0.0)).norm() < 1e-12);
         // Samples older than the buffer are dropped.
-        buffer.insert(&tf("odom", "base", 20.0, [2.0, 0.0, 0.0], id), false).unwrap();
+        buffer
+            .insert(&tf("odom", "base", 20.0, [2.0, 0.0, 0.0], id), false)
+            .unwrap();
         assert!(buffer.lookup("odom", "base", 1_500_000_000).is_err());
     }
 
@@ -240,8 +268,12 @@ mod tests {
     fn unknown_and_disconnected_frames_are_named() {
         let mut buffer = TfBuffer::new(10.0);
         let id = [0.0, 0.0, 0.0, 1.0];
-        buffer.insert(&tf("a", "b", 0.0, [0.0; 3], id), true).unwrap();
-        buffer.insert(&tf("c", "d", 0.0, [0.0; 3], id), true).unwrap();
+        buffer
+            .insert(&tf("a", "b", 0.0, [0.0; 3], id), true)
+            .unwrap();
+        buffer
+            .insert(&tf("c", "d", 0.0, [0.0; 3], id), true)
+            .unwrap();
         let e = buffer.lookup("a", "camera", 0).unwrap_err().to_string();
         assert!(e.contains("camera"), "{e}");
         let e = buffer.lookup("a", "d", 0).unwrap_err().to_string();
