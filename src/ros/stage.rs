@@ -287,8 +287,8 @@ impl Stage {
         if i.kind == Interaction::REMOVE {
             return self.remove_matching(i, outputs);
         }
-        let (filter, point, force) = match self.in_simulation_frame(i) {
-            Ok(placed) => placed,
+        let acted = match self.in_simulation_frame(i) {
+            Ok(acted) => acted,
             Err(problem) => {
                 return outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem)
             }
@@ -307,11 +307,6 @@ impl Stage {
             .iter_mut()
             .map(|b| (b.id, b.frame.as_str(), &mut b.body))
             .chain(scene_bodies);
-        let acted = Acted {
-            filter,
-            point,
-            force,
-        };
         interact(bodies, i, &acted, outputs)
     }
 
@@ -337,28 +332,38 @@ impl Stage {
 
     /// The interaction's point and force in the frame objects are simulated in, and the input
     /// frame it is limited to (None: any object, by shape id).
-    fn in_simulation_frame(
-        &self,
-        i: &Interaction,
-    ) -> Result<(Option<String>, Vector3<f64>, Vector3<f64>), String> {
+    fn in_simulation_frame(&self, i: &Interaction) -> Result<Acted, String> {
         let point = Vector3::new(i.point.x, i.point.y, i.point.z);
         let force = Vector3::new(i.force.x, i.force.y, i.force.z);
         let frame = &i.header.frame_id;
         let fixed = &self.options.fixed_frame;
         if fixed.is_empty() {
-            return Ok(((!frame.is_empty()).then(|| frame.clone()), point, force));
+            let filter = (!frame.is_empty()).then(|| frame.clone());
+            return Ok(Acted {
+                filter,
+                point,
+                force,
+            });
         }
         let names_an_object = self.bodies.iter().any(|b| &b.frame == frame);
         let filter = names_an_object.then(|| frame.clone());
         if frame.is_empty() || frame == fixed {
-            return Ok((filter, point, force));
+            return Ok(Acted {
+                filter,
+                point,
+                force,
+            });
         }
         let tf = self.options.tf.as_ref().ok_or("no tf buffer")?;
         let tf = tf.read().map_err(|_| "the tf buffer is poisoned")?;
         let t = tf.lookup(fixed, frame, 0).map_err(|e| {
             format!("no transform from `{frame}` to the fixed frame `{fixed}`: {e}")
         })?;
-        Ok((filter, (t * Point3::from(point)).coords, t.rotation * force))
+        Ok(Acted {
+            filter,
+            point: (t * Point3::from(point)).coords,
+            force: t.rotation * force,
+        })
     }
 }
 
