@@ -124,7 +124,7 @@ impl BuildRequest {
     }
 
     /// The refusal of an input whose frame cannot be placed in `fixed`.
-    pub fn no_transform(&self, fixed: &str, e: &TfError) -> String {
+    fn no_transform(&self, fixed: &str, e: &TfError) -> String {
         format!(
             "{} in frame `{}`: no transform from `{}` to `{fixed}` at {:.3} s: {e}",
             self.source,
@@ -173,14 +173,6 @@ pub struct Builder {
 }
 
 impl Builder {
-    /// A builder whose first id follows `reserved` ids (those of a scene's objects).
-    pub fn after_reserved_ids(reserved: u32) -> Self {
-        Self {
-            next_id: reserved,
-            ..Self::default()
-        }
-    }
-
     /// Ids up to `reserved` belong to others (a scene's objects): new ids follow them.
     pub fn reserve_ids(&mut self, reserved: u32) {
         self.next_id = self.next_id.max(reserved);

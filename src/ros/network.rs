@@ -4,20 +4,15 @@
 //! come), with the node on 127.0.0.1 or not, with Fast DDS on UDPv4 only, and with multicast on
 //! lo. The node cannot fix that from its side, so it says so at start, with what to do.
 
-/// The choice, with what to tell the user.
-pub struct NetworkChoice {
-    pub loopback_only: bool,
-    pub warnings: Vec<String>,
-}
-
 /// What to do on a loopback-only host: give it an interface that is not loopback.
 const FIX: &str = "bring up an interface besides loopback, e.g. `ip link add physskin0 type \
      veth peer name physskin1 && ip addr add 10.213.0.1/24 dev physskin0 && ip link set \
      physskin0 up && ip link set physskin1 up && ip route add 224.0.0.0/4 dev physskin0` (as \
      tests/peers/private_net.sh does)";
 
-/// Loopback only when asked; warnings when the host or the environment keep DDS on loopback.
-pub fn choose(asked: bool) -> NetworkChoice {
+/// What to tell the user when the host or the environment keep DDS on loopback (`asked`: the
+/// node itself was told to keep to 127.0.0.1).
+pub fn warnings(asked: bool) -> Vec<String> {
     let mut warnings = Vec::new();
     let env = |name: &str| std::env::var(name).unwrap_or_default();
     if env("ROS_LOCALHOST_ONLY") == "1" || env("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST" {
@@ -36,10 +31,7 @@ pub fn choose(asked: bool) -> NetworkChoice {
              loopback alone); {FIX}"
         ));
     }
-    NetworkChoice {
-        loopback_only: asked,
-        warnings,
-    }
+    warnings
 }
 
 /// How many interfaces other than loopback are up with an IPv4 address, in this process's

@@ -244,8 +244,8 @@ pub fn run_node(
         })?;
     let p = config.params.clone();
     let topics = p.topics.resolved(&config.names)?;
-    let network = super::network::choose(config.loopback_only);
-    let context = context(config.domain_id, network.loopback_only)?;
+    let network_warnings = super::network::warnings(config.loopback_only);
+    let context = context(config.domain_id, config.loopback_only)?;
     let params = Arc::new(RwLock::new(p.clone()));
     let mut node = create_node(&context, &config, &params)?;
     let qos = QosTable {
@@ -275,7 +275,7 @@ pub fn run_node(
         dropped: Default::default(),
     });
     outputs.declare_topics();
-    for warning in config.warnings.iter().chain(&network.warnings) {
+    for warning in config.warnings.iter().chain(&network_warnings) {
         outputs.report(Status::WARN, 0, "node_warning", warning.clone());
     }
     let scene_file = if p.scene.is_empty() {
