@@ -90,6 +90,10 @@ enum BenchCommand {
         /// ROS domain for the run (keeps it apart from other runs on this machine).
         #[arg(long, default_value_t = 77)]
         domain_id: u16,
+        /// A Python with rclpy (Fast DDS) and sensor_msgs, e.g. target/ros-venv/bin/python (made
+        /// by the ROS tests): adds the rclpy case, a cloud from rclpy to an rclpy subscriber.
+        #[arg(long)]
+        rclpy_python: Option<std::path::PathBuf>,
     },
     /// A 100k-point deformed cloud delivered each frame over iceoryx2 and over DDS (run it in a
     /// private network namespace: `unshare -n tests/peers/private_net.sh`).
@@ -220,7 +224,11 @@ fn main() -> ExitCode {
             plot: "target/bench/sim.svg".into(),
         }) {
             BenchCommand::Sim { quick, json, plot } => run_bench_sim(quick, json, &plot),
-            BenchCommand::Latency { json, domain_id } => run_bench_latency(json, domain_id),
+            BenchCommand::Latency {
+                json,
+                domain_id,
+                rclpy_python,
+            } => run_bench_latency(json, domain_id, rclpy_python.as_deref()),
             BenchCommand::Replay { json } => run_bench_replay(json),
             BenchCommand::Scene { json, seconds } => cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
@@ -404,8 +412,14 @@ fn run_bench_replay(json: bool) -> physskin::Result<()> {
     Ok(())
 }
 
-fn run_bench_latency(json: bool, domain_id: u16) -> physskin::Result<()> {
-    let r = physskin::bench::run_latency_bench(domain_id, |line| eprintln!("{line}"))?;
+fn run_bench_latency(
+    json: bool,
+    domain_id: u16,
+    rclpy_python: Option<&std::path::Path>,
+) -> physskin::Result<()> {
+    let r = physskin::bench::run_latency_bench(domain_id, rclpy_python, |line| {
+        eprintln!("{line}")
+    })?;
     if json {
         cli::print_json(&r);
     } else {
@@ -417,6 +431,16 @@ fn run_bench_latency(json: bool, domain_id: u16) -> physskin::Result<()> {
             "first deformed cloud after a new 100k-point cloud  {:8.1} ms",
             r.latency_100k_ms
         );
+        match &r.rclpy {
+            Some(p) => println!(
+                "the same ~10k cloud, rclpy to rclpy (Fast DDS)     {:8.1} ms first, median {:.1} ms, max {:.1} ms of {}",
+                p.first_ms,
+                p.median_ms,
+                p.max_ms,
+                p.latencies_ms.len()
+            ),
+            None => println!("rclpy case not run (give --rclpy-python)"),
+        }
         println!(
             "publish jitter at {} Hz while shapes are inferred   p99 {:.3} ms, max {:.3} ms ({} intervals)",
             r.rate_hz, r.jitter_p99_ms, r.jitter_max_ms, r.jitter_intervals

@@ -1,6 +1,7 @@
 //! `bench latency`: a cloud published until its first deformed cloud comes back, through DDS on
 //! loopback, and the publish jitter of a running object while another shape is inferred.
 
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -13,6 +14,7 @@ use crate::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
 use crate::ros::cloud::encode_cloud;
 use crate::ros::messages::{Header, PointCloud2};
 use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use crate::ros::params::Topics;
 use crate::skinning::NeuralModel;
 use crate::{Error, Result};
 
@@ -20,6 +22,9 @@ use crate::{Error, Result};
 pub struct LatencyReport {
     pub latency_10k_ms: f64,
     pub latency_100k_ms: f64,
+    /// The same 10k-point cloud from rclpy (Fast DDS) to an rclpy subscriber; absent when the
+    /// bench was not given a Python with rclpy.
+    pub rclpy: Option<RclpyLatency>,
     /// p99 of |interval - period| between the publish times (header stamps, taken by the step
     /// thread as it publishes) of a running shape's deformed clouds, ms.
     pub jitter_p99_ms: f64,
@@ -31,34 +36,48 @@ pub struct LatencyReport {
     pub rate_hz: f64,
 }
 
+/// tests/peers/latency_peer.py's figures: each repeat a new ~10k-point cloud published once
+/// rclpy's publisher and subscription had both matched the node's.
+#[derive(Clone, Debug, Serialize)]
+pub struct RclpyLatency {
+    /// The first repeat, ms.
+    pub first_ms: f64,
+    pub median_ms: f64,
+    pub max_ms: f64,
+    /// Every repeat, ms.
+    pub latencies_ms: Vec<f64>,
+    /// From the peer's start until both directions matched, ms.
+    pub match_ms: f64,
+}
+
 /// `count` points on the surface of a bundled shape, as a PointCloud2 in `frame`.
 pub fn sample_cloud(shape: &str, count: usize, frame: &str, seed: u64) -> PointCloud2 {
-    let shape = bundled(shape).expect("a bundled shape");
-    let grid = VoxelGrid::from_shape(&shape, 64, None);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let samples = sample_surface(
-        &shape,
-        &grid,
-        &SurfaceSampling {
-            count,
-            ..Default::default()
-        },
-        &mut rng,
-    );
-    let xyz: Vec<f32> = samples
-        .points
-        .iter()
-        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
-        .collect();
     encode_cloud(
         Header {
             frame_id: frame.into(),
             ..Header::default()
         },
-        &xyz,
+        &sample_xyz(shape, count, seed),
         &[],
         &[],
     )
+}
+
+/// `count` points on the surface of a bundled shape, x, y, z after each other.
+fn sample_xyz(shape: &str, count: usize, seed: u64) -> Vec<f32> {
+    let shape = bundled(shape).expect("a bundled shape");
+    let grid = VoxelGrid::from_shape(&shape, 64, None);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let sampling = SurfaceSampling {
+        count,
+        ..Default::default()
+    };
+    let samples = sample_surface(&shape, &grid, &sampling, &mut rng);
+    samples
+        .points
+        .iter()
+        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect()
 }
 
 /// Network interfaces that would let DDS traffic leave this machine, if any. The bench runs only
@@ -74,8 +93,13 @@ pub(crate) fn open_interfaces() -> Vec<String> {
         .collect()
 }
 
-/// Runs the node in this process and a client beside it, in a private network namespace.
-pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyReport> {
+/// Runs the node in this process and a client beside it, in a private network namespace; with
+/// `rclpy_python` (a Python that imports rclpy and sensor_msgs), also an rclpy peer.
+pub fn run_latency_bench(
+    domain_id: u16,
+    rclpy_python: Option<&Path>,
+    log: impl Fn(&str),
+) -> Result<LatencyReport> {
     let open = open_interfaces();
     if !open.is_empty() {
         return Err(dds(format!(
@@ -99,85 +123,30 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
         std::thread::spawn(move || run_node(config, model, stop))
     };
     let result = (|| {
-        let ctx = context(domain_id, false)?;
-        let mut client = client_node(&ctx, "physskin_bench")?;
-        let points = publisher::<PointCloud2>(&mut client, &topics.points, reliable_qos(5, false))?;
-        let deformed = subscription::<PointCloud2>(
-            &mut client,
-            &topics.deformed_points,
-            reliable_qos(50, false),
-        )?;
-        let spinner = client.spinner().map_err(|e| dds(format!("{e:?}")))?;
-        std::thread::spawn(move || smol::block_on(spinner.spin()));
-        // Wait for discovery both ways before timing anything.
-        smol::block_on(async {
-            smol::future::race(
-                async {
-                    points.wait_for_subscription(&client).await;
-                    deformed.wait_for_publisher(&client).await;
-                },
-                async {
-                    smol::Timer::after(Duration::from_secs(20)).await;
-                },
-            )
-            .await
-        });
-        let receive = |timeout: Duration| -> Option<(PointCloud2, Instant)> {
-            let deadline = Instant::now() + timeout;
-            while Instant::now() < deadline {
-                if let Ok(Some((m, _))) = deformed.take() {
-                    return Some((m, Instant::now()));
-                }
-                std::thread::sleep(Duration::from_micros(200));
-            }
-            None
-        };
-        let latency = |count: usize, frame: &str, seed: u64| -> Result<f64> {
-            let cloud = sample_cloud("creature", count, frame, seed);
-            while deformed.take().ok().flatten().is_some() {}
-            let sent = Instant::now();
-            points.publish(cloud).map_err(|e| dds(format!("{e:?}")))?;
-            loop {
-                let (m, at) = receive(Duration::from_secs(30)).ok_or_else(|| {
-                    dds(format!(
-                        "no deformed cloud for the {count}-point cloud within 30 s"
-                    ))
-                })?;
-                if m.header.frame_id == frame && m.width as usize == count {
-                    return Ok((at - sent).as_secs_f64() * 1e3);
-                }
-            }
-        };
-        // A warm-up shape first: the first inference pays for allocations.
+        let client = Client::start(domain_id, &topics)?;
         // A warm-up shape first (the first inference pays for allocations), replaced in its
         // frame by the measured one, so one 10k shape runs during the jitter phase.
-        latency(9_999, "cloud_10k", 1)?;
-        let l10k = latency(10_000, "cloud_10k", 2)?;
+        client.latency(&sample_cloud("creature", 9_999, "cloud_10k", 1))?;
+        let l10k = client.latency(&sample_cloud("creature", 10_000, "cloud_10k", 2))?;
         log(&format!(
             "10k points: first deformed cloud after {l10k:.1} ms"
         ));
-
-        // Jitter: intervals of the 10k shape's clouds while new shapes are inferred.
-        let mut arrivals = Vec::new();
-        let until = Instant::now() + Duration::from_secs(4);
-        let mut next_shape = Instant::now();
-        let mut seed = 10;
-        while Instant::now() < until {
-            if Instant::now() >= next_shape {
-                points
-                    .publish(sample_cloud("plate", 10_000, "other", seed))
-                    .map_err(|e| dds(format!("{e:?}")))?;
-                seed += 1;
-                next_shape += Duration::from_millis(500);
+        let rclpy = match rclpy_python {
+            Some(python) => {
+                let r = rclpy_latency(python, &topics, domain_id, "cloud_10k", 2)?;
+                log(&format!(
+                    "rclpy, ~10k points: first deformed cloud after {:.1} ms (median of {} {:.1} ms)",
+                    r.first_ms,
+                    r.latencies_ms.len(),
+                    r.median_ms
+                ));
+                Some(r)
             }
-            if let Some((m, at)) = receive(Duration::from_millis(50)) {
-                if m.header.frame_id == "cloud_10k" {
-                    arrivals.push((m.header.stamp.nanos(), at));
-                }
-            }
-        }
+            None => None,
+        };
+        let arrivals = client.arrivals_while_inferring(Duration::from_secs(4))?;
         // Last, so its 100k-point frames do not load the jitter phase.
-        let l100k = latency(100_000, "cloud_100k", 3)?;
+        let l100k = client.latency(&sample_cloud("creature", 100_000, "cloud_100k", 3))?;
         log(&format!(
             "100k points: first deformed cloud after {l100k:.1} ms"
         ));
@@ -188,32 +157,17 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
             )));
         }
         let period = 1e3 / rate_hz;
-        // (p99, max) of |interval - period| over consecutive times, ms.
-        let jitter = |times_ms: Vec<f64>| -> (f64, f64) {
-            let mut d: Vec<f64> = times_ms
-                .windows(2)
-                .map(|w| (w[1] - w[0] - period).abs())
-                .collect();
-            d.sort_by(f64::total_cmp);
-            let p99 = d[((d.len() as f64 * 0.99).ceil() as usize).min(d.len()) - 1];
-            (p99, *d.last().unwrap_or(&f64::NAN))
-        };
         let start = arrivals[0].1;
-        let published = jitter(
-            arrivals
-                .iter()
-                .map(|(stamp, _)| *stamp as f64 / 1e6)
-                .collect(),
-        );
-        let received = jitter(
-            arrivals
-                .iter()
-                .map(|(_, at)| (*at - start).as_secs_f64() * 1e3)
-                .collect(),
-        );
+        let stamps = arrivals.iter().map(|(stamp, _)| *stamp as f64 / 1e6);
+        let received = arrivals
+            .iter()
+            .map(|(_, at)| (*at - start).as_secs_f64() * 1e3);
+        let published = jitter(stamps.collect(), period);
+        let received = jitter(received.collect(), period);
         Ok(LatencyReport {
             latency_10k_ms: l10k,
             latency_100k_ms: l100k,
+            rclpy,
             jitter_p99_ms: published.0,
             jitter_max_ms: published.1,
             receive_jitter_p99_ms: received.0,
@@ -225,6 +179,166 @@ pub fn run_latency_bench(domain_id: u16, log: impl Fn(&str)) -> Result<LatencyRe
     stop.store(true, Ordering::Relaxed);
     let _ = node.join();
     result
+}
+
+/// (p99, max) of |interval - period| over consecutive times, ms.
+fn jitter(times_ms: Vec<f64>, period: f64) -> (f64, f64) {
+    let mut d: Vec<f64> = times_ms
+        .windows(2)
+        .map(|w| (w[1] - w[0] - period).abs())
+        .collect();
+    d.sort_by(f64::total_cmp);
+    let p99 = d[((d.len() as f64 * 0.99).ceil() as usize).min(d.len()) - 1];
+    (p99, *d.last().unwrap_or(&f64::NAN))
+}
+
+/// The bench's own ros2-client node: a points publisher and a deformed-points subscription.
+struct Client {
+    /// Kept alive for as long as its endpoints are used.
+    _node: ros2_client::Node,
+    points: ros2_client::Publisher<PointCloud2>,
+    deformed: ros2_client::Subscription<PointCloud2>,
+}
+
+impl Client {
+    /// Both directions matched with the node (or 20 s gone).
+    fn start(domain_id: u16, topics: &Topics) -> Result<Self> {
+        let ctx = context(domain_id, false)?;
+        let mut node = client_node(&ctx, "physskin_bench")?;
+        let points = publisher::<PointCloud2>(&mut node, &topics.points, reliable_qos(5, false))?;
+        let deformed = subscription::<PointCloud2>(
+            &mut node,
+            &topics.deformed_points,
+            reliable_qos(50, false),
+        )?;
+        let spinner = node.spinner().map_err(|e| dds(format!("{e:?}")))?;
+        std::thread::spawn(move || smol::block_on(spinner.spin()));
+        smol::block_on(async {
+            smol::future::race(
+                async {
+                    points.wait_for_subscription(&node).await;
+                    deformed.wait_for_publisher(&node).await;
+                },
+                async {
+                    smol::Timer::after(Duration::from_secs(20)).await;
+                },
+            )
+            .await
+        });
+        Ok(Self {
+            _node: node,
+            points,
+            deformed,
+        })
+    }
+
+    fn publish(&self, cloud: PointCloud2) -> Result<()> {
+        self.points
+            .publish(cloud)
+            .map_err(|e| dds(format!("{e:?}")))
+    }
+
+    fn receive(&self, timeout: Duration) -> Option<(PointCloud2, Instant)> {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if let Ok(Some((m, _))) = self.deformed.take() {
+                return Some((m, Instant::now()));
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        None
+    }
+
+    /// ms from publishing `cloud` to its first deformed cloud (told by frame and width).
+    fn latency(&self, cloud: &PointCloud2) -> Result<f64> {
+        while self.deformed.take().ok().flatten().is_some() {}
+        let sent = Instant::now();
+        self.publish(cloud.clone())?;
+        loop {
+            let (m, at) = self.receive(Duration::from_secs(30)).ok_or_else(|| {
+                dds(format!(
+                    "no deformed cloud for the {}-point cloud within 30 s",
+                    cloud.width
+                ))
+            })?;
+            if m.header.frame_id == cloud.header.frame_id && m.width == cloud.width {
+                return Ok((at - sent).as_secs_f64() * 1e3);
+            }
+        }
+    }
+
+    /// (stamp ns, arrival) of the "cloud_10k" shape's deformed clouds for `span`, while a new
+    /// 10k-point shape is published every 500 ms in another frame.
+    fn arrivals_while_inferring(&self, span: Duration) -> Result<Vec<(i64, Instant)>> {
+        let mut arrivals = Vec::new();
+        let until = Instant::now() + span;
+        let mut next_shape = Instant::now();
+        let mut seed = 10;
+        while Instant::now() < until {
+            if Instant::now() >= next_shape {
+                self.publish(sample_cloud("plate", 10_000, "other", seed))?;
+                seed += 1;
+                next_shape += Duration::from_millis(500);
+            }
+            if let Some((m, at)) = self.receive(Duration::from_millis(50)) {
+                if m.header.frame_id == "cloud_10k" {
+                    arrivals.push((m.header.stamp.nanos(), at));
+                }
+            }
+        }
+        Ok(arrivals)
+    }
+}
+
+/// Runs tests/peers/latency_peer.py with `python` on the bench's 10k-point cloud (seed), sent in
+/// `frame` where the in-process case left an object of 10,000 points.
+fn rclpy_latency(
+    python: &Path,
+    topics: &Topics,
+    domain_id: u16,
+    frame: &str,
+    seed: u64,
+) -> Result<RclpyLatency> {
+    let peer = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/latency_peer.py");
+    let file = std::env::temp_dir().join(format!("physskin-latency-{}.f32", std::process::id()));
+    let xyz = sample_xyz("creature", 10_000, seed);
+    let bytes: Vec<u8> = xyz.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(&file, bytes).map_err(|e| dds(format!("{}: {e}", file.display())))?;
+    let out = std::process::Command::new(python)
+        .arg(&peer)
+        .args([&topics.points, &topics.deformed_points])
+        .arg(&file)
+        .args([frame, "7"])
+        .env("ROS_DOMAIN_ID", domain_id.to_string())
+        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+        .output();
+    let _ = std::fs::remove_file(&file);
+    let out = out.map_err(|e| dds(format!("{} {}: {e}", python.display(), peer.display())))?;
+    if !out.status.success() {
+        return Err(dds(format!(
+            "the rclpy peer failed ({}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr).trim()
+        )));
+    }
+    #[derive(serde::Deserialize)]
+    struct PeerOutput {
+        latency_ms: Vec<f64>,
+        match_ms: f64,
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = stdout.lines().last().unwrap_or_default();
+    let peer: PeerOutput = serde_json::from_str(line)
+        .map_err(|e| dds(format!("the rclpy peer printed {line:?}: {e}")))?;
+    let mut sorted = peer.latency_ms.clone();
+    sorted.sort_by(f64::total_cmp);
+    Ok(RclpyLatency {
+        first_ms: peer.latency_ms[0],
+        median_ms: sorted[sorted.len() / 2],
+        max_ms: *sorted.last().expect("seven repeats"),
+        latencies_ms: peer.latency_ms,
+        match_ms: peer.match_ms,
+    })
 }
 
 pub(crate) fn dds(message: String) -> Error {

@@ -15,7 +15,7 @@ pub use fields::{
     evaluate_fields, interior_points, prepare_input, EvalMean, EvalOptions, EvalReport,
     PreparedInput, ShapeEval,
 };
-pub use latency::{run_latency_bench, sample_cloud, LatencyReport};
+pub use latency::{run_latency_bench, sample_cloud, LatencyReport, RclpyLatency};
 pub use replay::{run_replay_bench, ReplayBenchReport};
 pub use scene::{
     run_scene, run_scene_bench, SceneBenchReport, SceneRun, SceneRunOptions, WORKCELL,

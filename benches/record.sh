@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Runs a bench that prints JSON and keeps what it printed as benches/results/NAME.json, with the
+# command, the commit (`-dirty` when the tree had changes), the date and the machine, so every
+# figure quoted in the README and docs names where it came from.
+# Usage: benches/record.sh NAME COMMAND...
+set -euo pipefail
+name=$1
+shift
+cd "$(dirname "$0")/.."
+out=benches/results/$name.json
+printed=$(mktemp)
+trap 'rm -f "$printed"' EXIT
+"$@" >"$printed"
+python3 - "$out" "$printed" "$*" <<'PY'
+import json, os, platform, subprocess, sys, datetime
+out, printed, command = sys.argv[1:4]
+commit = subprocess.run(["git", "describe", "--always", "--dirty"], capture_output=True, text=True).stdout.strip()
+record = {
+    "command": command,
+    "commit": commit,
+    "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+    "machine": f"{platform.machine()}, {os.cpu_count()} cores",
+    "result": json.load(open(printed)),
+}
+json.dump(record, open(out, "w"), indent=2)
+print(f"wrote {out}")
+PY
