@@ -37,7 +37,8 @@ pub struct LatencyReport {
 }
 
 /// tests/peers/latency_peer.py's figures: each repeat a new ~10k-point cloud published once
-/// rclpy's publisher and subscription had both matched the node's.
+/// rclpy's publisher and subscription had both matched the node's and the running object's
+/// deformed clouds were arriving.
 #[derive(Clone, Debug, Serialize)]
 pub struct RclpyLatency {
     /// The first repeat, ms.
@@ -46,8 +47,11 @@ pub struct RclpyLatency {
     pub max_ms: f64,
     /// Every repeat, ms.
     pub latencies_ms: Vec<f64>,
-    /// From the peer's start until both directions matched, ms.
+    /// From the peer's start until rclpy counted the node's endpoints both ways, ms.
     pub match_ms: f64,
+    /// From then until the running object's first deformed cloud reached rclpy, ms: the node's
+    /// writer matches rclpy's reader later than rclpy's counts say.
+    pub first_data_ms: f64,
 }
 
 /// `count` points on the surface of a bundled shape, as a PointCloud2 in `frame`.
@@ -325,6 +329,7 @@ fn rclpy_latency(
     struct PeerOutput {
         latency_ms: Vec<f64>,
         match_ms: f64,
+        first_data_ms: f64,
     }
     let stdout = String::from_utf8_lossy(&out.stdout);
     let line = stdout.lines().last().unwrap_or_default();
@@ -338,6 +343,7 @@ fn rclpy_latency(
         max_ms: *sorted.last().expect("seven repeats"),
         latencies_ms: peer.latency_ms,
         match_ms: peer.match_ms,
+        first_data_ms: peer.first_data_ms,
     })
 }
 
