@@ -417,9 +417,8 @@ fn run_bench_latency(
     domain_id: u16,
     rclpy_python: Option<&std::path::Path>,
 ) -> physskin::Result<()> {
-    let r = physskin::bench::run_latency_bench(domain_id, rclpy_python, |line| {
-        eprintln!("{line}")
-    })?;
+    let r =
+        physskin::bench::run_latency_bench(domain_id, rclpy_python, |line| eprintln!("{line}"))?;
     if json {
         cli::print_json(&r);
     } else {

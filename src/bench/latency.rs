@@ -13,8 +13,8 @@ use serde::Serialize;
 use crate::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
 use crate::ros::cloud::encode_cloud;
 use crate::ros::messages::{Header, PointCloud2};
-use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
 use crate::ros::params::Topics;
+use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
 use crate::skinning::NeuralModel;
 use crate::{Error, Result};
 

@@ -35,6 +35,7 @@ pub fn run(args: InferArgs) -> Result<()> {
     };
     let raw = load_geometry(&args.input)?;
     let shape = Shape::from_raw(raw.clone())?;
+    shape.check_solid()?;
     let map = shape.normalization();
     let prepare_started = Instant::now();
     let input = prepare_input(&shape, 4096, 4096);

@@ -1,21 +1,25 @@
 //! Geometry in: loaders, the normalized frame, surface and interior sampling, the voxel inside
 //! test, cubature and tetrahedral meshes of the interior.
 
+mod completion;
 mod cubature;
 mod mesh_io;
 mod point_index;
 mod primitives;
 mod sampling;
+mod scan;
 mod shape;
 mod tetmesh;
 mod voxel;
 
+pub use completion::{complete_view, Completed, Completion, CompletionError};
 pub use cubature::{stratified_subset, Cubature};
 pub use mesh_io::{
     load_geometry, parse_obj, parse_ply, parse_stl, write_obj, write_ply, LoadError, RawGeometry,
 };
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
 pub use sampling::{median_spacing, sample_surface, SurfaceSamples, SurfaceSampling};
+pub use scan::{scan, scan_points, Camera};
 pub use shape::{content_hash, Normalization, Shape};
 pub use tetmesh::{TetLocation, TetMesh};
 pub use voxel::VoxelGrid;

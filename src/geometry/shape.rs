@@ -48,6 +48,11 @@ pub struct Shape {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// Objects from 1 mm to 1 km across: outside, the input is almost surely in another unit.
+const SIZE_RANGE_M: (f64, f64) = (1e-3, 1e3);
+/// Below this fraction of its length, a side counts as zero: the points lie on a line or plane.
+const FLAT: f64 = 1e-3;
+
 impl Shape {
     /// Validates and converts loaded geometry: finite coordinates, indices in range, a non-degenerate extent.
     pub fn from_raw(raw: RawGeometry) -> Result<Self> {
@@ -107,6 +112,77 @@ impl Shape {
             ));
         }
         Ok(shape)
+    }
+
+    /// Refuses geometry that is not a solid of a size in metres, naming why: voxelizing a line,
+    /// a plane or a micrometre object would build a body from voxels the input never had.
+    pub fn check_solid(&self) -> Result<()> {
+        self.check_faces()?;
+        let n = self.positions.len() as f64;
+        let mean = self.positions.iter().sum::<Vector3<f64>>() / n;
+        let covariance = self
+            .positions
+            .iter()
+            .map(|p| (p - mean) * (p - mean).transpose())
+            .sum::<nalgebra::Matrix3<f64>>()
+            / n;
+        let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
+        let mut extents: Vec<f64> = (0..3)
+            .map(|a| {
+                let along = self.positions.iter().map(|p| p.dot(&axes.column(a)));
+                let (lo, hi) = along.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                    (lo.min(x), hi.max(x))
+                });
+                hi - lo
+            })
+            .collect();
+        extents.sort_by(|a, b| b.total_cmp(a));
+        let [length, width, thickness] = [extents[0], extents[1], extents[2]];
+        let refuse = |why: String| Err(Error::Geometry(why));
+        if length < SIZE_RANGE_M.0 {
+            return refuse(format!(
+                "the object is {length:.3e} m across, smaller than 1 mm: positions are read in metres (is the input in another unit?)"
+            ));
+        }
+        if length > SIZE_RANGE_M.1 {
+            return refuse(format!(
+                "the object is {length:.3e} m across, larger than 1 km: positions are read in metres (is the input in another unit?)"
+            ));
+        }
+        if width < FLAT * length {
+            return refuse(format!(
+                "the points lie on one line ({width:.3e} m wide over {length:.3e} m): a solid needs width and depth"
+            ));
+        }
+        if thickness < FLAT * length {
+            return refuse(format!(
+                "the points lie on one plane ({thickness:.3e} m thick over {length:.3e} m): a solid needs depth"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses a mesh whose faces have no area in all (every triangle degenerate): it has no
+    /// surface to fill, whatever its points span.
+    fn check_faces(&self) -> Result<()> {
+        if self.triangles.is_empty() {
+            return Ok(());
+        }
+        let area: f64 = (0..self.triangles.len())
+            .map(|t| {
+                let [a, b, c] = self.triangle(t);
+                0.5 * (b - a).cross(&(c - a)).norm()
+            })
+            .sum();
+        let (lo, hi) = self.bounds();
+        let extent = (hi - lo).max();
+        if area <= 1e-9 * extent * extent {
+            return Err(Error::Geometry(format!(
+                "the mesh's {} faces have no area ({area:.3e} m^2 in all): each has coinciding or collinear corners",
+                self.triangles.len()
+            )));
+        }
+        Ok(())
     }
 
     pub fn is_point_cloud(&self) -> bool {

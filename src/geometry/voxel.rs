@@ -56,6 +56,23 @@ impl VoxelGrid {
         grid
     }
 
+    /// The solid of `solid` (points on and inside a surface), its holes closed by the spacing
+    /// of `surface`'s points: a dense fill must not shrink the closing to its own spacing.
+    pub fn from_filled_cloud(solid: &Shape, surface: &Shape, resolution: usize) -> Self {
+        let (lo, hi) = solid.bounds();
+        let cell = (hi - lo).max() / resolution.max(1) as f64;
+        let radius = default_closing_radius(surface, cell);
+        let mut grid = Self::from_shape(solid, resolution, Some(radius));
+        // Only the surface's cells are cut by it (and count half in the volume); the fill's
+        // other cells are whole.
+        grid.surface.iter_mut().for_each(|s| *s = false);
+        for p in &surface.positions {
+            let i = grid.index(grid.cell_of(p));
+            grid.surface[i] = true;
+        }
+        grid
+    }
+
     pub fn len(&self) -> usize {
         self.dims[0] * self.dims[1] * self.dims[2]
     }

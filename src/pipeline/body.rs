@@ -10,7 +10,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{
-    sample_surface, Cubature, Normalization, Shape, SurfaceSamples, SurfaceSampling, VoxelGrid,
+    sample_surface, Completed, Cubature, Normalization, Shape, SurfaceSamples, SurfaceSampling,
+    VoxelGrid,
 };
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, StepReport, Subspace};
 use crate::skinning::{NeuralModel, SkinningField, TruncatedField};
@@ -163,8 +164,42 @@ impl SoftBody {
         points: &[Vector3<f64>],
         options: &BodyOptions,
     ) -> Result<Self> {
+        Self::build_filled(model, shape, None, points, options)
+    }
+
+    /// Builds the body of a completed view (see [`crate::geometry::complete_view`]): the
+    /// network reads its closed surface, the inside test its fill; `points` (usually the
+    /// observed ones) are deformed.
+    pub fn build_view(
+        model: &Arc<NeuralModel>,
+        view: &Completed,
+        points: &[Vector3<f64>],
+        options: &BodyOptions,
+    ) -> Result<Self> {
+        let surface = Shape::new(view.surface.clone(), None, Vec::new())?;
+        let solid = Shape::new(view.solid.clone(), None, Vec::new())?;
+        let mut body = Self::build_filled(model, &surface, Some(&solid), points, options)?;
+        let r = &view.report;
+        body.decision = format!(
+            "{}; completed one view ({}): observed {:.1} % of the surface, {:.3e} m^3, {:.3} m deep",
+            body.decision,
+            r.method,
+            100.0 * r.observed_fraction,
+            body.volume(),
+            r.depth
+        );
+        Ok(body)
+    }
+
+    fn build_filled(
+        model: &Arc<NeuralModel>,
+        shape: &Shape,
+        solid: Option<&Shape>,
+        points: &[Vector3<f64>],
+        options: &BodyOptions,
+    ) -> Result<Self> {
         let started = Instant::now();
-        let input = NetworkInput::new(shape, options)?;
+        let input = NetworkInput::new(shape, solid, options)?;
         let t = Instant::now();
         let field: Arc<dyn SkinningField> =
             Arc::new(model.field(&input.surface, &input.reference, input.map)?);
@@ -181,7 +216,7 @@ impl SoftBody {
         options: &BodyOptions,
     ) -> Result<Self> {
         let started = Instant::now();
-        let input = NetworkInput::new(shape, options)?;
+        let input = NetworkInput::new(shape, None, options)?;
         Self::assemble(input, field, points, options, started, 0.0)
     }
 
@@ -196,7 +231,7 @@ impl SoftBody {
         if handles >= field.handle_count() {
             return Ok(field);
         }
-        let input = NetworkInput::new(shape, options)?;
+        let input = NetworkInput::new(shape, None, options)?;
         Ok(truncate(field, &input.grid, &input.map, handles))
     }
 
@@ -207,7 +242,7 @@ impl SoftBody {
         shape: &Shape,
         options: &BodyOptions,
     ) -> Result<Arc<dyn SkinningField>> {
-        let input = NetworkInput::new(shape, options)?;
+        let input = NetworkInput::new(shape, None, options)?;
         Ok(Arc::new(model.field(
             &input.surface,
             &input.reference,
@@ -369,6 +404,11 @@ impl SoftBody {
     /// The body's mass, kg.
     pub fn mass(&self) -> f64 {
         self.sim.subspace().total_mass()
+    }
+
+    /// The volume of the solid the body was built on (its voxels', surface cells half full).
+    pub fn volume(&self) -> f64 {
+        self.grid.solid_volume()
     }
 
     /// Whether the body sleeps (is not being stepped).
@@ -614,64 +654,16 @@ struct NetworkInput {
     voxelize_ms: f64,
 }
 
-/// Objects from 1 mm to 1 km across: outside, the input is almost surely in another unit.
-const SIZE_RANGE_M: (f64, f64) = (1e-3, 1e3);
-/// Below this fraction of its length, a side counts as zero: the points lie on a line or plane.
-const FLAT: f64 = 1e-3;
-
-/// Refuses geometry that is not a solid of a size in metres, naming why: voxelizing a line,
-/// a plane or a micrometre object would build a body from voxels the input never had.
-fn check_extent(shape: &Shape) -> Result<()> {
-    let n = shape.positions.len() as f64;
-    let mean = shape.positions.iter().sum::<Vector3<f64>>() / n;
-    let covariance = shape
-        .positions
-        .iter()
-        .map(|p| (p - mean) * (p - mean).transpose())
-        .sum::<nalgebra::Matrix3<f64>>()
-        / n;
-    let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
-    let mut extents: Vec<f64> = (0..3)
-        .map(|a| {
-            let along = shape.positions.iter().map(|p| p.dot(&axes.column(a)));
-            let (lo, hi) = along.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                (lo.min(x), hi.max(x))
-            });
-            hi - lo
-        })
-        .collect();
-    extents.sort_by(|a, b| b.total_cmp(a));
-    let [length, width, thickness] = [extents[0], extents[1], extents[2]];
-    let refuse = |why: String| Err(crate::Error::Geometry(why));
-    if length < SIZE_RANGE_M.0 {
-        return refuse(format!(
-            "the object is {length:.3e} m across, smaller than 1 mm: positions are read in metres (is the input in another unit?)"
-        ));
-    }
-    if length > SIZE_RANGE_M.1 {
-        return refuse(format!(
-            "the object is {length:.3e} m across, larger than 1 km: positions are read in metres (is the input in another unit?)"
-        ));
-    }
-    if width < FLAT * length {
-        return refuse(format!(
-            "the points lie on one line ({width:.3e} m wide over {length:.3e} m): a solid needs width and depth"
-        ));
-    }
-    if thickness < FLAT * length {
-        return refuse(format!(
-            "the points lie on one plane ({thickness:.3e} m thick over {length:.3e} m): a solid needs depth"
-        ));
-    }
-    Ok(())
-}
-
 impl NetworkInput {
-    fn new(shape: &Shape, options: &BodyOptions) -> Result<Self> {
+    /// `solid`: points filling `shape` (a completed view's), voxelized in its place.
+    fn new(shape: &Shape, solid: Option<&Shape>, options: &BodyOptions) -> Result<Self> {
         options.sim.validate()?;
-        check_extent(shape)?;
+        shape.check_solid()?;
         let started = Instant::now();
-        let grid = VoxelGrid::from_shape(shape, options.voxel_resolution, None);
+        let grid = match solid {
+            Some(solid) => VoxelGrid::from_filled_cloud(solid, shape, options.voxel_resolution),
+            None => VoxelGrid::from_shape(shape, options.voxel_resolution, None),
+        };
         if grid.solid_volume() <= 0.0 {
             return Err(crate::Error::Geometry(
                 "the shape encloses no volume at this voxel resolution".into(),

@@ -14,7 +14,7 @@ use super::messages::{Mesh, PointCloud2, Status};
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
 use super::tf::{TfBuffer, TfError};
-use crate::geometry::Shape;
+use crate::geometry::{complete_view, Completion, Shape};
 use crate::pipeline::SoftBody;
 use crate::skinning::NeuralModel;
 
@@ -32,6 +32,9 @@ pub struct BuildRequest {
     pub stamp_ns: i64,
     /// The frame the points are in once transformed into the fixed frame; None: `frame`.
     pub fixed_frame: Option<String>,
+    /// Where the sensor saw the points from, in the points' frame: a cloud's frame is its
+    /// sensor's, so its origin. None for meshes (not one view).
+    pub viewpoint: Option<Vector3<f64>>,
 }
 
 /// A built body on its way to the stepper.
@@ -65,6 +68,7 @@ impl BuildRequest {
             dropped: decoded.dropped,
             stamp_ns: cloud.header.stamp.nanos(),
             fixed_frame: None,
+            viewpoint: Some(Vector3::zeros()),
         })
     }
 
@@ -96,6 +100,7 @@ impl BuildRequest {
             dropped: 0,
             stamp_ns,
             fixed_frame: None,
+            viewpoint: None,
         })
     }
 
@@ -107,6 +112,9 @@ impl BuildRequest {
     pub fn transform_into(&mut self, fixed: &str, transform: &Isometry3<f64>) {
         for p in &mut self.points {
             *p = (transform * Point3::from(*p)).coords;
+        }
+        if let Some(v) = &mut self.viewpoint {
+            *v = (transform * Point3::from(*v)).coords;
         }
         self.fixed_frame = Some(fixed.into());
     }
@@ -231,8 +239,8 @@ impl Builder {
         }
         self.next_id += 1;
         let id = self.next_id;
-        let body = match build_body(request, params, model) {
-            Ok(body) => body,
+        let (body, completion) = match build_body(request, params, model) {
+            Ok(built) => built,
             Err(e) => {
                 let message = format!("{} in frame `{}`: {e}", request.source, request.frame);
                 outputs.report(Status::ERROR, id, "input_rejected", message);
@@ -249,6 +257,15 @@ impl Builder {
             format!(", {} NaN or Inf points dropped", request.dropped)
         } else {
             String::new()
+        };
+        let completion = match completion {
+            Some(c) => format!(
+                ", completed one view ({}): observed {:.1} % of the surface, volume {:.3e} m^3",
+                c.method,
+                100.0 * c.observed_fraction,
+                body.volume()
+            ),
+            None => String::new(),
         };
         let timings = if outputs.timings {
             format!(
@@ -269,7 +286,7 @@ impl Builder {
             weights: body.weights().to_vec(),
             handles: body.handles(),
             message: format!(
-                "{} in frame `{}`: {} points, {} handles{dropped}{timings}",
+                "{} in frame `{}`: {} points, {} handles{dropped}{completion}{timings}",
                 request.source,
                 request.frame,
                 body.point_count(),
@@ -299,15 +316,34 @@ pub(crate) fn yield_to_stepping() {
     }
 }
 
-/// The body of a request's geometry under `params`.
+/// The body of a request's geometry under `params`; a cloud that is one view of its object is
+/// completed first (and its completion returned), or refused when it cannot be.
 fn build_body(
     request: &BuildRequest,
     params: &NodeParams,
     model: &Arc<NeuralModel>,
-) -> crate::Result<SoftBody> {
+) -> crate::Result<(SoftBody, Option<Completion>)> {
     let options = params.body_options()?;
-    let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
-    SoftBody::build(model, &shape, &request.points, &options)
+    let view = match &request.viewpoint {
+        Some(viewpoint) if request.triangles.is_empty() => {
+            complete_view(&request.points, viewpoint, options.floor_z)
+                .map_err(|e| crate::Error::Geometry(e.to_string()))?
+        }
+        _ => None,
+    };
+    match view {
+        Some(view) => {
+            let body = SoftBody::build_view(model, &view, &request.points, &options)?;
+            Ok((body, Some(view.report)))
+        }
+        None => {
+            let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
+            Ok((
+                SoftBody::build(model, &shape, &request.points, &options)?,
+                None,
+            ))
+        }
+    }
 }
 
 /// What the build thread shares with the rest of the node.

@@ -1,0 +1,359 @@
+//! Completion of one camera's view of an object. A depth camera sees one side: an open patch
+//! whose inside test leaves a thin shell, a small fraction of the object's mass. When a cloud
+//! is such a view, what lies behind the observed surface along the view rays is filled up to a
+//! prior on the hidden side: the observed surface mirrored, along each ray, through a plane
+//! normal to the view at the object's estimated centre, which lies half the patch's narrower
+//! side behind its nearest point (an object about as deep as it is wide, the hidden half
+//! shaped like the seen one). Side walls join the patch's rim to its mirror, so the completed
+//! cloud is closed; a known support plane cuts the hidden side off where it would go below.
+
+use nalgebra::{Matrix2, Vector2, Vector3};
+use serde::Serialize;
+
+use super::sampling::neighbour_distance;
+
+/// Clouds with fewer points are not examined: too few to tell one side from two.
+const EXAMINED_FROM: usize = 32;
+/// A view with fewer points is refused rather than completed.
+const COMPLETED_FROM: usize = 200;
+/// Below this fraction of view-ray bins that hold two surfaces, a cloud is one side's view.
+const TWO_SIDED_FRACTION: f64 = 0.25;
+/// A patch thinner than this fraction of its width is flat: one view cannot tell its depth.
+const FLAT_PATCH: f64 = 0.08;
+/// The name of the method, as reported.
+pub const METHOD: &str = "mirror_along_view";
+
+/// Why a view cannot be completed.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum CompletionError {
+    #[error("the cloud is one camera's view of an object and has {count} points: at least {COMPLETED_FROM} are needed to complete it")]
+    TooFewPoints { count: usize },
+    #[error("the cloud is one camera's view of a flat patch ({thickness:.3e} m thick over {width:.3e} m): one view cannot tell how deep the object is")]
+    FlatPatch { thickness: f64, width: f64 },
+}
+
+/// What a completion did, for `shape_ready` and the subspace decision.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Completion {
+    pub method: &'static str,
+    /// Observed points over all points of the completed surface (observed and filled in at the
+    /// same density).
+    pub observed_fraction: f64,
+    /// Fraction of view-ray bins that held two surfaces (low: one side was seen).
+    pub two_sided_fraction: f64,
+    pub added_points: usize,
+    /// Estimated depth of the object along the view, m.
+    pub depth: f64,
+}
+
+/// A completed view.
+pub struct Completed {
+    /// The closed surface: the observed points first, then the hidden side and the side walls.
+    pub surface: Vec<Vector3<f64>>,
+    /// The surface and points filling it along the view rays: what the inside test voxelizes,
+    /// so that no gap in a sparse hidden side lets the outside in.
+    pub solid: Vec<Vector3<f64>>,
+    pub report: Completion,
+}
+
+/// The view's axes: `forward` from the viewpoint to the cloud's centroid.
+struct ViewFrame {
+    viewpoint: Vector3<f64>,
+    forward: Vector3<f64>,
+    right: Vector3<f64>,
+    up: Vector3<f64>,
+}
+
+impl ViewFrame {
+    /// None when the viewpoint is among the points (a cloud all around its frame's origin is
+    /// not one camera's view).
+    fn new(points: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> Option<Self> {
+        let centroid = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+        let forward = (centroid - viewpoint).try_normalize(1e-12)?;
+        let helper = if forward.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let right = forward.cross(&helper).normalize();
+        let up = right.cross(&forward);
+        let frame = Self {
+            viewpoint: *viewpoint,
+            forward,
+            right,
+            up,
+        };
+        points.iter().all(|p| frame.depth(p) > 0.0).then_some(frame)
+    }
+
+    fn depth(&self, p: &Vector3<f64>) -> f64 {
+        (p - self.viewpoint).dot(&self.forward)
+    }
+
+    /// Image-plane coordinates (x / z, y / z).
+    fn image(&self, p: &Vector3<f64>) -> Vector2<f64> {
+        let d = p - self.viewpoint;
+        let z = d.dot(&self.forward);
+        Vector2::new(d.dot(&self.right) / z, d.dot(&self.up) / z)
+    }
+}
+
+/// Bins of the image plane of about `pixel` (image units) each, holding point indices.
+struct ImageBins {
+    lo: Vector2<f64>,
+    pixel: f64,
+    dims: [usize; 2],
+    cells: Vec<Vec<usize>>,
+}
+
+impl ImageBins {
+    fn new(image: &[Vector2<f64>], pixel: f64) -> Self {
+        let lo = image
+            .iter()
+            .fold(Vector2::repeat(f64::INFINITY), |a, p| a.inf(p));
+        let hi = image
+            .iter()
+            .fold(Vector2::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
+        let dims = [0, 1].map(|a| (((hi[a] - lo[a]) / pixel).floor() as usize + 1).clamp(1, 1024));
+        let mut bins = Self {
+            lo,
+            pixel,
+            dims,
+            cells: vec![Vec::new(); dims[0] * dims[1]],
+        };
+        for (i, p) in image.iter().enumerate() {
+            let c = bins.cell(p);
+            bins.cells[c].push(i);
+        }
+        bins
+    }
+
+    fn cell(&self, p: &Vector2<f64>) -> usize {
+        let [i, j] = [0, 1]
+            .map(|a| (((p[a] - self.lo[a]) / self.pixel).floor() as usize).min(self.dims[a] - 1));
+        i + self.dims[0] * j
+    }
+
+    /// Whether the occupied cell `c` borders an empty cell or the edge.
+    fn on_rim(&self, c: usize) -> bool {
+        let (i, j) = (c % self.dims[0], c / self.dims[0]);
+        let empty = |i: isize, j: isize| {
+            i < 0
+                || j < 0
+                || i as usize >= self.dims[0]
+                || j as usize >= self.dims[1]
+                || self.cells[i as usize + self.dims[0] * j as usize].is_empty()
+        };
+        let (i, j) = (i as isize, j as isize);
+        empty(i - 1, j) || empty(i + 1, j) || empty(i, j - 1) || empty(i, j + 1)
+    }
+}
+
+/// The completed cloud when `points`, seen from `viewpoint`, are one side of an object; None
+/// when they are not (two surfaces along the view rays, too few to tell, or the viewpoint among
+/// them). `floor_z`: a support plane (z up) the hidden side may not go below.
+pub fn complete_view(
+    points: &[Vector3<f64>],
+    viewpoint: &Vector3<f64>,
+    floor_z: Option<f64>,
+) -> Result<Option<Completed>, CompletionError> {
+    if points.len() < EXAMINED_FROM {
+        return Ok(None);
+    }
+    let Some(view) = ViewFrame::new(points, viewpoint) else {
+        return Ok(None);
+    };
+    let spacing = neighbour_distance(points, 6, 0.9).max(1e-9);
+    let depths: Vec<f64> = points.iter().map(|p| view.depth(p)).collect();
+    let image: Vec<Vector2<f64>> = points.iter().map(|p| view.image(p)).collect();
+    let mean_depth = depths.iter().sum::<f64>() / depths.len() as f64;
+    let bins = ImageBins::new(&image, 3.0 * spacing / mean_depth);
+    let two_sided = two_sided_fraction(&bins, &depths, 4.0 * spacing);
+    if two_sided >= TWO_SIDED_FRACTION {
+        return Ok(None);
+    }
+    if points.len() < COMPLETED_FROM {
+        return Err(CompletionError::TooFewPoints {
+            count: points.len(),
+        });
+    }
+    let (width, thickness) = patch_width_and_thickness(points);
+    if thickness < FLAT_PATCH * width {
+        return Err(CompletionError::FlatPatch { thickness, width });
+    }
+    // The rim is found on bins of about two pixels: coarser bins would reach far into the
+    // patch where faces are foreshortened, and pull the centre towards the camera.
+    let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
+    let centre = estimated_centre(points, &depths, &view, &rim_bins);
+    let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
+    let mirrors = hidden_side(points, &depths, &view, &bins, &centre, floor_z);
+    let mut surface = points.to_vec();
+    surface.extend(mirrors.iter().flatten());
+    for (c, cell) in rim_bins.cells.iter().enumerate() {
+        if cell.is_empty() || !rim_bins.on_rim(c) {
+            continue;
+        }
+        for &i in cell {
+            if let Some(back) = mirrors[i] {
+                surface.extend(segment(&points[i], &back, spacing));
+            }
+        }
+    }
+    let mut solid = surface.clone();
+    for (p, back) in points.iter().zip(&mirrors) {
+        if let Some(back) = back {
+            solid.extend(segment(p, back, spacing));
+        }
+    }
+    let added_points = surface.len() - points.len();
+    Ok(Some(Completed {
+        report: Completion {
+            method: METHOD,
+            observed_fraction: points.len() as f64 / surface.len() as f64,
+            two_sided_fraction: two_sided,
+            added_points,
+            depth,
+        },
+        surface,
+        solid,
+    }))
+}
+
+/// The median distance between neighbouring points in the image plane: a scan's pixel pitch.
+fn image_pitch(image: &[Vector2<f64>]) -> f64 {
+    let flat: Vec<Vector3<f64>> = image.iter().map(|q| Vector3::new(q.x, q.y, 0.0)).collect();
+    neighbour_distance(&flat, 1, 0.5).max(1e-12)
+}
+
+/// Fraction of occupied bins whose points, sorted by depth, leave a gap wider than `gap`:
+/// a front and a back surface on the same rays.
+fn two_sided_fraction(bins: &ImageBins, depths: &[f64], gap: f64) -> f64 {
+    let (mut occupied, mut two) = (0usize, 0usize);
+    let mut along = Vec::new();
+    for cell in bins.cells.iter().filter(|c| !c.is_empty()) {
+        occupied += 1;
+        along.clear();
+        along.extend(cell.iter().map(|&i| depths[i]));
+        along.sort_by(f64::total_cmp);
+        if along.windows(2).any(|w| w[1] - w[0] > gap) {
+            two += 1;
+        }
+    }
+    two as f64 / occupied.max(1) as f64
+}
+
+/// (middle, smallest) extent of the points along their principal axes: a patch is flat when
+/// the smallest is small against the middle one (a rod's half is long, narrow and round).
+fn patch_width_and_thickness(points: &[Vector3<f64>]) -> (f64, f64) {
+    let n = points.len() as f64;
+    let mean = points.iter().sum::<Vector3<f64>>() / n;
+    let covariance = points
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<nalgebra::Matrix3<f64>>()
+        / n;
+    let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
+    let mut extents: Vec<f64> = (0..3)
+        .map(|a| extent(points.iter().map(|p| p.dot(&axes.column(a)))))
+        .collect();
+    extents.sort_by(f64::total_cmp);
+    (extents[1], extents[0])
+}
+
+/// The narrower principal extent of the points across the view: the prior on their depth.
+fn lateral_width(points: &[Vector3<f64>], view: &ViewFrame) -> f64 {
+    let across: Vec<Vector2<f64>> = points
+        .iter()
+        .map(|p| {
+            let d = p - view.viewpoint;
+            Vector2::new(d.dot(&view.right), d.dot(&view.up))
+        })
+        .collect();
+    let mean = across.iter().sum::<Vector2<f64>>() / across.len() as f64;
+    let covariance = across
+        .iter()
+        .map(|q| (q - mean) * (q - mean).transpose())
+        .sum::<Matrix2<f64>>();
+    let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
+    (0..2)
+        .map(|a| extent(across.iter().map(|q| q.dot(&axes.column(a)))))
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn extent(values: impl Iterator<Item = f64>) -> f64 {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    hi - lo
+}
+
+/// The object's centre: the centroid of the patch's rim (the silhouette's generator, which a
+/// centrally symmetric object's centre halves), moved back along its ray when that leaves the
+/// object shallower than half its narrower side (a cap seen from its pole has its rim in front).
+fn estimated_centre(
+    points: &[Vector3<f64>],
+    depths: &[f64],
+    view: &ViewFrame,
+    bins: &ImageBins,
+) -> Vector3<f64> {
+    let rim: Vec<usize> = (0..bins.cells.len())
+        .filter(|&c| !bins.cells[c].is_empty() && bins.on_rim(c))
+        .flat_map(|c| bins.cells[c].iter().copied())
+        .collect();
+    let centroid = rim.iter().map(|&i| points[i]).sum::<Vector3<f64>>() / rim.len().max(1) as f64;
+    let front = depths.iter().cloned().fold(f64::INFINITY, f64::min);
+    let at_least = front + lateral_width(points, view) / 2.0;
+    let depth = view.depth(&centroid).max(at_least);
+    view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid))
+}
+
+/// Per observed point, where its ray leaves the object on the hidden side: the deepest point,
+/// in its image bin, of the observed surface reflected through `centre` (None when that is not
+/// behind the point). Stops at the floor when the ray reaches it first.
+fn hidden_side(
+    points: &[Vector3<f64>],
+    depths: &[f64],
+    view: &ViewFrame,
+    bins: &ImageBins,
+    centre: &Vector3<f64>,
+    floor_z: Option<f64>,
+) -> Vec<Option<Vector3<f64>>> {
+    let mut back = vec![f64::NEG_INFINITY; bins.cells.len()];
+    for p in points {
+        let reflected = 2.0 * centre - p;
+        let s = view.depth(&reflected);
+        if s > 0.0 {
+            let c = bins.cell(&view.image(&reflected));
+            back[c] = back[c].max(s);
+        }
+    }
+    points
+        .iter()
+        .zip(depths)
+        .map(|(p, &s)| {
+            let b = back[bins.cell(&view.image(p))];
+            if b <= s {
+                return None;
+            }
+            let mut q = view.viewpoint + (p - view.viewpoint) * (b / s);
+            if let Some(floor) = floor_z {
+                if q.z < floor && p.z > floor {
+                    // Where the segment from p to q crosses the floor.
+                    q = p + (q - p) * ((p.z - floor) / (p.z - q.z));
+                }
+            }
+            Some(q)
+        })
+        .collect()
+}
+
+/// Points from `front` to `back` (both excluded), `spacing` apart.
+fn segment(
+    front: &Vector3<f64>,
+    back: &Vector3<f64>,
+    spacing: f64,
+) -> impl Iterator<Item = Vector3<f64>> {
+    let steps = ((back - front).norm() / spacing).floor() as usize;
+    let (front, back) = (*front, *back);
+    (1..steps).map(move |k| front + (back - front) * (k as f64 / steps as f64))
+}
