@@ -324,6 +324,9 @@ fn build_body(
     model: &Arc<NeuralModel>,
 ) -> crate::Result<(SoftBody, Option<Completion>)> {
     let options = params.body_options()?;
+    let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
+    // A line or a plane is refused as such before it is taken for one side of something.
+    shape.check_solid()?;
     let view = match &request.viewpoint {
         Some(viewpoint) if request.triangles.is_empty() => {
             complete_view(&request.points, viewpoint, options.floor_z)
