@@ -196,6 +196,33 @@ fn corpus() -> Vec<Case> {
         cloud("coplanar", &plane, false),
         Rejected("on one plane"),
     );
+    // One camera's view (optical frame: z forward): the near half of a 0.1 m ball 0.5 m away,
+    // and a bumpy flat patch.
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let cap: Vec<[f64; 3]> = (0..6000)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / 6000.0;
+            let (r, phi) = ((1.0 - z * z).sqrt(), golden * i as f64);
+            [0.1 * r * phi.cos(), 0.1 * r * phi.sin(), 0.5 + 0.1 * z]
+        })
+        .filter(|p| p[2] < 0.5)
+        .collect();
+    clouds(
+        "camera_half_ball",
+        cloud("camera_half_ball", &cap, false),
+        Built("completed one view"),
+    );
+    let bumpy: Vec<[f64; 3]> = (0..900)
+        .map(|i| {
+            let (u, v) = ((i % 30) as f64 * 0.01, (i / 30) as f64 * 0.01);
+            [u, v, 0.5 + 0.002 * ((i % 2) as f64)]
+        })
+        .collect();
+    clouds(
+        "camera_flat_patch",
+        cloud("camera_flat_patch", &bumpy, false),
+        Rejected("flat patch"),
+    );
     let mut holes = cube.clone();
     for (i, p) in holes.iter_mut().enumerate().filter(|(i, _)| i % 7 == 0) {
         p[i % 3] = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY][i % 3];
