@@ -175,7 +175,7 @@ fn collinear_coplanar_and_zero_area_inputs_are_refused() {
         ),
     ] {
         let shape = Shape::new(points, None, triangles).unwrap();
-        let e = shape.check_solid().err().expect("refused").to_string();
+        let e = shape.check_solid().expect_err("refused").to_string();
         assert!(e.contains(why), "{e}");
     }
 }

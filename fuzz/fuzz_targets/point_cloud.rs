@@ -41,6 +41,9 @@ fuzz_target!(|bytes: &[u8]| {
     if let Some(cloud) = cloud {
         if let Ok(request) = BuildRequest::from_cloud(&cloud, CAP) {
             assert!(request.points.iter().all(|p| p.iter().all(|c| c.is_finite())));
+            // Taken as one camera's view from the frame's origin, as the node does.
+            let viewpoint = Default::default();
+            let _ = physskin::geometry::complete_view(&request.points, &viewpoint, Some(0.0));
             let _ = physskin::geometry::Shape::new(request.points, None, Vec::new());
         }
     }

@@ -114,7 +114,9 @@ impl ImageBins {
         let hi = image
             .iter()
             .fold(Vector2::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
-        let dims = [0, 1].map(|a| (((hi[a] - lo[a]) / pixel).floor() as usize + 1).clamp(1, 1024));
+        // Clamped as floats: a degenerate spread (infinite, NaN) must not overflow the cast.
+        let dims =
+            [0, 1].map(|a| (((hi[a] - lo[a]) / pixel).floor() + 1.0).clamp(1.0, 1024.0) as usize);
         let mut bins = Self {
             lo,
             pixel,
