@@ -1,11 +1,11 @@
 //! Completion of one camera's view of an object. A depth camera sees one side: an open patch
 //! whose inside test leaves a thin shell, a small fraction of the object's mass. When a cloud
-//! is such a view, what lies behind the observed surface along the view rays is filled up to a
-//! prior on the hidden side: the observed surface mirrored, along each ray, through a plane
-//! normal to the view at the object's estimated centre, which lies half the patch's narrower
-//! side behind its nearest point (an object about as deep as it is wide, the hidden half
-//! shaped like the seen one). Side walls join the patch's rim to its mirror, so the completed
-//! cloud is closed; a known support plane cuts the hidden side off where it would go below.
+//! is such a view (its image bins hold one surface, not a front and a back), what lies behind
+//! the observed surface along the view rays is filled up to a prior on the hidden side: the
+//! observed surface reflected through the object's estimated centre (the rim's centroid, at
+//! least half the patch's narrower side deep), which is exact for centrally symmetric objects.
+//! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
+//! known floor cuts the hidden side off where it would go below.
 
 use nalgebra::{Matrix2, Vector2, Vector3};
 use serde::Serialize;
