@@ -21,7 +21,7 @@ const TWO_SIDED_FRACTION: f64 = 0.25;
 /// A patch thinner than this fraction of its width is flat: one view cannot tell its depth.
 const FLAT_PATCH: f64 = 0.08;
 /// The name of the method, as reported.
-pub const METHOD: &str = "mirror_along_view";
+pub const METHOD: &str = "reflected_through_centre";
 
 /// Why a view cannot be completed.
 #[derive(Debug, thiserror::Error, PartialEq)]
