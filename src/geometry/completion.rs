@@ -11,6 +11,7 @@ use nalgebra::{Matrix2, Vector2, Vector3};
 use serde::Serialize;
 
 use super::sampling::neighbour_distance;
+use super::shape::principal_extents;
 
 /// Clouds with fewer points are not examined: too few to tell one side from two.
 const EXAMINED_FROM: usize = 32;
@@ -247,19 +248,8 @@ fn two_sided_fraction(bins: &ImageBins, depths: &[f64], gap: f64) -> f64 {
 /// (middle, smallest) extent of the points along their principal axes: a patch is flat when
 /// the smallest is small against the middle one (a rod's half is long, narrow and round).
 fn patch_width_and_thickness(points: &[Vector3<f64>]) -> (f64, f64) {
-    let n = points.len() as f64;
-    let mean = points.iter().sum::<Vector3<f64>>() / n;
-    let covariance = points
-        .iter()
-        .map(|p| (p - mean) * (p - mean).transpose())
-        .sum::<nalgebra::Matrix3<f64>>()
-        / n;
-    let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
-    let mut extents: Vec<f64> = (0..3)
-        .map(|a| extent(points.iter().map(|p| p.dot(&axes.column(a)))))
-        .collect();
-    extents.sort_by(f64::total_cmp);
-    (extents[1], extents[0])
+    let [_, middle, smallest] = principal_extents(points);
+    (middle, smallest)
 }
 
 /// The narrower principal extent of the points across the view: the prior on their depth.

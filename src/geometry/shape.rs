@@ -53,6 +53,27 @@ const SIZE_RANGE_M: (f64, f64) = (1e-3, 1e3);
 /// Below this fraction of its length, a side counts as zero: the points lie on a line or plane.
 const FLAT: f64 = 1e-3;
 
+/// The extents of `points` along their principal axes, largest first.
+pub(crate) fn principal_extents(points: &[Vector3<f64>]) -> [f64; 3] {
+    let n = points.len() as f64;
+    let mean = points.iter().sum::<Vector3<f64>>() / n;
+    let covariance = points
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<nalgebra::Matrix3<f64>>()
+        / n;
+    let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
+    let mut extents = [0, 1, 2].map(|a| {
+        let along = points.iter().map(|p| p.dot(&axes.column(a)));
+        let (lo, hi) = along.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+            (lo.min(x), hi.max(x))
+        });
+        hi - lo
+    });
+    extents.sort_by(|a, b| b.total_cmp(a));
+    extents
+}
+
 impl Shape {
     /// Validates and converts loaded geometry: finite coordinates, indices in range, a non-degenerate extent.
     pub fn from_raw(raw: RawGeometry) -> Result<Self> {
@@ -118,26 +139,7 @@ impl Shape {
     /// a plane or a micrometre object would build a body from voxels the input never had.
     pub fn check_solid(&self) -> Result<()> {
         self.check_faces()?;
-        let n = self.positions.len() as f64;
-        let mean = self.positions.iter().sum::<Vector3<f64>>() / n;
-        let covariance = self
-            .positions
-            .iter()
-            .map(|p| (p - mean) * (p - mean).transpose())
-            .sum::<nalgebra::Matrix3<f64>>()
-            / n;
-        let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
-        let mut extents: Vec<f64> = (0..3)
-            .map(|a| {
-                let along = self.positions.iter().map(|p| p.dot(&axes.column(a)));
-                let (lo, hi) = along.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                    (lo.min(x), hi.max(x))
-                });
-                hi - lo
-            })
-            .collect();
-        extents.sort_by(|a, b| b.total_cmp(a));
-        let [length, width, thickness] = [extents[0], extents[1], extents[2]];
+        let [length, width, thickness] = principal_extents(&self.positions);
         let refuse = |why: String| Err(Error::Geometry(why));
         if length < SIZE_RANGE_M.0 {
             return refuse(format!(
