@@ -540,8 +540,8 @@ fn ten_million_points_are_refused_before_any_work_under_the_cap() {
     c.width = count as u32;
     c.row_step = 12 * c.width;
     c.data = vec![0u8; 12 * count];
-    let refused =
-        BuildRequest::from_cloud(&c, NodeParams::default().max_points).expect_err("refused");
+    let refused = BuildRequest::from_cloud(&c, NodeParams::default().max_points, "instance")
+        .expect_err("refused");
     assert!(
         refused.contains("10000000 points, more than max_points = 1000000"),
         "{refused}"

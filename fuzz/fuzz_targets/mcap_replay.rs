@@ -26,7 +26,7 @@ fuzz_target!(|bytes: &[u8]| {
             }
             "sensor_msgs/msg/PointCloud2" => {
                 if let Ok(cloud) = from_cdr::<PointCloud2>(&m.data) {
-                    let _ = BuildRequest::from_cloud(&cloud, 100_000);
+                    let _ = BuildRequest::from_cloud(&cloud, 100_000, "instance");
                 }
             }
             "shape_msgs/msg/Mesh" => {

@@ -11,10 +11,10 @@ const CAP: usize = 100_000;
 
 fn structured(bytes: &[u8]) -> Option<PointCloud2> {
     let (head, data) = bytes.split_at_checked(12)?;
-    let names = ["x", "y", "z", "rgb"];
+    let names = ["x", "y", "z", "rgb", "instance"];
     let fields = (0..head[0] % 5)
         .map(|i| PointField {
-            name: names[(head[1 + i as usize] % 4) as usize].into(),
+            name: names[(head[1 + i as usize] % 5) as usize].into(),
             offset: u32::from(head[5 + i as usize] % 32),
             datatype: head[9] % 10,
             count: 1,
@@ -39,8 +39,14 @@ fuzz_target!(|bytes: &[u8]| {
         _ => from_cdr::<PointCloud2>(bytes).ok(),
     };
     if let Some(cloud) = cloud {
-        if let Ok(request) = BuildRequest::from_cloud(&cloud, CAP) {
+        let requests = BuildRequest::from_cloud(&cloud, CAP, "instance").unwrap_or_default();
+        for request in requests {
             assert!(request.points.iter().all(|p| p.iter().all(|c| c.is_finite())));
+            // The deformed cloud in the input's layout: the rest pose must fit it.
+            let rest: Vec<f32> = request.points.iter().flat_map(|p| p.map(|c| c as f32)).collect();
+            let template = request.template.as_ref().expect("clouds carry their layout");
+            let out = template.fill(Default::default(), &rest);
+            assert_eq!(out.data.len() as u64, out.row_step as u64 * out.height as u64);
             // Taken as one camera's view from the frame's origin, as the node does.
             let viewpoint = Default::default();
             let _ = physskin::geometry::complete_view(&request.points, &viewpoint, Some(0.0));

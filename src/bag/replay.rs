@@ -222,6 +222,7 @@ pub fn replay(
         tf: Some(tf.clone()),
         object_timeout_ns: (params.object_timeout_s * 1e9) as i64,
         marker_every: crate::ros::marker_every(params),
+        cloud_every: crate::ros::cloud_every(params),
         registry: Some(builder.registry()),
     });
     let mut reserved = 0;
@@ -258,47 +259,49 @@ pub fn replay(
         while let Some((m, d)) = next_input.next_if(|(m, _)| m.log_time <= tick_time) {
             clock.set(&Time::from_nanos(m.log_time));
             match d {
-                Ok(Input::Geometry(request)) => {
+                Ok(Input::Geometry(requests)) => {
                     transforms.feed(&tf, m.log_time, true, &outputs);
-                    let mut request = request.clone();
-                    let placed = tf
-                        .read()
-                        .map_err(|_| "the tf buffer is poisoned".to_string())
-                        .and_then(|buffer| request.into_fixed_frame(params, &buffer));
-                    let outcome = match placed {
-                        Ok(()) => {
-                            stage.seen(&request.frame, &outputs);
-                            builder.build(&request, params, model, &outputs)
+                    for request in requests {
+                        let mut request = request.clone();
+                        let placed = tf
+                            .read()
+                            .map_err(|_| "the tf buffer is poisoned".to_string())
+                            .and_then(|buffer| request.into_fixed_frame(params, &buffer));
+                        let outcome = match placed {
+                            Ok(()) => {
+                                stage.seen(&request.key(), &outputs);
+                                builder.build(&request, params, model, &outputs)
+                            }
+                            Err(problem) => {
+                                outputs.report(Status::ERROR, 0, "input_rejected", problem);
+                                BuildOutcome::Rejected
+                            }
+                        };
+                        let request = &request;
+                        if let BuildOutcome::Ready(ready, announcement) = outcome {
+                            let points: Vec<f32> = request
+                                .points
+                                .iter()
+                                .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                                .collect();
+                            shapes.insert(
+                                ready.id,
+                                ShapeSummary {
+                                    shape_id: ready.id,
+                                    frame: ready.frame.clone(),
+                                    source: request.source.into(),
+                                    points: ready.body.point_count(),
+                                    handles: ready.body.handles(),
+                                    build_ms: ready.body.timings().total_ms,
+                                    ..Default::default()
+                                },
+                            );
+                            rest.insert(ready.id, points);
+                            announcement.publish(&outputs);
+                            stage.add(*ready, &outputs, false);
+                        } else if let BuildOutcome::Rejected = outcome {
+                            summary.rejected += 1;
                         }
-                        Err(problem) => {
-                            outputs.report(Status::ERROR, 0, "input_rejected", problem);
-                            BuildOutcome::Rejected
-                        }
-                    };
-                    let request = &request;
-                    if let BuildOutcome::Ready(ready, announcement) = outcome {
-                        let points: Vec<f32> = request
-                            .points
-                            .iter()
-                            .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
-                            .collect();
-                        shapes.insert(
-                            ready.id,
-                            ShapeSummary {
-                                shape_id: ready.id,
-                                frame: ready.frame.clone(),
-                                source: request.source.into(),
-                                points: ready.body.point_count(),
-                                handles: ready.body.handles(),
-                                build_ms: ready.body.timings().total_ms,
-                                ..Default::default()
-                            },
-                        );
-                        rest.insert(ready.id, points);
-                        announcement.publish(&outputs);
-                        stage.add(*ready, &outputs, false);
-                    } else if let BuildOutcome::Rejected = outcome {
-                        summary.rejected += 1;
                     }
                 }
                 Ok(Input::Interaction(i)) => {
@@ -394,7 +397,8 @@ fn finish(outputs: &Outputs) -> Result<Option<RecordSummary>, BagError> {
 }
 
 enum Input {
-    Geometry(BuildRequest),
+    /// A cloud's objects (one per instance id) or a mesh.
+    Geometry(Vec<BuildRequest>),
     /// /tf or /tf_static, fed to the buffer through [`TransformFeed`].
     Transforms,
     Interaction(Interaction),
@@ -441,15 +445,15 @@ fn input(
         Ok(Input::Joints(robots.clone(), state))
     } else if m.topic == t.points {
         let cloud: PointCloud2 = from_cdr(&m.data).map_err(bad)?;
-        BuildRequest::from_cloud(&cloud, max).map(Input::Geometry)
+        BuildRequest::from_cloud(&cloud, max, &params.instance_field).map(Input::Geometry)
     } else if m.topic == t.mesh {
         let mesh: Mesh = from_cdr(&m.data).map_err(bad)?;
-        BuildRequest::from_mesh(&mesh, &params.mesh_frame, 0, max).map(Input::Geometry)
+        BuildRequest::from_mesh(&mesh, &params.mesh_frame, 0, max).map(|r| Input::Geometry(vec![r]))
     } else if m.topic == t.mesh_stamped {
         let stamped: MeshStamped = from_cdr(&m.data).map_err(bad)?;
         let stamp = stamped.header.stamp.nanos();
         BuildRequest::from_mesh(&stamped.mesh, &stamped.header.frame_id, stamp, max)
-            .map(Input::Geometry)
+            .map(|r| Input::Geometry(vec![r]))
     } else {
         from_cdr(&m.data).map(Input::Interaction).map_err(bad)
     }

@@ -88,8 +88,9 @@ fn record_overhead(
 ) -> Result<(usize, f64, f64)> {
     let params = NodeParams::default();
     let cloud = sample_cloud("creature", 10_000, "bench", 5);
-    let request =
-        BuildRequest::from_cloud(&cloud, params.max_points).map_err(crate::Error::Geometry)?;
+    let request = BuildRequest::from_cloud(&cloud, params.max_points, &params.instance_field)
+        .map_err(crate::Error::Geometry)?
+        .remove(0);
     let clock = NodeClock::simulated();
     let outputs = |recorder: Option<Recorder>| Outputs {
         log: None,

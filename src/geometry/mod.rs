@@ -3,6 +3,7 @@
 
 mod completion;
 mod cubature;
+mod downsample;
 mod mesh_io;
 mod point_index;
 mod primitives;
@@ -14,6 +15,7 @@ mod voxel;
 
 pub use completion::{complete_view, Completed, Completion, CompletionError};
 pub use cubature::{stratified_subset, Cubature};
+pub use downsample::voxel_downsample;
 pub use mesh_io::{
     load_geometry, parse_obj, parse_ply, parse_stl, write_obj, write_ply, LoadError, RawGeometry,
 };

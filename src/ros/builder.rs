@@ -8,20 +8,23 @@ use std::sync::{Arc, Mutex, RwLock};
 
 use nalgebra::{Isometry3, Point3, Vector3};
 
-use super::cloud::decode_cloud;
+use super::cloud::{decode_cloud, DecodedCloud};
+use super::cloud_objects::{instance_field as instance_field_of, split_by_instance, CloudTemplate};
 use super::markers::MarkerSurface;
 use super::messages::{Mesh, PointCloud2, Status};
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
 use super::tf::{TfBuffer, TfError};
-use crate::geometry::{complete_view, Completion, Shape};
+use crate::geometry::{complete_view, voxel_downsample, Completion, Shape};
 use crate::pipeline::SoftBody;
 use crate::skinning::NeuralModel;
 
-/// New geometry for the object in `frame`.
+/// New geometry for the object in `frame` (with `label`, one of the frame's labelled objects).
 #[derive(Clone, Debug)]
 pub struct BuildRequest {
     pub frame: String,
+    /// The object's instance id in a labelled cloud; None: the frame's one object.
+    pub label: Option<i64>,
     /// "cloud" or "mesh", for messages.
     pub source: &'static str,
     pub points: Vec<Vector3<f64>>,
@@ -35,13 +38,19 @@ pub struct BuildRequest {
     /// Where the sensor saw the points from, in the points' frame: a cloud's frame is its
     /// sensor's, so its origin. None for meshes (not one view).
     pub viewpoint: Option<Vector3<f64>>,
+    /// The input cloud's layout, which the deformed clouds keep (None for meshes).
+    pub template: Option<CloudTemplate>,
 }
 
 /// A built body on its way to the stepper.
 pub struct ReadyBody {
     pub id: u32,
-    /// The input's frame: one object per frame.
+    /// The input's frame.
     pub frame: String,
+    /// Which object it is: its frame, or its frame and instance id.
+    pub key: ObjectKey,
+    /// The layout its deformed clouds go out in (None: x, y, z only).
+    pub template: Option<CloudTemplate>,
     /// The frame its outputs are in: the fixed frame, or `frame`.
     pub output_frame: String,
     pub body: SoftBody,
@@ -49,27 +58,76 @@ pub struct ReadyBody {
     pub surface: Option<MarkerSurface>,
 }
 
+/// One object: the frame its geometry comes in, and its instance id when the frame's clouds are
+/// labelled. Objects are replaced, kept alive and removed by key.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ObjectKey {
+    pub frame: String,
+    pub label: Option<i64>,
+}
+
+impl std::fmt::Display for ObjectKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.label {
+            Some(label) => write!(f, "frame `{}`, instance {label}", self.frame),
+            None => write!(f, "frame `{}`", self.frame),
+        }
+    }
+}
+
 impl BuildRequest {
-    /// The geometry of a cloud (its frame from the header); why not, naming the problem.
-    pub fn from_cloud(cloud: &PointCloud2, max_points: usize) -> Result<Self, String> {
+    /// The objects of a cloud (its frame from the header): one, or one per instance id when
+    /// the cloud has `instance_field` (0 is background: a cloud of background only gives none);
+    /// why not, naming the problem.
+    pub fn from_cloud(
+        cloud: &PointCloud2,
+        max_points: usize,
+        instance_field: &str,
+    ) -> Result<Vec<Self>, String> {
         let frame = cloud.header.frame_id.clone();
         if frame.is_empty() {
             return Err(
                 "cloud with an empty header.frame_id: its frame says where the object is".into(),
             );
         }
-        let decoded = decode_cloud(cloud, max_points)
-            .map_err(|e| format!("cloud in frame `{frame}`: {e}"))?;
-        Ok(Self {
-            frame,
-            source: "cloud",
-            points: decoded.points,
-            triangles: Vec::new(),
-            dropped: decoded.dropped,
-            stamp_ns: cloud.header.stamp.nanos(),
-            fixed_frame: None,
-            viewpoint: Some(Vector3::zeros()),
-        })
+        let bad = |e: &dyn std::fmt::Display| format!("cloud in frame `{frame}`: {e}");
+        let decoded = decode_cloud(cloud, max_points).map_err(|e| bad(&e))?;
+        let dropped = decoded.dropped;
+        let objects: Vec<(Option<i64>, DecodedCloud)> =
+            match instance_field_of(cloud, instance_field) {
+                Some(field) => split_by_instance(cloud, field, decoded)
+                    .map_err(|e| bad(&e))?
+                    .into_iter()
+                    .map(|(label, object)| (Some(label), object))
+                    .collect(),
+                None => vec![(None, decoded)],
+            };
+        let pixels = objects.iter().map(|(_, o)| o.pixels.clone()).collect();
+        let templates = CloudTemplate::for_objects(cloud, pixels);
+        Ok(objects
+            .into_iter()
+            .zip(templates)
+            .map(|((label, object), template)| Self {
+                frame: frame.clone(),
+                label,
+                source: "cloud",
+                points: object.points,
+                triangles: Vec::new(),
+                dropped,
+                stamp_ns: cloud.header.stamp.nanos(),
+                fixed_frame: None,
+                viewpoint: Some(Vector3::zeros()),
+                template: Some(template),
+            })
+            .collect())
+    }
+
+    /// The object this request builds.
+    pub fn key(&self) -> ObjectKey {
+        ObjectKey {
+            frame: self.frame.clone(),
+            label: self.label,
+        }
     }
 
     /// The geometry of a mesh in `frame`, stamped `stamp_ns` (0: none).
@@ -90,6 +148,8 @@ impl BuildRequest {
         }
         Ok(Self {
             frame: frame.into(),
+            label: None,
+            template: None,
             source: "mesh",
             points: mesh
                 .vertices
@@ -143,31 +203,34 @@ impl BuildRequest {
     }
 }
 
-/// Which geometry each frame runs, shared with the stepper so that a removed object's frame
-/// builds again when the same geometry comes back.
+/// Which geometry each object runs, and its id, shared with the stepper so that a removed
+/// object builds again when the same geometry comes back.
 #[derive(Clone, Default)]
-pub struct BuiltRegistry(Arc<Mutex<HashMap<String, u64>>>);
+pub struct BuiltRegistry(Arc<Mutex<HashMap<ObjectKey, (u64, u32)>>>);
 
 impl BuiltRegistry {
-    /// Forgets what `frame` runs (None: every frame).
-    pub fn forget(&self, frame: Option<&str>) {
+    /// Forgets what `key` runs (None: every object).
+    pub fn forget(&self, key: Option<&ObjectKey>) {
         if let Ok(mut built) = self.0.lock() {
-            match frame {
-                Some(frame) => {
-                    built.remove(frame);
+            match key {
+                Some(key) => {
+                    built.remove(key);
                 }
                 None => built.clear(),
             }
         }
     }
 
-    fn runs(&self, frame: &str, hash: u64) -> bool {
-        self.0.lock().is_ok_and(|b| b.get(frame) == Some(&hash))
+    /// The id of the object `key` when it runs (whatever its geometry), and whether its
+    /// geometry is `hash`.
+    fn lookup(&self, key: &ObjectKey, hash: u64) -> Option<(u32, bool)> {
+        let built = self.0.lock().ok()?;
+        built.get(key).map(|(h, id)| (*id, *h == hash))
     }
 
-    fn insert(&self, frame: &str, hash: u64) {
+    fn insert(&self, key: ObjectKey, hash: u64, id: u32) {
         if let Ok(mut built) = self.0.lock() {
-            built.insert(frame.into(), hash);
+            built.insert(key, (hash, id));
         }
     }
 }
@@ -234,20 +297,25 @@ impl Builder {
         outputs: &Outputs,
     ) -> BuildOutcome {
         let hash = request.content_hash();
-        if self.built.runs(&request.frame, hash) {
-            return BuildOutcome::Unchanged;
-        }
-        self.next_id += 1;
-        let id = self.next_id;
+        let key = request.key();
+        // A running object keeps its id when its geometry changes: it is the same object.
+        let id = match self.built.lookup(&key, hash) {
+            Some((_, true)) => return BuildOutcome::Unchanged,
+            Some((id, false)) => id,
+            None => {
+                self.next_id += 1;
+                self.next_id
+            }
+        };
         let (body, completion) = match build_body(request, params, model) {
             Ok(built) => built,
             Err(e) => {
-                let message = format!("{} in frame `{}`: {e}", request.source, request.frame);
+                let message = format!("{} in {key}: {e}", request.source);
                 outputs.report(Status::ERROR, id, "input_rejected", message);
                 return BuildOutcome::Rejected;
             }
         };
-        self.built.insert(&request.frame, hash);
+        self.built.insert(key.clone(), hash, id);
         let output_frame = request
             .fixed_frame
             .clone()
@@ -286,9 +354,8 @@ impl Builder {
             weights: body.weights().to_vec(),
             handles: body.handles(),
             message: format!(
-                "{} in frame `{}`: {} points, {} handles{dropped}{completion}{timings}",
+                "{} in {key}: {} points, {} handles{dropped}{completion}{timings}",
                 request.source,
-                request.frame,
                 body.point_count(),
                 body.handles()
             ),
@@ -298,6 +365,8 @@ impl Builder {
         let ready = ReadyBody {
             id,
             frame: request.frame.clone(),
+            key,
+            template: request.template.clone(),
             output_frame,
             body,
             surface,
@@ -324,12 +393,19 @@ fn build_body(
     model: &Arc<NeuralModel>,
 ) -> crate::Result<(SoftBody, Option<Completion>)> {
     let options = params.body_options()?;
-    let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
+    // A large cloud's shape is read from a thinned copy; every point is still deformed. A
+    // mesh's triangles index all its vertices, so a mesh is read whole.
+    let points = if request.triangles.is_empty() {
+        voxel_downsample(&request.points, params.inference.max_build_points)
+    } else {
+        request.points.clone()
+    };
+    let shape = Shape::new(points.clone(), None, request.triangles.clone())?;
     // A line or a plane is refused as such before it is taken for one side of something.
     shape.check_solid()?;
     let view = match &request.viewpoint {
         Some(viewpoint) if request.triangles.is_empty() => {
-            complete_view(&request.points, viewpoint, options.floor_z)
+            complete_view(&points, viewpoint, options.floor_z)
                 .map_err(|e| crate::Error::Geometry(e.to_string()))?
         }
         _ => None,
@@ -339,13 +415,10 @@ fn build_body(
             let body = SoftBody::build_view(model, &view, &request.points, &options)?;
             Ok((body, Some(view.report)))
         }
-        None => {
-            let shape = Shape::new(request.points.clone(), None, request.triangles.clone())?;
-            Ok((
-                SoftBody::build(model, &shape, &request.points, &options)?,
-                None,
-            ))
-        }
+        None => Ok((
+            SoftBody::build(model, &shape, &request.points, &options)?,
+            None,
+        )),
     }
 }
 
@@ -388,7 +461,7 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<ReadyBody>, c
         let mut newest: Vec<BuildRequest> = vec![first];
         for request in requests.try_iter() {
             cx.health.builds_queued.fetch_sub(1, Ordering::Relaxed);
-            if let Some(i) = newest.iter().position(|r| r.frame == request.frame) {
+            if let Some(i) = newest.iter().position(|r| r.key() == request.key()) {
                 newest[i] = request;
             } else {
                 newest.push(request);

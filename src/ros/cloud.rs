@@ -50,15 +50,71 @@ pub enum CloudError {
 #[derive(Clone, Debug, PartialEq)]
 pub struct DecodedCloud {
     pub points: Vec<Vector3<f64>>,
+    /// Per point: its index among the cloud's width x height points (row-major), so that
+    /// outputs can put it back in its place.
+    pub pixels: Vec<u32>,
     pub dropped: usize,
 }
 
-struct Coordinate {
-    offset: usize,
-    double: bool,
+/// Where a coordinate sits in each point record.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Coordinate {
+    pub offset: usize,
+    pub double: bool,
 }
 
-fn coordinate(cloud: &PointCloud2, name: &'static str) -> Result<Coordinate, CloudError> {
+impl Coordinate {
+    /// Writes `value` at this coordinate of `record`, in the record's precision and byte order.
+    pub fn write(&self, record: &mut [u8], value: f64, big: bool) {
+        let at = &mut record[self.offset..];
+        match (self.double, big) {
+            (true, false) => at[..8].copy_from_slice(&value.to_le_bytes()),
+            (true, true) => at[..8].copy_from_slice(&value.to_be_bytes()),
+            (false, false) => at[..4].copy_from_slice(&(value as f32).to_le_bytes()),
+            (false, true) => at[..4].copy_from_slice(&(value as f32).to_be_bytes()),
+        }
+    }
+}
+
+/// Bytes per value of a PointField datatype (INT8 1 ... FLOAT64 8); None for unknown ones.
+pub fn datatype_size(datatype: u8) -> Option<usize> {
+    match datatype {
+        1 | 2 => Some(1),
+        3 | 4 => Some(2),
+        5..=7 => Some(4),
+        8 => Some(8),
+        _ => None,
+    }
+}
+
+/// The value of a field of any numeric datatype at the start of `bytes`, as f64.
+pub fn read_scalar(bytes: &[u8], datatype: u8, big: bool) -> f64 {
+    macro_rules! read {
+        ($t:ty, $n:expr) => {{
+            let raw: [u8; $n] = bytes[..$n].try_into().expect("size checked by the caller");
+            (if big {
+                <$t>::from_be_bytes(raw)
+            } else {
+                <$t>::from_le_bytes(raw)
+            }) as f64
+        }};
+    }
+    match datatype {
+        1 => read!(i8, 1),
+        2 => read!(u8, 1),
+        3 => read!(i16, 2),
+        4 => read!(u16, 2),
+        5 => read!(i32, 4),
+        6 => read!(u32, 4),
+        7 => read!(f32, 4),
+        _ => read!(f64, 8),
+    }
+}
+
+pub(super) fn coordinate(
+    cloud: &PointCloud2,
+    name: &'static str,
+) -> Result<Coordinate, CloudError> {
     let field = cloud
         .fields
         .iter()
@@ -85,15 +141,20 @@ fn coordinate(cloud: &PointCloud2, name: &'static str) -> Result<Coordinate, Clo
     })
 }
 
+/// x, y and z of a cloud's point records.
+pub(super) fn coordinates(cloud: &PointCloud2) -> Result<[Coordinate; 3], CloudError> {
+    Ok([
+        coordinate(cloud, "x")?,
+        coordinate(cloud, "y")?,
+        coordinate(cloud, "z")?,
+    ])
+}
+
 /// Reads x, y, z of every point, checks the layout against the data, and drops points with a
 /// non-finite coordinate whatever `is_dense` claims. `max_points` caps the points accepted
 /// before any work is done on them.
 pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedCloud, CloudError> {
-    let axes = [
-        coordinate(cloud, "x")?,
-        coordinate(cloud, "y")?,
-        coordinate(cloud, "z")?,
-    ];
+    let axes = coordinates(cloud)?;
     let (width, height) = (cloud.width as u64, cloud.height as u64);
     if (cloud.row_step as u64) < width * cloud.point_step as u64 {
         return Err(CloudError::RowTooShort {
@@ -126,49 +187,45 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
     }
     let big = cloud.is_bigendian;
     let read = |bytes: &[u8], axis: &Coordinate| -> f64 {
-        let at = &bytes[axis.offset..];
-        if axis.double {
-            let raw: [u8; 8] = at[..8]
-                .try_into()
-                .expect("8 bytes checked against point_step");
-            if big {
-                f64::from_be_bytes(raw)
-            } else {
-                f64::from_le_bytes(raw)
-            }
-        } else {
-            let raw: [u8; 4] = at[..4]
-                .try_into()
-                .expect("4 bytes checked against point_step");
-            (if big {
-                f32::from_be_bytes(raw)
-            } else {
-                f32::from_le_bytes(raw)
-            }) as f64
-        }
+        let datatype = if axis.double { FLOAT64 } else { FLOAT32 };
+        read_scalar(&bytes[axis.offset..], datatype, big)
     };
     let mut points = Vec::with_capacity(count as usize);
+    let mut pixels = Vec::with_capacity(count as usize);
     let mut dropped = 0;
-    let step = cloud.point_step as usize;
-    for row in cloud.data.chunks_exact(cloud.row_step.max(1) as usize) {
-        for p in 0..cloud.width as usize {
-            let bytes = &row[p * step..(p + 1) * step];
-            let point = Vector3::new(
-                read(bytes, &axes[0]),
-                read(bytes, &axes[1]),
-                read(bytes, &axes[2]),
-            );
-            if point.iter().all(|c| c.is_finite()) {
-                points.push(point);
-            } else {
-                dropped += 1;
-            }
+    let mut pixel = 0u32;
+    for bytes in records(cloud) {
+        let point = Vector3::new(
+            read(bytes, &axes[0]),
+            read(bytes, &axes[1]),
+            read(bytes, &axes[2]),
+        );
+        if point.iter().all(|c| c.is_finite()) {
+            points.push(point);
+            pixels.push(pixel);
+        } else {
+            dropped += 1;
         }
+        pixel += 1;
     }
     if points.is_empty() {
         return Err(CloudError::NoFinitePoints { dropped });
     }
-    Ok(DecodedCloud { points, dropped })
+    Ok(DecodedCloud {
+        points,
+        pixels,
+        dropped,
+    })
+}
+
+/// Every point record of a cloud whose layout was checked against its data, row by row.
+pub(super) fn records(cloud: &PointCloud2) -> impl Iterator<Item = &[u8]> {
+    let step = cloud.point_step as usize;
+    let width = cloud.width as usize;
+    cloud
+        .data
+        .chunks_exact(cloud.row_step.max(1) as usize)
+        .flat_map(move |row| (0..width).map(move |p| &row[p * step..(p + 1) * step]))
 }
 
 /// An unordered (height 1), dense, little-endian cloud of float32 x, y, z followed by one float32

@@ -5,6 +5,7 @@ mod args;
 mod builder;
 mod clock;
 pub mod cloud;
+pub mod cloud_objects;
 mod diagnostics;
 mod markers;
 pub mod messages;
@@ -22,13 +23,13 @@ mod stepper;
 mod tf;
 
 pub use args::{split_ros_args, LogLevel, RosArgs, RosArgsError};
-pub use builder::{BuildOutcome, BuildRequest, Builder, ReadyBody};
+pub use builder::{BuildOutcome, BuildRequest, Builder, ObjectKey, ReadyBody};
 pub use clock::NodeClock;
 pub use diagnostics::Health;
 pub use names::{NameError, NameResolver, Remap};
 pub use node::{
-    context, marker_every, publisher, qos_of, reliable_qos, run_node, sensor_qos, subscription,
-    NodeConfig, NodeError,
+    cloud_every, context, marker_every, publisher, qos_of, reliable_qos, run_node, sensor_qos,
+    subscription, NodeConfig, NodeError,
 };
 pub use outputs::{topic_table, Outputs, TF, TF_STATIC};
 pub use param_file::ParamLoader;

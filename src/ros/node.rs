@@ -556,6 +556,7 @@ impl Threads {
             tf: Some(shared.tf.clone()),
             object_timeout_ns: (p.object_timeout_s * 1e9) as i64,
             marker_every: marker_every(p),
+            cloud_every: cloud_every(p),
             registry: Some(registry),
         });
         let stepper = {
@@ -599,10 +600,20 @@ fn scene_frame(p: &NodeParams) -> String {
 
 /// Markers go out every this many ticks (0: never), at most once a tick.
 pub fn marker_every(p: &NodeParams) -> u64 {
-    if p.markers.rate_hz <= 0.0 {
+    ticks_per(p.rate_hz, p.markers.rate_hz)
+}
+
+/// Deformed clouds go out every this many ticks (0: every tick).
+pub fn cloud_every(p: &NodeParams) -> u64 {
+    ticks_per(p.rate_hz, p.publish.rate_hz)
+}
+
+/// Ticks of a `step_hz` clock between events at `rate_hz` (0: none), at least 1.
+fn ticks_per(step_hz: f64, rate_hz: f64) -> u64 {
+    if rate_hz <= 0.0 {
         0
     } else {
-        (p.rate_hz / p.markers.rate_hz).round().max(1.0) as u64
+        (step_hz / rate_hz).round().max(1.0) as u64
     }
 }
 

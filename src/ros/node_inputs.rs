@@ -106,16 +106,18 @@ pub async fn serve(
     node_name: &str,
 ) {
     let outputs = &shared.outputs;
-    let (max_points, mesh_frame) = shared
+    let (max_points, mesh_frame, instance_field) = shared
         .params
         .read()
-        .map(|p| (p.max_points, p.mesh_frame.clone()))
-        .unwrap_or((1_000_000, "world".into()));
-    let submit = |request: Result<BuildRequest, String>| match request {
-        Ok(request) => {
-            let _ = step_tx.send(StepperCommand::Seen(request.frame.clone()));
-            shared.health.builds_queued.fetch_add(1, Ordering::Relaxed);
-            let _ = build_tx.send(request);
+        .map(|p| (p.max_points, p.mesh_frame.clone(), p.instance_field.clone()))
+        .unwrap_or_else(|_| (1_000_000, "world".into(), "instance".into()));
+    let submit = |requests: Result<Vec<BuildRequest>, String>| match requests {
+        Ok(requests) => {
+            for request in requests {
+                let _ = step_tx.send(StepperCommand::Seen(request.key()));
+                shared.health.builds_queued.fetch_add(1, Ordering::Relaxed);
+                let _ = build_tx.send(request);
+            }
         }
         Err(problem) => outputs.report(Status::ERROR, 0, "input_rejected", problem),
     };
@@ -123,14 +125,18 @@ pub async fn serve(
     let clouds = inputs.points.async_stream().for_each(|m| {
         if let Ok((cloud, _)) = m {
             outputs.record_input(&t.points, Some(cloud.header.stamp.nanos()), &cloud);
-            submit(BuildRequest::from_cloud(&cloud, max_points));
+            submit(BuildRequest::from_cloud(
+                &cloud,
+                max_points,
+                &instance_field,
+            ));
         }
         async {}
     });
     let meshes = inputs.mesh.async_stream().for_each(|m| {
         if let Ok((mesh, _)) = m {
             outputs.record_input(&t.mesh, None, &mesh);
-            submit(BuildRequest::from_mesh(&mesh, &mesh_frame, 0, max_points));
+            submit(BuildRequest::from_mesh(&mesh, &mesh_frame, 0, max_points).map(|r| vec![r]));
         }
         async {}
     });
@@ -138,12 +144,10 @@ pub async fn serve(
         if let Ok((m, _)) = m {
             let stamp = m.header.stamp.nanos();
             outputs.record_input(&t.mesh_stamped, Some(stamp), &m);
-            submit(BuildRequest::from_mesh(
-                &m.mesh,
-                &m.header.frame_id,
-                stamp,
-                max_points,
-            ));
+            submit(
+                BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, max_points)
+                    .map(|r| vec![r]),
+            );
         }
         async {}
     });

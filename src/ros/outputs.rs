@@ -8,6 +8,7 @@ use ros2_client::{NodeLoggingHandle, Publisher, RosoutRaw};
 use super::args::LogLevel;
 use super::clock::NodeClock;
 use super::cloud::encode_cloud;
+use super::cloud_objects::CloudTemplate;
 use super::markers::{delete_marker, MarkerSurface};
 use super::messages::{
     Header, Interaction, MarkerArray, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights,
@@ -232,6 +233,7 @@ impl Outputs {
         header: Header,
         body: &SoftBody,
         surface: Option<(&mut MarkerSurface, &str)>,
+        cloud: DeformedCloud,
     ) {
         if let Some((surface, ns)) = surface {
             let marker = surface.marker(body, header.clone(), ns, shape_id);
@@ -245,8 +247,13 @@ impl Outputs {
                 eprintln!("[physskin] warn: deformed points not handed over on iceoryx2: {e}");
             }
         }
-        if self.publish.deformed_points {
-            let cloud = encode_cloud(header.clone(), body.deformed(), &[], &[]);
+        let cloud = match cloud {
+            _ if !self.publish.deformed_points => None,
+            DeformedCloud::Skip => None,
+            DeformedCloud::XyzOnly => Some(encode_cloud(header.clone(), body.deformed(), &[], &[])),
+            DeformedCloud::Template(t) => Some(t.fill(header.clone(), body.deformed())),
+        };
+        if let Some(cloud) = cloud {
             let publisher = self.dds.as_ref().and_then(|d| d.deformed_points.as_ref());
             self.emit(&self.topics.deformed_points, publisher, cloud);
         }
@@ -300,3 +307,20 @@ impl Outputs {
 }
 
 pub type SharedOutputs = Arc<Outputs>;
+
+/// Whether a step's deformed cloud goes out, and in which layout.
+#[derive(Clone, Copy)]
+pub enum DeformedCloud<'a> {
+    /// Not this step (`publish.rate_hz`).
+    Skip,
+    /// Float32 x, y, z only (meshes, scene objects).
+    XyzOnly,
+    /// The input cloud's layout and fields.
+    Template(&'a CloudTemplate),
+}
+
+impl<'a> DeformedCloud<'a> {
+    pub fn of(template: Option<&'a CloudTemplate>) -> Self {
+        template.map_or(Self::XyzOnly, Self::Template)
+    }
+}

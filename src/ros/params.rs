@@ -161,6 +161,9 @@ pub struct InferenceParams {
     pub voxel_resolution: usize,
     /// Threads for inference, kept apart from the stepping thread. Default 1.
     pub threads: usize,
+    /// A cloud with more points is read from a voxel-downsampled copy of this many (every point
+    /// is still deformed). Default 20,000.
+    pub max_build_points: usize,
 }
 
 impl Default for InferenceParams {
@@ -170,6 +173,7 @@ impl Default for InferenceParams {
             reference_points: 2048,
             voxel_resolution: 64,
             threads: 1,
+            max_build_points: 20_000,
         }
     }
 }
@@ -178,6 +182,8 @@ impl Default for InferenceParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PublishParams {
+    /// Deformed clouds per second, at most the step rate; 0: one per step. Default 0.
+    pub rate_hz: f64,
     pub deformed_points: bool,
     pub weights: bool,
     pub weights_cloud: bool,
@@ -187,6 +193,7 @@ pub struct PublishParams {
 impl Default for PublishParams {
     fn default() -> Self {
         Self {
+            rate_hz: 0.0,
             deformed_points: true,
             weights: true,
             weights_cloud: true,
@@ -298,6 +305,9 @@ pub struct NodeParams {
     /// An object whose frame (or label) sends no geometry for this long is removed, s; 0: never.
     /// Default 0.
     pub object_timeout_s: f64,
+    /// The field of a cloud that splits it into objects by instance id (0: background). With
+    /// the default, "instance", also `label`, `segment` or `object_id`. Default "instance".
+    pub instance_field: String,
     pub tf: TfParams,
     pub markers: MarkerParams,
     pub topics: Topics,
@@ -322,6 +332,7 @@ impl Default for NodeParams {
             fixed_frame: String::new(),
             floor_z: 0.0,
             object_timeout_s: 0.0,
+            instance_field: "instance".into(),
             tf: TfParams::default(),
             markers: MarkerParams::default(),
             topics: Topics::default(),
@@ -337,8 +348,9 @@ impl Default for NodeParams {
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-const READ_ONLY: [&str; 10] = [
+const READ_ONLY: [&str; 11] = [
     "rate_hz",
+    "publish.rate_hz",
     "fixed_frame",
     "tf.",
     "markers.",
@@ -425,6 +437,29 @@ impl NodeParams {
         )?;
         ensure(self.inference.threads >= 1, "inference.threads", || {
             "at least 1".into()
+        })?;
+        ensure(
+            self.inference.max_build_points >= 200,
+            "inference.max_build_points",
+            || {
+                format!(
+                    "{} is too few to read a shape from (at least 200)",
+                    self.inference.max_build_points
+                )
+            },
+        )?;
+        ensure(
+            self.publish.rate_hz >= 0.0 && self.publish.rate_hz.is_finite(),
+            "publish.rate_hz",
+            || {
+                format!(
+                    "{} is not 0 (every step) or a positive rate",
+                    self.publish.rate_hz
+                )
+            },
+        )?;
+        ensure(!self.instance_field.is_empty(), "instance_field", || {
+            "empty: name the field that holds instance ids".into()
         })?;
         ensure(
             self.record.split_size_mb >= 0.0 && self.record.split_duration_s >= 0.0,

@@ -7,9 +7,9 @@ use std::sync::{Arc, RwLock};
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
-use super::builder::{BuiltRegistry, ReadyBody};
+use super::builder::{BuiltRegistry, ObjectKey, ReadyBody};
 use super::messages::{Interaction, JointState, Status};
-use super::outputs::Outputs;
+use super::outputs::{DeformedCloud, Outputs};
 use super::tf::TfBuffer;
 use crate::pipeline::SoftBody;
 use crate::scene::Scene;
@@ -25,6 +25,8 @@ pub struct StageOptions {
     pub object_timeout_ns: i64,
     /// Surface markers go out every this many ticks; 0: never.
     pub marker_every: u64,
+    /// Deformed clouds go out every this many ticks (0 and 1: every tick).
+    pub cloud_every: u64,
     /// Forgotten when objects go, so that their geometry builds again when it comes back.
     pub registry: Option<BuiltRegistry>,
 }
@@ -130,19 +132,26 @@ impl Stage {
     }
 
     fn publish_pending(&mut self, outputs: &Outputs) {
-        let markers_due = self.options.marker_every > 0
-            && self.ticks % self.options.marker_every == u64::from(self.on_the_beat);
+        // The tick whose step is published: on the beat, the previous one.
+        let due = |every: u64| every > 0 && self.ticks % every == u64::from(self.on_the_beat);
+        let markers_due = due(self.options.marker_every);
+        let cloud_due = self.options.cloud_every <= 1 || due(self.options.cloud_every);
         for (b, unpublished) in self.bodies.iter_mut().zip(&mut self.unpublished) {
             if std::mem::take(unpublished) {
-                publish_last_step(b, outputs, markers_due);
+                publish_last_step(b, outputs, markers_due, cloud_due);
             }
         }
         if let Some(s) = &mut self.scene {
             if std::mem::take(&mut s.unpublished) {
                 // A sleeping object is published once, as it falls asleep.
+                let cloud = if cloud_due {
+                    DeformedCloud::XyzOnly
+                } else {
+                    DeformedCloud::Skip
+                };
                 for (id, _, body) in s.bodies() {
                     if !body.is_sleeping() || body.fell_asleep() {
-                        publish_step_of(id, &s.frame, body, None, outputs);
+                        publish_step_of(id, &s.frame, body, None, cloud, outputs);
                     }
                 }
             }
@@ -196,15 +205,15 @@ impl Stage {
         self.scene.iter().flat_map(|s| s.bodies())
     }
 
-    /// A new body replaces the one in its frame. With `step_now` it makes its first step at
+    /// A new body replaces the one of its key. With `step_now` it makes its first step at
     /// once, so its first deformed cloud does not wait for the next tick.
     pub fn add(&mut self, mut ready: ReadyBody, outputs: &Outputs, step_now: bool) {
         if step_now {
             ready.body.step();
-            publish_last_step(&mut ready, outputs, true);
+            publish_last_step(&mut ready, outputs, true, true);
         }
         let now = outputs.clock.now_nanos().unwrap_or(0);
-        if let Some(i) = self.bodies.iter().position(|b| b.frame == ready.frame) {
+        if let Some(i) = self.bodies.iter().position(|b| b.key == ready.key) {
             self.bodies[i] = ready;
             self.unpublished[i] = false;
             self.last_seen[i] = now;
@@ -215,11 +224,11 @@ impl Stage {
         }
     }
 
-    /// Geometry arrived for `frame`: its object is still wanted.
-    pub fn seen(&mut self, frame: &str, outputs: &Outputs) {
+    /// Geometry arrived for the object `key`: it is still wanted.
+    pub fn seen(&mut self, key: &ObjectKey, outputs: &Outputs) {
         let now = outputs.clock.now_nanos().unwrap_or(0);
         for (b, seen) in self.bodies.iter().zip(&mut self.last_seen) {
-            if b.frame == frame {
+            if &b.key == key {
                 *seen = now;
             }
         }
@@ -235,7 +244,8 @@ impl Stage {
                 stamp: stamp.clone(),
                 frame_id: b.output_frame.clone(),
             };
-            outputs.publish_step(b.id, header, &b.body, None);
+            let cloud = DeformedCloud::of(b.template.as_ref());
+            outputs.publish_step(b.id, header, &b.body, None, cloud);
         }
         let message = format!(
             "{} objects back at rest; their rest state is stamped {}.{:09}",
@@ -276,10 +286,10 @@ impl Stage {
         self.unpublished.remove(i);
         self.last_seen.remove(i);
         if let Some(registry) = &self.options.registry {
-            registry.forget(Some(&b.frame));
+            registry.forget(Some(&b.key));
         }
         outputs.publish_removed(b.id, &b.output_frame, &b.frame);
-        let message = format!("the object of frame `{}` is removed: {why}", b.frame);
+        let message = format!("the object of {} is removed: {why}", b.key);
         outputs.report(Status::INFO, b.id, "shape_removed", message);
     }
 
@@ -372,11 +382,16 @@ fn rest_points(body: &SoftBody) -> Vec<f32> {
     body.deformed().to_vec()
 }
 
-/// Publishes a body's last step, with its surface marker when markers are due.
-fn publish_last_step(b: &mut ReadyBody, outputs: &Outputs, markers_due: bool) {
+/// Publishes a body's last step, with its surface marker and deformed cloud when they are due.
+fn publish_last_step(b: &mut ReadyBody, outputs: &Outputs, markers_due: bool, cloud_due: bool) {
     let surface = b.surface.as_mut().filter(|_| markers_due);
     let surface = surface.map(|s| (s, b.frame.as_str()));
-    publish_step_of(b.id, &b.output_frame, &b.body, surface, outputs);
+    let cloud = if cloud_due {
+        DeformedCloud::of(b.template.as_ref())
+    } else {
+        DeformedCloud::Skip
+    };
+    publish_step_of(b.id, &b.output_frame, &b.body, surface, cloud, outputs);
 }
 
 /// Publishes a step (and a warning if it did not converge).
@@ -385,6 +400,7 @@ fn publish_step_of(
     frame: &str,
     body: &SoftBody,
     surface: Option<(&mut super::markers::MarkerSurface, &str)>,
+    cloud: DeformedCloud,
     outputs: &Outputs,
 ) {
     let Some(report) = body.last_step() else {
@@ -397,7 +413,7 @@ fn publish_step_of(
         );
         outputs.report(Status::WARN, id, "step_unconverged", message);
     }
-    outputs.publish_step(id, outputs.header(frame), body, surface);
+    outputs.publish_step(id, outputs.header(frame), body, surface, cloud);
 }
 
 /// Where an interaction acts, in the simulation's frame.

@@ -27,8 +27,8 @@ pub enum StepperCommand {
         robots: Vec<String>,
         state: JointState,
     },
-    /// Geometry arrived for this frame (its object is still wanted).
-    Seen(String),
+    /// Geometry arrived for this object (it is still wanted).
+    Seen(super::builder::ObjectKey),
     /// Every object back to rest; the answer says what was done.
     Reset(Sender<String>),
     /// Every object removed; the answer says what was done.
