@@ -288,9 +288,16 @@ fn estimated_centre(
     view: &ViewFrame,
     bins: &ImageBins,
 ) -> Vector3<f64> {
+    // Per rim bin its deepest point: where the surface turns away. The nearer points of a bin
+    // on a face seen at a grazing angle lie towards the camera and would pull the centre in.
     let rim: Vec<usize> = (0..bins.cells.len())
         .filter(|&c| !bins.cells[c].is_empty() && bins.on_rim(c))
-        .flat_map(|c| bins.cells[c].iter().copied())
+        .filter_map(|c| {
+            bins.cells[c]
+                .iter()
+                .copied()
+                .max_by(|&a, &b| depths[a].total_cmp(&depths[b]))
+        })
         .collect();
     let centroid = rim.iter().map(|&i| points[i]).sum::<Vector3<f64>>() / rim.len().max(1) as f64;
     let front = depths.iter().cloned().fold(f64::INFINITY, f64::min);

@@ -92,6 +92,7 @@ impl BuildRequest {
         }
         let bad = |e: &dyn std::fmt::Display| format!("cloud in frame `{frame}`: {e}");
         let decoded = decode_cloud(cloud, max_points).map_err(|e| bad(&e))?;
+        // In a labelled cloud the dropped (NaN) points are nobody's: not reported per object.
         let dropped = decoded.dropped;
         let objects: Vec<(Option<i64>, DecodedCloud)> =
             match instance_field_of(cloud, instance_field) {
@@ -113,7 +114,7 @@ impl BuildRequest {
                 source: "cloud",
                 points: object.points,
                 triangles: Vec::new(),
-                dropped,
+                dropped: if label.is_some() { 0 } else { dropped },
                 stamp_ns: cloud.header.stamp.nanos(),
                 fixed_frame: None,
                 viewpoint: Some(Vector3::zeros()),

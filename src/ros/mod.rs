@@ -3,6 +3,7 @@
 
 mod args;
 mod builder;
+pub mod camera_cloud;
 mod clock;
 pub mod cloud;
 pub mod cloud_objects;

@@ -1,0 +1,285 @@
+//! Real sensors' clouds through the node's pipeline (a replay of a recording, in process): a
+//! depth camera's organized, coloured, labelled cloud in its optical frame splits into one
+//! object per instance id, keeps the ids across frames, drops an id after the timeout, and each
+//! deformed cloud keeps the camera's layout, colours and ids in place.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use nalgebra::Vector3;
+use physskin::bag::{
+    read_messages, replay, BagWriter, QosProfile, RecordOptions, ReplayOptions, TopicInfo,
+};
+use physskin::geometry::{box_mesh, sdf_mesh, Camera, Shape};
+use physskin::ros::camera_cloud::{camera_cloud, merged, SeenObject};
+use physskin::ros::messages::{from_cdr, to_cdr, Header, PointCloud2, Status, SubspaceState, Time};
+use physskin::ros::NodeParams;
+use physskin::skinning::NeuralModel;
+
+const FRAME: &str = "camera_color_optical_frame";
+const TOPIC: &str = "/physskin/points";
+
+fn moved(shape: Shape, by: Vector3<f64>) -> Shape {
+    let positions = shape.positions.iter().map(|p| p + by).collect();
+    Shape::new(positions, None, shape.triangles.clone()).unwrap()
+}
+
+/// A ball (id 1, red) and a box (id 2, blue) on a table (background, 0), seen by one camera.
+fn table_scene(width: usize, height: usize) -> PointCloud2 {
+    let ball = moved(
+        sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 32),
+        Vector3::new(-0.15, 0.0, 0.1),
+    );
+    let block = moved(
+        box_mesh(Vector3::new(0.15, 0.15, 0.15)),
+        Vector3::new(0.15, 0.0, 0.075),
+    );
+    let table = moved(
+        box_mesh(Vector3::new(1.0, 1.0, 0.02)),
+        Vector3::new(0.0, 0.0, -0.01),
+    );
+    let camera = Camera::looking_at(
+        &merged(&[&ball, &block]).unwrap(),
+        Vector3::new(0.3, -1.0, 0.7),
+        1.5,
+        width,
+        height,
+    );
+    let objects = [
+        SeenObject {
+            shape: &ball,
+            instance: 1,
+            rgb: [220, 30, 30],
+        },
+        SeenObject {
+            shape: &block,
+            instance: 2,
+            rgb: [30, 30, 220],
+        },
+        SeenObject {
+            shape: &table,
+            instance: 0,
+            rgb: [120, 100, 80],
+        },
+    ];
+    camera_cloud(
+        &objects,
+        &camera,
+        Header {
+            stamp: Time::default(),
+            frame_id: FRAME.into(),
+        },
+    )
+    .unwrap()
+}
+
+fn instance_of(cloud: &PointCloud2, pixel: usize) -> u16 {
+    let at = pixel * cloud.point_step as usize + 16;
+    u16::from_le_bytes(cloud.data[at..at + 2].try_into().unwrap())
+}
+
+fn x_of(cloud: &PointCloud2, pixel: usize) -> f32 {
+    let at = pixel * cloud.point_step as usize;
+    f32::from_le_bytes(cloud.data[at..at + 4].try_into().unwrap())
+}
+
+/// Replays `clouds` (log time in s, cloud) with `params`, recording the outputs; returns them.
+fn replay_clouds(
+    name: &str,
+    clouds: &[(f64, PointCloud2)],
+    params: NodeParams,
+) -> Vec<physskin::bag::BagMessage> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/test-labelled");
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join(format!("{name}-in.mcap"));
+    let output = dir.join(format!("{name}-out.mcap"));
+    let mut writer = BagWriter::create(RecordOptions {
+        path: input.clone(),
+        ..Default::default()
+    })
+    .unwrap();
+    writer
+        .add_topic(TopicInfo::of::<PointCloud2>(TOPIC, QosProfile::sensor(5)))
+        .unwrap();
+    for (t, cloud) in clouds {
+        let ns = (t * 1e9) as i64;
+        let mut cloud = cloud.clone();
+        cloud.header.stamp = Time::from_nanos(ns);
+        writer.write(TOPIC, ns, ns, &to_cdr(&cloud)).unwrap();
+    }
+    writer.finish().unwrap();
+    let options = ReplayOptions {
+        params,
+        record: Some(RecordOptions {
+            path: output.clone(),
+            ..Default::default()
+        }),
+        tail_s: 0.5,
+        ..Default::default()
+    };
+    let model = NeuralModel::bundled().unwrap();
+    let bytes = std::fs::read(&input).unwrap();
+    let summary = replay(&bytes, name, &model, &options, &mut |_| {}).unwrap();
+    assert_eq!(summary.rejected, 0, "{summary:?}");
+    read_messages(&std::fs::read(&output).unwrap(), "output").unwrap()
+}
+
+fn statuses(messages: &[physskin::bag::BagMessage], event: &str) -> Vec<(i64, Status)> {
+    messages
+        .iter()
+        .filter(|m| m.topic == "/physskin/status")
+        .map(|m| (m.log_time, from_cdr::<Status>(&m.data).unwrap()))
+        .filter(|(_, s)| s.event == event)
+        .collect()
+}
+
+#[test]
+fn a_labelled_scan_splits_into_objects_that_keep_ids_colours_and_layout() {
+    let full = table_scene(128, 96);
+    // After three frames the box leaves the segmenter's output: its pixels read background.
+    let mut without_box = full.clone();
+    for pixel in 0..(full.width * full.height) as usize {
+        if instance_of(&full, pixel) == 2 {
+            let at = pixel * 20 + 16;
+            without_box.data[at..at + 2].copy_from_slice(&0u16.to_le_bytes());
+        }
+    }
+    let mut clouds: Vec<(f64, PointCloud2)> =
+        (1..=3).map(|i| (0.1 * i as f64, full.clone())).collect();
+    clouds.extend((4..=16).map(|i| (0.1 * i as f64, without_box.clone())));
+    let params = NodeParams {
+        object_timeout_s: 0.5,
+        ..NodeParams::default()
+    };
+    let out = replay_clouds("labelled", &clouds, params);
+
+    let ready = statuses(&out, "shape_ready");
+    for (_, s) in &ready {
+        println!("{}", s.message);
+    }
+    assert_eq!(
+        ready.len(),
+        2,
+        "one build per object, none again for unchanged frames"
+    );
+    assert!(ready.iter().any(|(_, s)| s.message.contains("instance 1")));
+    assert!(ready.iter().any(|(_, s)| s.message.contains("instance 2")));
+    assert!(
+        ready
+            .iter()
+            .all(|(_, s)| s.message.contains("completed one view")),
+        "one camera's view of each is completed"
+    );
+    let ids: BTreeSet<u32> = ready.iter().map(|(_, s)| s.shape_id).collect();
+    let stepped: BTreeSet<u32> = out
+        .iter()
+        .filter(|m| m.topic == "/physskin/state")
+        .map(|m| from_cdr::<SubspaceState>(&m.data).unwrap().shape_id)
+        .collect();
+    assert_eq!(stepped, ids, "the objects keep their ids across frames");
+
+    let removed = statuses(&out, "shape_removed");
+    assert_eq!(removed.len(), 1, "{removed:?}");
+    let (removed_at, removal) = &removed[0];
+    assert!(
+        removal.message.contains("instance 2"),
+        "{}",
+        removal.message
+    );
+    assert!(
+        *removed_at >= 800_000_000,
+        "removed after the 0.5 s timeout, at {removed_at} ns"
+    );
+
+    let mut last_seen: BTreeMap<u16, i64> = BTreeMap::new();
+    for m in out
+        .iter()
+        .filter(|m| m.topic == "/physskin/deformed_points")
+    {
+        let cloud: PointCloud2 = from_cdr(&m.data).unwrap();
+        assert_eq!(
+            (cloud.height, cloud.width),
+            (full.height, full.width),
+            "organized: the image's shape"
+        );
+        assert_eq!(cloud.fields, full.fields, "the camera's fields, in order");
+        let mut labels = BTreeSet::new();
+        for pixel in 0..(full.width * full.height) as usize {
+            let (at, step) = (pixel * 20, 20);
+            assert_eq!(
+                cloud.data[at + 12..at + step],
+                full.data[at + 12..at + step],
+                "rgb and id of pixel {pixel} unchanged"
+            );
+            if x_of(&cloud, pixel).is_finite() {
+                labels.insert(instance_of(&cloud, pixel));
+            }
+        }
+        assert_eq!(labels.len(), 1, "one object per deformed cloud: {labels:?}");
+        let label = *labels.first().unwrap();
+        assert_ne!(label, 0, "background is not an object");
+        let expected = (0..(full.width * full.height) as usize)
+            .filter(|p| instance_of(&full, *p) == label)
+            .count();
+        let finite = (0..(full.width * full.height) as usize)
+            .filter(|p| x_of(&cloud, *p).is_finite())
+            .count();
+        assert_eq!(
+            finite, expected,
+            "every pixel of object {label} is deformed, no other"
+        );
+        last_seen.insert(label, m.log_time);
+    }
+    assert!(
+        last_seen[&2] <= *removed_at,
+        "no cloud of the box after its removal"
+    );
+    assert!(
+        last_seen[&1] > *removed_at + 300_000_000,
+        "the ball goes on"
+    );
+}
+
+#[test]
+fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
+    let ball = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 32);
+    let camera = Camera::looking_at(&ball, Vector3::new(0.0, -1.0, 0.5), 1.5, 64, 48);
+    let object = [SeenObject {
+        shape: &ball,
+        instance: 0,
+        rgb: [10, 200, 10],
+    }];
+    let header = Header {
+        stamp: Time::default(),
+        frame_id: FRAME.into(),
+    };
+    let cloud = camera_cloud(&object, &camera, header).unwrap();
+    let pixels = 64 * 48;
+    let misses = (0..pixels).filter(|p| x_of(&cloud, *p).is_nan()).count();
+    assert!(
+        misses > 0 && misses < pixels - 200,
+        "{misses} of {pixels} pixels miss the ball"
+    );
+    // No instance field by this name: the whole cloud is one object.
+    let params = NodeParams {
+        instance_field: "segment_id".into(),
+        ..NodeParams::default()
+    };
+    let out = replay_clouds("organized", &[(0.1, cloud.clone())], params);
+    let deformed: Vec<PointCloud2> = out
+        .iter()
+        .filter(|m| m.topic == "/physskin/deformed_points")
+        .map(|m| from_cdr(&m.data).unwrap())
+        .collect();
+    assert!(deformed.len() > 10);
+    for d in &deformed {
+        assert_eq!((d.height, d.width, d.row_step), (48, 64, cloud.row_step));
+        assert!(!d.is_dense);
+        for p in 0..pixels {
+            assert_eq!(
+                x_of(d, p).is_nan(),
+                x_of(&cloud, p).is_nan(),
+                "pixel {p} keeps its place"
+            );
+        }
+    }
+}
