@@ -9,68 +9,17 @@ use nalgebra::Vector3;
 use physskin::bag::{
     read_messages, replay, BagWriter, QosProfile, RecordOptions, ReplayOptions, TopicInfo,
 };
-use physskin::geometry::{box_mesh, sdf_mesh, Camera, Shape};
-use physskin::ros::camera_cloud::{camera_cloud, merged, SeenObject};
+use physskin::geometry::{sdf_mesh, Camera};
+use physskin::ros::camera_cloud::{camera_cloud, SeenObject};
 use physskin::ros::messages::{from_cdr, to_cdr, Header, PointCloud2, Status, SubspaceState, Time};
 use physskin::ros::NodeParams;
 use physskin::skinning::NeuralModel;
 
-const FRAME: &str = "camera_color_optical_frame";
+mod common;
+
+use common::scenes::{table_scene, OPTICAL_FRAME as FRAME};
+
 const TOPIC: &str = "/physskin/points";
-
-fn moved(shape: Shape, by: Vector3<f64>) -> Shape {
-    let positions = shape.positions.iter().map(|p| p + by).collect();
-    Shape::new(positions, None, shape.triangles.clone()).unwrap()
-}
-
-/// A ball (id 1, red) and a box (id 2, blue) on a table (background, 0), seen by one camera.
-fn table_scene(width: usize, height: usize) -> PointCloud2 {
-    let ball = moved(
-        sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 32),
-        Vector3::new(-0.15, 0.0, 0.1),
-    );
-    let block = moved(
-        box_mesh(Vector3::new(0.15, 0.15, 0.15)),
-        Vector3::new(0.15, 0.0, 0.075),
-    );
-    let table = moved(
-        box_mesh(Vector3::new(1.0, 1.0, 0.02)),
-        Vector3::new(0.0, 0.0, -0.01),
-    );
-    let camera = Camera::looking_at(
-        &merged(&[&ball, &block]).unwrap(),
-        Vector3::new(0.3, -1.0, 0.7),
-        1.5,
-        width,
-        height,
-    );
-    let objects = [
-        SeenObject {
-            shape: &ball,
-            instance: 1,
-            rgb: [220, 30, 30],
-        },
-        SeenObject {
-            shape: &block,
-            instance: 2,
-            rgb: [30, 30, 220],
-        },
-        SeenObject {
-            shape: &table,
-            instance: 0,
-            rgb: [120, 100, 80],
-        },
-    ];
-    camera_cloud(
-        &objects,
-        &camera,
-        Header {
-            stamp: Time::default(),
-            frame_id: FRAME.into(),
-        },
-    )
-    .unwrap()
-}
 
 fn instance_of(cloud: &PointCloud2, pixel: usize) -> u16 {
     let at = pixel * cloud.point_step as usize + 16;

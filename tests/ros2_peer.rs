@@ -268,6 +268,41 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
     }
 }
 
+/// rclpy sends a segmenting camera's organized, coloured, labelled cloud in its optical frame
+/// (a ball, a box, the table as background) and reads both objects back with their colours in
+/// place; the node's recording shows two builds and the same two shape ids throughout.
+#[test]
+fn rclpy_labelled_coloured_scan_in_an_optical_frame_becomes_two_objects() {
+    use physskin::ros::messages::{from_cdr, to_cdr, Status, SubspaceState};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scan = root.join("target/labelled-scan.cdr");
+    std::fs::write(&scan, to_cdr(&common::scenes::table_scene(160, 120))).unwrap();
+    let bag = root.join("target/labelled-scan-node.mcap");
+    let _ = std::fs::remove_file(&bag);
+    let (stdout, log) = node_with_peer(
+        34,
+        &format!("--record {}", bag.display()),
+        &format!("labelled_scan_peer.py {}", scan.display()),
+        "labelled-scan-node.log",
+    );
+    assert!(stdout.contains("ok: labelled scan"), "{stdout}");
+    let messages =
+        physskin::bag::read_messages(&std::fs::read(&bag).unwrap(), "node recording").unwrap();
+    let ready: Vec<Status> = messages
+        .iter()
+        .filter(|m| m.topic == "/physskin/status")
+        .map(|m| from_cdr::<Status>(&m.data).unwrap())
+        .filter(|s| s.event == "shape_ready")
+        .collect();
+    assert_eq!(ready.len(), 2, "one build per object: {ready:?}\n{log}");
+    let ids: std::collections::BTreeSet<u32> = messages
+        .iter()
+        .filter(|m| m.topic == "/physskin/state")
+        .map(|m| from_cdr::<SubspaceState>(&m.data).unwrap().shape_id)
+        .collect();
+    assert_eq!(ids.len(), 2, "two objects, their ids kept: {ids:?}");
+}
+
 #[test]
 fn rclpy_joint_states_drive_a_scene_robot() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -1,6 +1,9 @@
 //! What several integration tests share: Python peers in virtual environments under target/,
 //! made on first use, failing loudly when they cannot be made.
 
+#[allow(dead_code)] // only some test binaries make scenes
+pub mod scenes;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;

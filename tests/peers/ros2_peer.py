@@ -50,9 +50,16 @@ def box_mesh():
 
 
 def read_xyz(cloud):
+    """x, y, z by name, in each field's precision and the cloud's byte order (the node answers
+    in the layout it was sent)."""
     names = {f.name: f for f in cloud.fields}
     arr = np.frombuffer(bytes(cloud.data), dtype=np.uint8).reshape(-1, cloud.point_step)
-    cols = [arr[:, names[a].offset:names[a].offset + 4].copy().view("<f4").ravel() for a in "xyz"]
+    order = ">" if cloud.is_bigendian else "<"
+
+    def column(f):
+        size, kind = {PointField.FLOAT32: (4, "f4"), PointField.FLOAT64: (8, "f8")}[f.datatype]
+        return arr[:, f.offset:f.offset + size].copy().view(order + kind).ravel()
+    cols = [column(names[a]) for a in "xyz"]
     return np.stack(cols, axis=1), names, arr
 
 
@@ -97,6 +104,10 @@ def main():
         sys.exit(f"missing answers: deformed {list(got['deformed'])}, weights {list(got['weights'])}")
 
     frames = got["deformed"]["peer_cloud"]
+    # The answer keeps the input's layout: float64 z, padding, float32 x, y, big-endian.
+    assert [(f.name, f.offset, f.datatype) for f in frames[0].fields] == \
+        [(f.name, f.offset, f.datatype) for f in cloud.fields], frames[0].fields
+    assert frames[0].is_bigendian and frames[0].point_step == 20
     first, last = read_xyz(frames[0])[0], read_xyz(frames[-1])[0]
     assert first.shape == (n, 3), first.shape
     # The deformed cloud keeps the input's order: it starts at the input points...
