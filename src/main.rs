@@ -7,8 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli;
-use physskin::bench::{run_sim_bench, simulate, SimBenchOptions, SimBenchReport, SimulateOptions};
-use physskin::physics::Solver;
+use physskin::bench::{run_sim_bench, SimBenchOptions, SimBenchReport};
 
 #[derive(Parser)]
 #[command(
@@ -30,38 +29,12 @@ enum Command {
     Replay(cli::bag::ReplayArgs),
     /// Rewrite a recording cut short by a crash into a complete file.
     Recover(cli::bag::RecoverArgs),
-    /// Simulate a bundled shape in its skinning subspace and compare with the full-space FEM.
-    Simulate {
-        /// Bundled shape: plate, rod, creature, box, sphere.
-        #[arg(long, default_value = "rod")]
-        shape: String,
-        /// hanging, drop or poke.
-        #[arg(long, default_value = "hanging")]
-        scenario: String,
-        /// Handles besides the constant one.
-        #[arg(long, default_value_t = 16)]
-        modes: usize,
-        #[arg(long, default_value_t = 1024)]
-        cubature: usize,
-        #[arg(long, value_enum, default_value = "quasi-newton")]
-        solver: SolverArg,
-        #[arg(long, default_value_t = 60)]
-        steps: usize,
-        /// FEM grid cells across the longest side.
-        #[arg(long, default_value_t = 48)]
-        resolution: usize,
-        /// Young's modulus, Pa.
-        #[arg(long, default_value_t = 5e6)]
-        young: f64,
-        /// Skip the FEM reference (no error figure).
-        #[arg(long)]
-        no_reference: bool,
-        /// Skinning field: learned (the bundled network) or eigen (eigenmodes of the FEM mesh).
-        #[arg(long, value_enum, default_value = "learned")]
-        field: FieldArg,
-        #[arg(long)]
-        json: bool,
-    },
+    /// Simulate a bundled shape, or any mesh or cloud file (one camera's scan included), in its
+    /// skinning subspace and compare with the full-space FEM.
+    Simulate(cli::simulate::SimulateArgs),
+    /// One depth camera's view of a mesh (its visible side), as a PLY cloud; prints the
+    /// camera's position (the viewpoint for `simulate` and `infer`).
+    Scan(cli::scan::ScanArgs),
     /// Train the neural skinning field on generated shapes (self-supervised).
     Train(cli::train::TrainArgs),
     /// Skinning weights of a mesh or cloud file in one forward pass, and a picture of them.
@@ -137,6 +110,12 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// One camera's scans of the bundled shapes, completed and simulated: volume, error
+    /// against the FEM of the whole object beside the whole mesh's body, step times.
+    Real {
+        #[arg(long)]
+        json: bool,
+    },
     /// Reduced simulation against the FEM reference: step time next to error.
     Sim {
         /// Small meshes and fewer variants (fits in CI).
@@ -149,18 +128,6 @@ enum BenchCommand {
         #[arg(long, default_value = "target/bench/sim.svg")]
         plot: PathBuf,
     },
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum FieldArg {
-    Learned,
-    Eigen,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum SolverArg {
-    Newton,
-    QuasiNewton,
 }
 
 fn main() -> ExitCode {
@@ -180,36 +147,8 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     let result = match cli.command {
-        Command::Simulate {
-            shape,
-            scenario,
-            modes,
-            cubature,
-            solver,
-            steps,
-            resolution,
-            young,
-            no_reference,
-            field,
-            json,
-        } => run_simulate(
-            SimulateOptions {
-                shape,
-                scenario,
-                modes,
-                cubature,
-                solver: match solver {
-                    SolverArg::Newton => Solver::Newton,
-                    SolverArg::QuasiNewton => Solver::QuasiNewton,
-                },
-                steps,
-                resolution,
-                young,
-                reference: !no_reference,
-                learned: matches!(field, FieldArg::Learned),
-            },
-            json,
-        ),
+        Command::Simulate(args) => cli::simulate::run(args),
+        Command::Scan(args) => cli::scan::run(args),
         Command::Demo(args) => cli::demo::run(args),
         Command::Replay(args) => cli::bag::run_replay(args, ros),
         Command::Recover(args) => cli::bag::run_recover(args),
@@ -233,6 +172,7 @@ fn main() -> ExitCode {
             BenchCommand::Scene { json, seconds } => cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
             BenchCommand::Stress { json } => run_bench_stress(json),
+            BenchCommand::Real { json } => run_bench_real(json),
             BenchCommand::Soak {
                 json,
                 seconds,
@@ -248,48 +188,6 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn run_simulate(options: SimulateOptions, json: bool) -> physskin::Result<()> {
-    eprintln!(
-        "simulating {} ({}), {} handles + constant, {} cubature points, {} steps...",
-        options.shape, options.scenario, options.modes, options.cubature, options.steps
-    );
-    let summary = simulate(&options)?;
-    if json {
-        cli::print_json(&summary);
-        return Ok(());
-    }
-    let r = &summary.row;
-    println!(
-        "shape            {} ({} FEM vertices, {} tets)",
-        r.shape, r.vertices, summary.tets
-    );
-    println!("scenario         {}", r.scenario);
-    println!(
-        "field            {} ({} handles + constant)",
-        r.field, r.handles
-    );
-    println!("cubature         {} points", r.cubature);
-    println!(
-        "reduced step     {:.3} ms median, {:.3} ms mean ({}, {:.1} iterations/step, {} steps unconverged, {} handed to Newton)",
-        r.step_ms, r.step_mean_ms, r.solver, r.mean_iterations, r.unconverged_steps, r.fallback_steps
-    );
-    if r.error_pct.is_finite() {
-        println!(
-            "FEM step         {:.1} ms median (speed-up {:.0}x)",
-            r.fem_step_ms, r.speedup
-        );
-        println!(
-            "error vs FEM     {:.3} % of the bounding diagonal (RMS over all vertices and steps)",
-            r.error_pct
-        );
-    }
-    println!(
-        "max displacement {:.4} m at the last step (FEM: {:.4} m)",
-        summary.max_displacement_m, summary.fem_max_displacement_m
-    );
-    Ok(())
 }
 
 fn run_bench_transport(json: bool, domain_id: u16) -> physskin::Result<()> {
@@ -346,6 +244,28 @@ fn run_bench_soak(
     println!(
         "recording: {} files, complete {}, {:?}",
         r.recording_files, r.recording_complete, r.recorded
+    );
+    Ok(())
+}
+
+fn run_bench_real(json: bool) -> physskin::Result<()> {
+    let r = physskin::bench::run_real_bench(|line| eprintln!("{line}"))?;
+    if json {
+        cli::print_json(&r);
+        return Ok(());
+    }
+    println!("| shape | camera from | scenario | points | volume / true | error % | whole mesh error % | ratio | step ms median / p99 / max | build ms |");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &r.rows {
+        println!(
+            "| {} | {:?} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.3} / {:.3} / {:.3} | {:.1} |",
+            r.shape, r.direction, r.scenario, r.points, r.volume_ratio, r.error_pct,
+            r.whole_mesh_error_pct, r.error_ratio, r.step_ms, r.step_p99_ms, r.step_max_ms, r.build_ms
+        );
+    }
+    println!(
+        "worst: volume off by {:.1} %, error {:.2}x the whole mesh's, step {:.3} ms",
+        r.worst_volume_error_pct, r.worst_error_ratio, r.worst_step_ms
     );
     Ok(())
 }

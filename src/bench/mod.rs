@@ -3,6 +3,8 @@
 mod fields;
 mod latency;
 mod plot;
+mod real_bench;
+mod real_to_sim;
 mod replay;
 mod scene;
 pub(crate) mod sim;
@@ -16,6 +18,8 @@ pub use fields::{
     PreparedInput, ShapeEval,
 };
 pub use latency::{run_latency_bench, sample_cloud, LatencyReport, RclpyLatency};
+pub use real_bench::{run_real_bench, RealBenchReport, ScanRow};
+pub use real_to_sim::{simulate_input, InputSimOptions, InputSimSummary};
 pub use replay::{run_replay_bench, ReplayBenchReport};
 pub use scene::{
     run_scene, run_scene_bench, SceneBenchReport, SceneRun, SceneRunOptions, WORKCELL,

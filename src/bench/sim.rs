@@ -9,7 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::stats::median;
+use super::stats::{median, quantile};
 use crate::error::{Error, Result};
 use crate::geometry::{
     bundled, sample_surface, stratified_subset, Cubature, Shape, SurfaceSampling, TetMesh,
@@ -40,6 +40,9 @@ pub struct SimRow {
     pub step_ms: f64,
     /// Mean reduced step, ms (shows the cost of the slow steps the median hides).
     pub step_mean_ms: f64,
+    /// 99th percentile and largest reduced step, ms.
+    pub step_p99_ms: f64,
+    pub step_max_ms: f64,
     /// Median FEM step, ms.
     pub fem_step_ms: f64,
     pub speedup: f64,
@@ -81,6 +84,17 @@ pub(crate) enum Scenario {
 
 impl Scenario {
     pub(crate) const ALL: [Scenario; 3] = [Scenario::Hanging, Scenario::Drop, Scenario::Poke];
+
+    /// The scenario called `name`, or why there is none.
+    pub(crate) fn named(name: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| Error::InvalidParameter {
+                name: "scenario",
+                reason: format!("unknown scenario {name:?} (hanging, drop, poke)"),
+            })
+    }
 
     pub(crate) fn name(self) -> &'static str {
         match self {
@@ -430,6 +444,8 @@ pub(crate) fn run_reduced(
         solver: String::new(),
         step_ms: median(&times) * 1e3,
         step_mean_ms: times.iter().sum::<f64>() / times.len() as f64 * 1e3,
+        step_p99_ms: quantile(&times, 0.99) * 1e3,
+        step_max_ms: times.iter().cloned().fold(f64::NAN, f64::max) * 1e3,
         fem_step_ms: 0.0,
         speedup: 0.0,
         error_pct: (squared / samples).sqrt() / shape.diagonal * 100.0,
@@ -530,17 +546,7 @@ pub struct SimulateSummary {
 }
 
 pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
-    let scenario = match options.scenario.as_str() {
-        "hanging" => Scenario::Hanging,
-        "drop" => Scenario::Drop,
-        "poke" => Scenario::Poke,
-        other => {
-            return Err(Error::InvalidParameter {
-                name: "scenario",
-                reason: format!("unknown scenario {other:?} (hanging, drop, poke)"),
-            })
-        }
-    };
+    let scenario = Scenario::named(&options.scenario)?;
     let name: &'static str = crate::geometry::BUNDLED
         .iter()
         .find(|n| **n == options.shape)

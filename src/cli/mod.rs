@@ -5,7 +5,9 @@ pub mod demo;
 pub mod eval;
 pub mod infer;
 pub mod node;
+pub mod scan;
 pub mod scene;
+pub mod simulate;
 pub mod train;
 
 /// Prints a report as pretty JSON on stdout (what every `--json` flag does).

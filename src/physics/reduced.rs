@@ -172,6 +172,11 @@ impl ReducedSim {
     pub fn subspace(&self) -> &Subspace {
         &self.subspace
     }
+
+    /// The subspace, shared: another simulation of the same body (a benchmark's scenario).
+    pub fn shared_subspace(&self) -> Arc<Subspace> {
+        self.subspace.clone()
+    }
     pub fn params(&self) -> &SimParams {
         &self.params
     }

@@ -569,6 +569,17 @@ impl SoftBody {
             .unzip()
     }
 
+    /// The body's reduced space (its field at its cubature points), for running it in another
+    /// simulation, e.g. a benchmark's scenario against the FEM.
+    pub fn subspace(&self) -> Arc<crate::physics::Subspace> {
+        self.sim.shared_subspace()
+    }
+
+    /// The solid the body was built on, voxelized (world units).
+    pub fn solid(&self) -> &VoxelGrid {
+        &self.grid
+    }
+
     /// A lifter for other points of this body (rest positions, world units), e.g. the vertices
     /// of a reference mesh: `lifter.lift(body.state(), out)` deforms them like the body.
     pub fn lifter_for(&self, points: &[Vector3<f64>]) -> Lifter {
