@@ -350,6 +350,10 @@ fn run_bench_latency(
             "first deformed cloud after a new 100k-point cloud  {:8.1} ms",
             r.latency_100k_ms
         );
+        println!(
+            "first deformed cloud after a {}-point camera scan {:8.1} ms",
+            r.scan_points, r.latency_scan_ms
+        );
         match &r.rclpy {
             Some(p) => println!(
                 "the same ~10k cloud, rclpy to rclpy (Fast DDS)     {:8.1} ms first, median {:.1} ms, max {:.1} ms of {}",
