@@ -208,3 +208,97 @@ fn eval_reports_the_papers_metrics_per_shape_and_on_average() {
     let h = report["mean"]["h_spec"].as_f64().unwrap();
     assert!(h > 0.0 && h <= 1.0 + 1e-9, "h_spec in (0, 1], got {h}");
 }
+
+/// Lines, planes and meshes of no area are refused by `infer` and `simulate --input` with the
+/// reason; a camera's scan (`physskin scan`) is completed from its viewpoint and simulated
+/// against the FEM of the whole mesh, and the JSON has the fields.
+#[test]
+fn scans_simulate_and_degenerate_files_are_refused_with_their_reason() {
+    let dir = std::env::temp_dir().join(format!("physskin-real-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let line: String = (0..20)
+        .map(|i| format!("v {} 0 0\n", i as f64 * 0.01))
+        .collect();
+    let plane: String = (0..400)
+        .map(|i| {
+            format!(
+                "v {} {} 0\n",
+                (i % 20) as f64 * 0.01,
+                (i / 20) as f64 * 0.01
+            )
+        })
+        .collect();
+    let flat = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 1 2\nf 3 3 3\nf 2 4 2\n";
+    for (name, text, why) in [
+        ("line.obj", line, "one line"),
+        ("plane.obj", plane, "one plane"),
+        ("flat.obj", flat.to_string(), "no area"),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        for command in [&["infer"][..], &["simulate", "--input"][..]] {
+            let out = physskin().args(command).arg(&path).output().unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{command:?} {name} was accepted");
+            assert!(stderr.contains(why), "{command:?} {name}: {stderr}");
+        }
+    }
+    let (scan, mesh) = (dir.join("scan.ply"), dir.join("box.obj"));
+    let scanned = physskin()
+        .args(["scan", "--shape", "box", "--out"])
+        .arg(&scan)
+        .arg("--mesh-out")
+        .arg(&mesh)
+        .output()
+        .unwrap();
+    assert!(
+        scanned.status.success(),
+        "{}",
+        String::from_utf8_lossy(&scanned.stderr)
+    );
+    let viewpoint = String::from_utf8_lossy(&scanned.stdout).trim().to_string();
+    let out = physskin()
+        .args(["simulate", "--json", "--steps", "20", "--input"])
+        .arg(&scan)
+        .args(["--viewpoint", &viewpoint, "--reference"])
+        .arg(&mesh)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in [
+        "volume",
+        "mass",
+        "error_pct",
+        "max_displacement",
+        "step_ms",
+        "step_max_ms",
+    ] {
+        assert!(
+            json[key].as_f64().is_some_and(f64::is_finite),
+            "{key}: {json}"
+        );
+    }
+    assert_eq!(
+        json["completion"]["method"], "reflected_through_centre",
+        "{json}"
+    );
+    let ratio = json["volume"].as_f64().unwrap() / json["reference_volume"].as_f64().unwrap();
+    assert!(
+        (ratio - 1.0).abs() <= 0.3,
+        "the completed box has {ratio:.3} of the volume"
+    );
+    // The whole mesh needs no completion.
+    let whole = physskin()
+        .args(["simulate", "--json", "--steps", "5", "--input"])
+        .arg(&mesh)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&whole.stdout).unwrap();
+    assert_eq!(json["completion"], serde_json::json!({}), "{json}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

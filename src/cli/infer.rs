@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use physskin::bench::prepare_input;
-use physskin::geometry::{load_geometry, write_ply, RawGeometry, Shape};
+use physskin::geometry::{complete_view, load_geometry, write_ply, RawGeometry, Shape};
 use physskin::io::{render_field_png, write_npy_f32};
 use physskin::skinning::{NeuralModel, SkinningField};
 use physskin::{Error, Result};
@@ -26,6 +26,11 @@ pub struct InferArgs {
     /// A model file instead of the bundled one.
     #[arg(long)]
     model: Option<PathBuf>,
+    /// Where a cloud was seen from, x,y,z in the file's coordinates: the cloud is one camera's
+    /// view, completed before inference (its hidden side is estimated); weights are still
+    /// written for the input's points only.
+    #[arg(long, value_parser = super::simulate::parse_point, allow_hyphen_values = true)]
+    viewpoint: Option<nalgebra::Vector3<f64>>,
 }
 
 pub fn run(args: InferArgs) -> Result<()> {
@@ -36,9 +41,10 @@ pub fn run(args: InferArgs) -> Result<()> {
     let raw = load_geometry(&args.input)?;
     let shape = Shape::from_raw(raw.clone())?;
     shape.check_solid()?;
-    let map = shape.normalization();
     let prepare_started = Instant::now();
-    let input = prepare_input(&shape, 4096, 4096);
+    let seen = completed(&shape, args.viewpoint.as_ref())?;
+    let map = seen.normalization();
+    let input = prepare_input(&seen, 4096, 4096);
     let prepare_ms = prepare_started.elapsed().as_secs_f64() * 1e3;
 
     let started = Instant::now();
@@ -119,4 +125,25 @@ fn write_weights(path: &Path, raw: &RawGeometry, weights: &[f64], handles: usize
         .zip(columns.iter().map(Vec::as_slice))
         .collect();
     write_ply(raw, &extra, &mut out).map_err(io)
+}
+
+/// The shape the network reads: a cloud seen from `viewpoint` completed to a closed surface
+/// (when it is one view), or the input itself.
+fn completed(shape: &Shape, viewpoint: Option<&nalgebra::Vector3<f64>>) -> Result<Shape> {
+    let Some(viewpoint) = viewpoint.filter(|_| shape.is_point_cloud()) else {
+        return Ok(shape.clone());
+    };
+    match complete_view(&shape.positions, viewpoint, None)
+        .map_err(|e| Error::Geometry(e.to_string()))?
+    {
+        Some(view) => {
+            eprintln!(
+                "completed one view ({}): observed {:.1} % of the surface",
+                view.report.method,
+                100.0 * view.report.observed_fraction
+            );
+            Shape::new(view.surface, None, Vec::new())
+        }
+        None => Ok(shape.clone()),
+    }
 }

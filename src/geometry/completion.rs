@@ -45,6 +45,8 @@ pub struct Completion {
     pub added_points: usize,
     /// Estimated depth of the object along the view, m.
     pub depth: f64,
+    /// Wall-clock time the completion took, ms.
+    pub ms: f64,
 }
 
 /// A completed view.
@@ -163,6 +165,7 @@ pub fn complete_view(
     if points.len() < EXAMINED_FROM {
         return Ok(None);
     }
+    let started = std::time::Instant::now();
     let Some(view) = ViewFrame::new(points, viewpoint) else {
         return Ok(None);
     };
@@ -216,6 +219,7 @@ pub fn complete_view(
             two_sided_fraction: two_sided,
             added_points,
             depth,
+            ms: started.elapsed().as_secs_f64() * 1e3,
         },
         surface,
         solid,

@@ -327,6 +327,17 @@ impl Builder {
         } else {
             String::new()
         };
+        let timings = if outputs.timings {
+            let completed = completion
+                .as_ref()
+                .map_or(String::new(), |c| format!("completion {:.1}, ", c.ms));
+            format!(
+                "; built in {:.1} ms ({completed}voxels {:.1}, inference {:.1}, subspace {:.1}, weights {:.1})",
+                t.total_ms, t.voxelize_ms, t.infer_ms, t.subspace_ms, t.weights_ms
+            )
+        } else {
+            String::new()
+        };
         let completion = match completion {
             Some(c) => format!(
                 ", completed one view ({}): observed {:.1} % of the surface, volume {:.3e} m^3",
@@ -335,14 +346,6 @@ impl Builder {
                 body.volume()
             ),
             None => String::new(),
-        };
-        let timings = if outputs.timings {
-            format!(
-                "; built in {:.1} ms (voxels {:.1}, inference {:.1}, subspace {:.1}, weights {:.1})",
-                t.total_ms, t.voxelize_ms, t.infer_ms, t.subspace_ms, t.weights_ms
-            )
-        } else {
-            String::new()
         };
         let announcement = Announcement {
             id,
