@@ -104,7 +104,8 @@ impl BuildRequest {
                 None => vec![(None, decoded)],
             };
         let pixels = objects.iter().map(|(_, o)| o.pixels.clone()).collect();
-        let templates = CloudTemplate::for_objects(cloud, pixels);
+        let labelled = objects.iter().any(|(label, _)| label.is_some());
+        let templates = CloudTemplate::for_objects(cloud, pixels, labelled);
         Ok(objects
             .into_iter()
             .zip(templates)

@@ -116,14 +116,17 @@ struct Source {
 }
 
 /// The cloud one object's deformed points go out as: its input cloud's layout and fields, with
-/// its points' x, y, z replaced. An organized cloud (height > 1) keeps its height and width, and
-/// every pixel that is not the object's (NaN, background, other objects) reads NaN; an
-/// unorganized one holds the object's points only, in input order.
+/// its points' x, y, z replaced. The one object of an organized cloud (height > 1) keeps the
+/// image's height and width, its NaN pixels NaN in place. An object of a labelled cloud, or of
+/// an unorganized one, holds its own points only, in input order: one image per object would
+/// multiply a camera's bandwidth by the number of objects.
 #[derive(Clone)]
 pub struct CloudTemplate {
     source: Arc<Source>,
     /// The object's pixels (row-major indices), in the order of its points.
     pixels: Arc<Vec<u32>>,
+    /// The output is the whole image (an organized cloud's one object).
+    whole_image: bool,
     /// The output's bytes before positions are written, and where each point's record starts;
     /// made on first use, off the executor.
     base: Arc<OnceLock<(Vec<u8>, Vec<usize>)>>,
@@ -143,8 +146,10 @@ impl std::fmt::Debug for CloudTemplate {
 }
 
 impl CloudTemplate {
-    /// Templates for the objects of `cloud`, one per entry of `pixels` (the objects' pixels).
-    pub fn for_objects(cloud: &PointCloud2, pixels: Vec<Vec<u32>>) -> Vec<Self> {
+    /// Templates for the objects of `cloud`, one per entry of `pixels` (the objects' pixels);
+    /// `labelled`: the cloud was split by instance id.
+    pub fn for_objects(cloud: &PointCloud2, pixels: Vec<Vec<u32>>, labelled: bool) -> Vec<Self> {
+        let whole_image = cloud.height > 1 && !labelled;
         let Ok(xyz) = coordinates(cloud) else {
             // Decoding checked x, y and z before any object exists.
             unreachable!("templates are made for decoded clouds only")
@@ -164,6 +169,7 @@ impl CloudTemplate {
             .map(|pixels| Self {
                 source: source.clone(),
                 pixels: Arc::new(pixels),
+                whole_image,
                 base: Arc::default(),
             })
             .collect()
@@ -195,7 +201,7 @@ impl CloudTemplate {
                 axis.write(record, *value as f64, s.is_bigendian);
             }
         }
-        let organized = s.height > 1;
+        let organized = self.whole_image;
         let (height, width, row_step) = if organized {
             (s.height, s.width, s.row_step)
         } else {
@@ -224,7 +230,7 @@ impl CloudTemplate {
             let (row, col) = (pixel / s.width, pixel % s.width);
             row as usize * s.row_step as usize + col as usize * step
         };
-        if s.height > 1 {
+        if self.whole_image {
             let mut data = s.data.clone();
             let mut mine = vec![false; (s.height * s.width) as usize];
             self.pixels.iter().for_each(|p| mine[*p as usize] = true);
@@ -319,7 +325,7 @@ mod tests {
         let field = instance_field(&cloud, "label").unwrap();
         let objects = split_by_instance(&cloud, field, decode_cloud(&cloud, 100).unwrap()).unwrap();
         let pixels: Vec<Vec<u32>> = objects.values().map(|o| o.pixels.clone()).collect();
-        let templates = CloudTemplate::for_objects(&cloud, pixels);
+        let templates = CloudTemplate::for_objects(&cloud, pixels, true);
         let out = templates[1].fill(
             Header::default(),
             &[9.0, 9.0, 9.0, 8.0, 8.0, 8.0, 7.0, 7.0, 7.0],
@@ -348,7 +354,8 @@ mod tests {
             .iter()
             .flat_map(|p| [p.x as f32 + 0.5, 0.0, 1.0])
             .collect();
-        let template = CloudTemplate::for_objects(&cloud, vec![decoded.pixels.clone()]).remove(0);
+        let template =
+            CloudTemplate::for_objects(&cloud, vec![decoded.pixels.clone()], false).remove(0);
         let out = template.fill(Header::default(), &moved);
         assert_eq!(
             (out.height, out.width, out.row_step),
