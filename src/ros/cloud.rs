@@ -193,8 +193,7 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
     let mut points = Vec::with_capacity(count as usize);
     let mut pixels = Vec::with_capacity(count as usize);
     let mut dropped = 0;
-    let mut pixel = 0u32;
-    for bytes in records(cloud) {
+    for (pixel, bytes) in records(cloud).enumerate() {
         let point = Vector3::new(
             read(bytes, &axes[0]),
             read(bytes, &axes[1]),
@@ -202,11 +201,10 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
         );
         if point.iter().all(|c| c.is_finite()) {
             points.push(point);
-            pixels.push(pixel);
+            pixels.push(pixel as u32);
         } else {
             dropped += 1;
         }
-        pixel += 1;
     }
     if points.is_empty() {
         return Err(CloudError::NoFinitePoints { dropped });
