@@ -43,7 +43,11 @@ fuzz_target!(|bytes: &[u8]| {
         for request in requests {
             assert!(request.points.iter().all(|p| p.iter().all(|c| c.is_finite())));
             // The deformed cloud in the input's layout: the rest pose must fit it.
-            let rest: Vec<f32> = request.points.iter().flat_map(|p| p.map(|c| c as f32)).collect();
+            let rest: Vec<f32> = request
+                .points
+                .iter()
+                .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                .collect();
             let template = request.template.as_ref().expect("clouds carry their layout");
             let out = template.fill(Default::default(), &rest);
             assert_eq!(out.data.len() as u64, out.row_step as u64 * out.height as u64);
