@@ -202,17 +202,25 @@ fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
         "{misses} of {pixels} pixels miss the ball"
     );
     // No instance field by this name: the whole cloud is one object. It is read from a
-    // downsampled copy of 400 points, every point still deformed, and its deformed clouds go
+    // downsampled copy of 300 points, every point still deformed, and its deformed clouds go
     // out at 15 Hz while it steps at 60.
     let mut params = NodeParams {
         instance_field: "segment_id".into(),
         ..NodeParams::default()
     };
-    params.inference.max_build_points = 400;
+    params.inference.max_build_points = 300;
     params.publish.rate_hz = 15.0;
     let seen = pixels - misses;
-    assert!(seen > 800, "{seen} points: more than the build reads");
+    assert!(seen > 350, "{seen} points: more than the build reads");
     let out = replay_clouds("organized", &[(0.1, cloud.clone())], params);
+    let ready = statuses(&out, "shape_ready");
+    assert!(
+        ready[0].1.message.contains(&format!(
+            "{seen} points (its shape read from a voxel-downsampled"
+        )),
+        "{}",
+        ready[0].1.message
+    );
     let deformed: Vec<PointCloud2> = out
         .iter()
         .filter(|m| m.topic == "/physskin/deformed_points")

@@ -309,7 +309,7 @@ impl Builder {
                 self.next_id
             }
         };
-        let (body, completion) = match build_body(request, params, model) {
+        let (body, completion, read_from) = match build_body(request, params, model) {
             Ok(built) => built,
             Err(e) => {
                 let message = format!("{} in {key}: {e}", request.source);
@@ -323,6 +323,11 @@ impl Builder {
             .clone()
             .unwrap_or_else(|| request.frame.clone());
         let t = body.timings();
+        let thinned = if read_from < request.points.len() {
+            format!(" (its shape read from a voxel-downsampled {read_from})")
+        } else {
+            String::new()
+        };
         let dropped = if request.dropped > 0 {
             format!(", {} NaN or Inf points dropped", request.dropped)
         } else {
@@ -359,7 +364,7 @@ impl Builder {
             weights: body.weights().to_vec(),
             handles: body.handles(),
             message: format!(
-                "{} in {key}: {} points, {} handles{dropped}{completion}{timings}",
+                "{} in {key}: {} points{thinned}, {} handles{dropped}{completion}{timings}",
                 request.source,
                 body.point_count(),
                 body.handles()
@@ -391,12 +396,13 @@ pub(crate) fn yield_to_stepping() {
 }
 
 /// The body of a request's geometry under `params`; a cloud that is one view of its object is
-/// completed first (and its completion returned), or refused when it cannot be.
+/// completed first (and its completion returned), or refused when it cannot be. Also returns
+/// how many points the shape was read from.
 fn build_body(
     request: &BuildRequest,
     params: &NodeParams,
     model: &Arc<NeuralModel>,
-) -> crate::Result<(SoftBody, Option<Completion>)> {
+) -> crate::Result<(SoftBody, Option<Completion>, usize)> {
     let options = params.body_options()?;
     // A large cloud's shape is read from a thinned copy; every point is still deformed. A
     // mesh's triangles index all its vertices, so a mesh is read whole.
@@ -418,11 +424,12 @@ fn build_body(
     match view {
         Some(view) => {
             let body = SoftBody::build_view(model, &view, &request.points, &options)?;
-            Ok((body, Some(view.report)))
+            Ok((body, Some(view.report), points.len()))
         }
         None => Ok((
             SoftBody::build(model, &shape, &request.points, &options)?,
             None,
+            points.len(),
         )),
     }
 }
