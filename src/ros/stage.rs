@@ -206,20 +206,26 @@ impl Stage {
     }
 
     /// A new body replaces the one of its key. With `step_now` it makes its first step at
-    /// once, so its first deformed cloud does not wait for the next tick.
+    /// once and publishes it, so its first deformed cloud does not wait for the next tick. On
+    /// the beat without `step_now` (the tick is near), the step is still made now, and goes out
+    /// first thing at the tick: waiting for the tick to compute it would hold the cloud back
+    /// until the tick after.
     pub fn add(&mut self, mut ready: ReadyBody, outputs: &Outputs, step_now: bool) {
-        if step_now {
+        let early = self.on_the_beat && !step_now;
+        if step_now || early {
             ready.body.step();
+        }
+        if step_now {
             publish_last_step(&mut ready, outputs, true, true);
         }
         let now = outputs.clock.now_nanos().unwrap_or(0);
         if let Some(i) = self.bodies.iter().position(|b| b.key == ready.key) {
             self.bodies[i] = ready;
-            self.unpublished[i] = false;
+            self.unpublished[i] = early;
             self.last_seen[i] = now;
         } else {
             self.bodies.push(ready);
-            self.unpublished.push(false);
+            self.unpublished.push(early);
             self.last_seen.push(now);
         }
     }
