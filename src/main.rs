@@ -351,8 +351,10 @@ fn run_bench_latency(
             r.latency_100k_ms
         );
         println!(
-            "first deformed cloud after a {}-point camera scan {:8.1} ms",
-            r.scan_points, r.latency_scan_ms
+            "first deformed cloud after a ~6k-point camera scan {:8.1} ms median, {:.1} ms max of {}",
+            r.latency_scan_ms,
+            r.latency_scan_max_ms,
+            r.scan_latencies_ms.len()
         );
         match &r.rclpy {
             Some(p) => println!(

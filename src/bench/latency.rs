@@ -22,10 +22,13 @@ use crate::{Error, Result};
 pub struct LatencyReport {
     pub latency_10k_ms: f64,
     pub latency_100k_ms: f64,
-    /// One depth camera's organized scan of the bundled box (points seen, of its pixels), in
-    /// its optical frame: the view is completed before inference.
-    pub scan_points: usize,
+    /// One depth camera's organized scans of the bundled box, in its optical frame, five
+    /// times (180 down to 176 pixels wide): points seen, the latency of each, and their median
+    /// and largest. The view is completed before inference.
+    pub scan_points: Vec<usize>,
+    pub scan_latencies_ms: Vec<f64>,
     pub latency_scan_ms: f64,
+    pub latency_scan_max_ms: f64,
     /// The same 10k-point cloud from rclpy (Fast DDS) to an rclpy subscriber; absent when the
     /// bench was not given a Python with rclpy.
     pub rclpy: Option<RclpyLatency>,
@@ -59,17 +62,17 @@ pub struct RclpyLatency {
 }
 
 /// `count` points on the surface of a bundled shape, as a PointCloud2 in `frame`.
-/// The bundled box seen by one camera 1.5 diagonals away, about 6,000 points of a 180 x 135
-/// image, as a depth camera driver publishes it (organized, NaN where nothing is seen, with
-/// colours), in `frame`.
-fn box_scan(frame: &str) -> PointCloud2 {
+/// The bundled box seen by one camera 1.5 diagonals away, about 6,000 points of a `width` x 135
+/// image (width about 180), as a depth camera driver publishes it (organized, NaN where
+/// nothing is seen, with colours), in `frame`.
+fn box_scan(frame: &str, width: usize) -> PointCloud2 {
     use crate::ros::camera_cloud::{camera_cloud, SeenObject};
     let shape = crate::geometry::bundled("box").expect("the bundled box");
     let camera = crate::geometry::Camera::looking_at(
         &shape,
         nalgebra::Vector3::new(1.0, 0.6, 0.8),
         1.5,
-        180,
+        width,
         135,
     );
     let header = Header {
@@ -174,11 +177,17 @@ pub fn run_latency_bench(
         client.latency(&sample_cloud("creature", 9_999, "cloud_10k", 1))?;
         // The scan replaces the warm-up shape in its frame, and is replaced by the measured
         // 10k shape: its large organized clouds must not load the phases after it.
-        let scan = box_scan("cloud_10k");
-        let scan_points = scan_point_count(&scan);
-        let l_scan = client.latency(&scan)?;
+        // Five scans, one pixel narrower each time, so each is new geometry and its answer
+        // can be told apart by its width.
+        let mut scan_points = Vec::new();
+        let mut scan_ms = Vec::new();
+        for width in (176..=180).rev() {
+            let scan = box_scan("cloud_10k", width);
+            scan_points.push(scan_point_count(&scan));
+            scan_ms.push(client.latency(&scan)?);
+        }
         log(&format!(
-            "a {scan_points}-point scan: first deformed cloud after {l_scan:.1} ms"
+            "{scan_points:?}-point scans: first deformed cloud after {scan_ms:.1?} ms"
         ));
         let l10k = client.latency(&sample_cloud("creature", 10_000, "cloud_10k", 2))?;
         log(&format!(
@@ -220,8 +229,10 @@ pub fn run_latency_bench(
         Ok(LatencyReport {
             latency_10k_ms: l10k,
             latency_100k_ms: l100k,
+            latency_scan_ms: super::stats::median(&scan_ms),
+            latency_scan_max_ms: scan_ms.iter().cloned().fold(f64::NAN, f64::max),
             scan_points,
-            latency_scan_ms: l_scan,
+            scan_latencies_ms: scan_ms,
             rclpy,
             jitter_p99_ms: published.0,
             jitter_max_ms: published.1,
