@@ -21,6 +21,9 @@ const COMPLETED_FROM: usize = 200;
 const TWO_SIDED_FRACTION: f64 = 0.25;
 /// A patch thinner than this fraction of its width is flat: one view cannot tell its depth.
 const FLAT_PATCH: f64 = 0.08;
+/// Fill points per longest side of the completed surface: two per voxel at the inside test's
+/// default resolution (64).
+const FILL_STEPS_PER_SIDE: f64 = 128.0;
 /// The name of the method, as reported.
 pub const METHOD: &str = "reflected_through_centre";
 
@@ -205,10 +208,13 @@ pub fn complete_view(
             }
         }
     }
+    // The fill only has to mark the voxels its rays cross: points half a voxel apart (at the
+    // finest resolution the pipeline uses) do, and a finer fill only costs the inside test.
+    let fill_step = spacing.max(longest_side(&surface) / FILL_STEPS_PER_SIDE);
     let mut solid = surface.clone();
     for (p, back) in points.iter().zip(&mirrors) {
         if let Some(back) = back {
-            solid.extend(segment(p, back, spacing));
+            solid.extend(segment(p, back, fill_step));
         }
     }
     let added_points = surface.len() - points.len();
@@ -348,6 +354,13 @@ fn hidden_side(
             Some(q)
         })
         .collect()
+}
+
+/// The longest side of the points' bounding box.
+fn longest_side(points: &[Vector3<f64>]) -> f64 {
+    (0..3)
+        .map(|a| extent(points.iter().map(|p| p[a])))
+        .fold(0.0, f64::max)
 }
 
 /// Points from `front` to `back` (both excluded), `spacing` apart.
