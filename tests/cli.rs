@@ -1,23 +1,26 @@
 //! The binary as a user runs it: the README's main command and the quick simulation bench.
 
-use std::process::Command;
+use std::process::{Command, Output};
 
 fn physskin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_physskin"))
 }
 
-#[test]
-fn simulate_prints_a_summary_with_the_error_against_the_reference() {
-    let out = physskin()
-        .args(["simulate", "--steps", "10", "--resolution", "24"])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
+/// Runs `command`; fails the test with its stderr unless it exits 0.
+fn succeeded(command: &mut Command) -> Output {
+    let out = command.output().unwrap();
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    out
+}
+
+#[test]
+fn simulate_prints_a_summary_with_the_error_against_the_reference() {
+    let out = succeeded(physskin().args(["simulate", "--steps", "10", "--resolution", "24"]));
+    let stdout = String::from_utf8_lossy(&out.stdout);
     for line in [
         "shape            rod",
         "reduced step",
@@ -45,15 +48,10 @@ fn simulate_refuses_unknown_shapes_by_name() {
 #[test]
 fn quick_sim_bench_reports_every_row_with_speed_next_to_error() {
     let plot = std::env::temp_dir().join(format!("physskin-sim-{}.svg", std::process::id()));
-    let out = physskin()
-        .args(["bench", "sim", "--quick", "--json", "--plot"])
-        .arg(&plot)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = succeeded(
+        physskin()
+            .args(["bench", "sim", "--quick", "--json", "--plot"])
+            .arg(&plot),
     );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let rows = report["rows"].as_array().expect("rows");
@@ -134,19 +132,14 @@ fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
         ("w.ply", b"ply\n".as_slice()),
         ("w.npy", b"\x93NUMPY".as_slice()),
     ] {
-        let out = physskin()
-            .arg("infer")
-            .arg(&input)
-            .arg("--out")
-            .arg(dir.join(out_name))
-            .arg("--png")
-            .arg(dir.join("w.png"))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        succeeded(
+            physskin()
+                .arg("infer")
+                .arg(&input)
+                .arg("--out")
+                .arg(dir.join(out_name))
+                .arg("--png")
+                .arg(dir.join("w.png")),
         );
         let bytes = std::fs::read(dir.join(out_name)).unwrap();
         assert!(bytes.starts_with(header), "{out_name}");
@@ -172,15 +165,7 @@ fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
 
 #[test]
 fn eval_reports_the_papers_metrics_per_shape_and_on_average() {
-    let out = physskin()
-        .args(["eval", "--held-out", "2", "--no-sim", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = succeeded(physskin().args(["eval", "--held-out", "2", "--no-sim", "--json"]));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let shapes = report["shapes"].as_array().unwrap();
     assert_eq!(
@@ -244,30 +229,20 @@ fn scans_simulate_and_degenerate_files_are_refused_with_their_reason() {
         }
     }
     let (scan, mesh) = (dir.join("scan.ply"), dir.join("box.obj"));
-    let scanned = physskin()
-        .args(["scan", "--shape", "box", "--out"])
-        .arg(&scan)
-        .arg("--mesh-out")
-        .arg(&mesh)
-        .output()
-        .unwrap();
-    assert!(
-        scanned.status.success(),
-        "{}",
-        String::from_utf8_lossy(&scanned.stderr)
+    let scanned = succeeded(
+        physskin()
+            .args(["scan", "--shape", "box", "--out"])
+            .arg(&scan)
+            .arg("--mesh-out")
+            .arg(&mesh),
     );
     let viewpoint = String::from_utf8_lossy(&scanned.stdout).trim().to_string();
-    let out = physskin()
-        .args(["simulate", "--json", "--steps", "20", "--input"])
-        .arg(&scan)
-        .args(["--viewpoint", &viewpoint, "--reference"])
-        .arg(&mesh)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = succeeded(
+        physskin()
+            .args(["simulate", "--json", "--steps", "20", "--input"])
+            .arg(&scan)
+            .args(["--viewpoint", &viewpoint, "--reference"])
+            .arg(&mesh),
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for key in [
@@ -293,11 +268,11 @@ fn scans_simulate_and_degenerate_files_are_refused_with_their_reason() {
         "the completed box has {ratio:.3} of the volume"
     );
     // The whole mesh needs no completion.
-    let whole = physskin()
-        .args(["simulate", "--json", "--steps", "5", "--input"])
-        .arg(&mesh)
-        .output()
-        .unwrap();
+    let whole = succeeded(
+        physskin()
+            .args(["simulate", "--json", "--steps", "5", "--input"])
+            .arg(&mesh),
+    );
     let json: serde_json::Value = serde_json::from_slice(&whole.stdout).unwrap();
     assert_eq!(json["completion"], serde_json::json!({}), "{json}");
     std::fs::remove_dir_all(&dir).unwrap();

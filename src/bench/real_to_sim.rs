@@ -10,14 +10,10 @@ use serde::Serialize;
 
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, shape_on_grid, Scenario};
 use crate::error::{Error, Result};
-use crate::geometry::{complete_view, load_geometry, voxel_downsample, Completion, Shape};
+use crate::geometry::{load_geometry, Completion, Shape};
 use crate::physics::Solver;
-use crate::pipeline::{BodyOptions, SoftBody, Support};
+use crate::pipeline::{build_seen, BodyOptions, SoftBody, Support, DEFAULT_MAX_BUILD_POINTS};
 use crate::skinning::NeuralModel;
-
-/// A cloud is read from at most this many points, as the node's default
-/// `inference.max_build_points`.
-const MAX_BUILD_POINTS: usize = 20_000;
 
 /// What to simulate and against what.
 #[derive(Clone, Debug)]
@@ -182,36 +178,20 @@ fn load_shape(path: &Path) -> Result<Shape> {
     Ok(shape)
 }
 
-/// The body the node would build from `shape`: a cloud seen from `viewpoint` is completed
-/// first; a large cloud is read from a downsampled copy. Every input point is deformed.
+/// The body the node would build from `shape` (see [`build_seen`]).
 pub(crate) fn build(
     model: &Arc<NeuralModel>,
     shape: &Shape,
     viewpoint: Option<&Vector3<f64>>,
     options: &BodyOptions,
 ) -> Result<(SoftBody, Option<Completion>)> {
-    if !shape.is_point_cloud() {
-        return Ok((
-            SoftBody::build(model, shape, &shape.positions, options)?,
-            None,
-        ));
-    }
-    let points = voxel_downsample(&shape.positions, MAX_BUILD_POINTS);
-    let view = match viewpoint {
-        Some(v) => complete_view(&points, v, None).map_err(|e| Error::Geometry(e.to_string()))?,
-        None => None,
-    };
-    match view {
-        Some(view) => {
-            let body = SoftBody::build_view(model, &view, &shape.positions, options)?;
-            Ok((body, Some(view.report)))
-        }
-        None => {
-            let thin = Shape::new(points, None, Vec::new())?;
-            Ok((
-                SoftBody::build(model, &thin, &shape.positions, options)?,
-                None,
-            ))
-        }
-    }
+    let seen = build_seen(
+        model,
+        &shape.positions,
+        &shape.triangles,
+        viewpoint,
+        DEFAULT_MAX_BUILD_POINTS,
+        options,
+    )?;
+    Ok((seen.body, seen.completion))
 }

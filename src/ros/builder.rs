@@ -15,8 +15,7 @@ use super::messages::{Mesh, PointCloud2, Status};
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
 use super::tf::{TfBuffer, TfError};
-use crate::geometry::{complete_view, voxel_downsample, Completion, Shape};
-use crate::pipeline::SoftBody;
+use crate::pipeline::{build_seen, SeenBody, SoftBody};
 use crate::skinning::NeuralModel;
 
 /// New geometry for the object in `frame` (with `label`, one of the frame's labelled objects).
@@ -94,17 +93,17 @@ impl BuildRequest {
         let decoded = decode_cloud(cloud, max_points).map_err(|e| bad(&e))?;
         // In a labelled cloud the dropped (NaN) points are nobody's: not reported per object.
         let dropped = decoded.dropped;
-        let objects: Vec<(Option<i64>, DecodedCloud)> =
-            match instance_field_of(cloud, instance_field) {
-                Some(field) => split_by_instance(cloud, field, decoded)
-                    .map_err(|e| bad(&e))?
-                    .into_iter()
-                    .map(|(label, object)| (Some(label), object))
-                    .collect(),
-                None => vec![(None, decoded)],
-            };
+        let field = instance_field_of(cloud, instance_field);
+        let labelled = field.is_some();
+        let objects: Vec<(Option<i64>, DecodedCloud)> = match field {
+            Some(field) => split_by_instance(cloud, field, decoded)
+                .map_err(|e| bad(&e))?
+                .into_iter()
+                .map(|(label, object)| (Some(label), object))
+                .collect(),
+            None => vec![(None, decoded)],
+        };
         let pixels = objects.iter().map(|(_, o)| o.pixels.clone()).collect();
-        let labelled = objects.iter().any(|(label, _)| label.is_some());
         let templates = CloudTemplate::for_objects(cloud, pixels, labelled);
         Ok(objects
             .into_iter()
@@ -309,7 +308,11 @@ impl Builder {
                 self.next_id
             }
         };
-        let (body, completion, read_from) = match build_body(request, params, model) {
+        let SeenBody {
+            body,
+            completion,
+            read_from,
+        } = match build_body(request, params, model) {
             Ok(built) => built,
             Err(e) => {
                 let message = format!("{} in {key}: {e}", request.source);
@@ -395,43 +398,20 @@ pub(crate) fn yield_to_stepping() {
     }
 }
 
-/// The body of a request's geometry under `params`; a cloud that is one view of its object is
-/// completed first (and its completion returned), or refused when it cannot be. Also returns
-/// how many points the shape was read from.
+/// The body of a request's geometry under `params` (see [`build_seen`]).
 fn build_body(
     request: &BuildRequest,
     params: &NodeParams,
     model: &Arc<NeuralModel>,
-) -> crate::Result<(SoftBody, Option<Completion>, usize)> {
-    let options = params.body_options()?;
-    // A large cloud's shape is read from a thinned copy; every point is still deformed. A
-    // mesh's triangles index all its vertices, so a mesh is read whole.
-    let points = if request.triangles.is_empty() {
-        voxel_downsample(&request.points, params.inference.max_build_points)
-    } else {
-        request.points.clone()
-    };
-    let shape = Shape::new(points.clone(), None, request.triangles.clone())?;
-    // A line or a plane is refused as such before it is taken for one side of something.
-    shape.check_solid()?;
-    let view = match &request.viewpoint {
-        Some(viewpoint) if request.triangles.is_empty() => {
-            complete_view(&points, viewpoint, options.floor_z)
-                .map_err(|e| crate::Error::Geometry(e.to_string()))?
-        }
-        _ => None,
-    };
-    match view {
-        Some(view) => {
-            let body = SoftBody::build_view(model, &view, &request.points, &options)?;
-            Ok((body, Some(view.report), points.len()))
-        }
-        None => Ok((
-            SoftBody::build(model, &shape, &request.points, &options)?,
-            None,
-            points.len(),
-        )),
-    }
+) -> crate::Result<SeenBody> {
+    build_seen(
+        model,
+        &request.points,
+        &request.triangles,
+        request.viewpoint.as_ref(),
+        params.inference.max_build_points,
+        &params.body_options()?,
+    )
 }
 
 /// What the build thread shares with the rest of the node.

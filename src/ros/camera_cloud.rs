@@ -6,8 +6,8 @@
 
 use nalgebra::Vector3;
 
-use super::cloud::FLOAT32;
-use super::messages::{Header, PointCloud2, PointField};
+use super::cloud::{point_field, FLOAT32};
+use super::messages::{Header, PointCloud2};
 use crate::geometry::{scan, Camera, Shape};
 
 /// PointField datatype UINT16.
@@ -65,22 +65,16 @@ pub fn camera_cloud(
         data.extend_from_slice(&instance.to_le_bytes());
         data.extend_from_slice(&[0, 0]);
     }
-    let field = |name: &str, offset: u32, datatype: u8| PointField {
-        name: name.into(),
-        offset,
-        datatype,
-        count: 1,
-    };
     Ok(PointCloud2 {
         header,
         height: camera.height as u32,
         width: camera.width as u32,
         fields: vec![
-            field("x", 0, FLOAT32),
-            field("y", 4, FLOAT32),
-            field("z", 8, FLOAT32),
-            field("rgb", 12, FLOAT32),
-            field("instance", 16, UINT16),
+            point_field("x", 0, FLOAT32),
+            point_field("y", 4, FLOAT32),
+            point_field("z", 8, FLOAT32),
+            point_field("rgb", 12, FLOAT32),
+            point_field("instance", 16, UINT16),
         ],
         is_bigendian: false,
         point_step: POINT_STEP,

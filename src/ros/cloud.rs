@@ -76,6 +76,16 @@ impl Coordinate {
     }
 }
 
+/// A one-value PointField: `name` at `offset` with `datatype` (FLOAT32 7, UINT16 4, ...).
+pub fn point_field(name: &str, offset: u32, datatype: u8) -> PointField {
+    PointField {
+        name: name.into(),
+        offset,
+        datatype,
+        count: 1,
+    }
+}
+
 /// Bytes per value of a PointField datatype (INT8 1 ... FLOAT64 8); None for unknown ones.
 pub fn datatype_size(datatype: u8) -> Option<usize> {
     match datatype {
@@ -248,12 +258,7 @@ pub fn encode_cloud(
         .chain(channels.iter().cloned());
     let fields: Vec<PointField> = names
         .enumerate()
-        .map(|(i, name)| PointField {
-            name,
-            offset: 4 * i as u32,
-            datatype: FLOAT32,
-            count: 1,
-        })
+        .map(|(i, name)| point_field(&name, 4 * i as u32, FLOAT32))
         .collect();
     let point_step = 4 * (3 + c);
     let mut data = Vec::with_capacity(count * point_step);
@@ -282,14 +287,7 @@ pub fn encode_cloud(
 mod tests {
     use super::*;
 
-    fn field(name: &str, offset: u32, datatype: u8) -> PointField {
-        PointField {
-            name: name.into(),
-            offset,
-            datatype,
-            count: 1,
-        }
-    }
+    use super::point_field as field;
 
     /// A cloud laid out like many drivers: float64 z first, padding, intensity, then x and y.
     fn odd_cloud(points: &[[f64; 3]], big: bool) -> PointCloud2 {

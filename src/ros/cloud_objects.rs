@@ -257,7 +257,7 @@ impl CloudTemplate {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ros::cloud::decode_cloud;
+    use crate::ros::cloud::{decode_cloud, point_field};
 
     /// An organized `w` x `h` cloud: float32 x, y, z, then rgb (4 bytes) and a uint16 label,
     /// padded to 20 bytes; pixel i is at (i, 0, 1), label `label(i)`, NaN where `nan(i)`.
@@ -278,22 +278,16 @@ mod tests {
             data.extend_from_slice(&label(i).to_le_bytes());
             data.extend_from_slice(&[0, 0]);
         }
-        let field = |name: &str, offset: u32, datatype: u8| PointField {
-            name: name.into(),
-            offset,
-            datatype,
-            count: 1,
-        };
         PointCloud2 {
             header: Header::default(),
             height: h,
             width: w,
             fields: vec![
-                field("x", 0, 7),
-                field("y", 4, 7),
-                field("z", 8, 7),
-                field("rgb", 12, 6),
-                field("label", 16, 4),
+                point_field("x", 0, 7),
+                point_field("y", 4, 7),
+                point_field("z", 8, 7),
+                point_field("rgb", 12, 6),
+                point_field("label", 16, 4),
             ],
             is_bigendian: false,
             point_step: step,
@@ -379,12 +373,7 @@ mod tests {
     #[test]
     fn fractional_ids_are_refused_with_the_point() {
         let mut cloud = labelled(3, 1, |_| 1, |_| false);
-        cloud.fields[4] = PointField {
-            name: "instance".into(),
-            offset: 12,
-            datatype: 7,
-            count: 1,
-        };
+        cloud.fields[4] = point_field("instance", 12, 7);
         cloud.data[20 + 12..20 + 16].copy_from_slice(&2.5f32.to_le_bytes());
         let field = instance_field(&cloud, "instance").unwrap();
         let err = split_by_instance(&cloud, field, decode_cloud(&cloud, 10).unwrap()).unwrap_err();

@@ -173,7 +173,7 @@ impl Default for InferenceParams {
             reference_points: 2048,
             voxel_resolution: 64,
             threads: 1,
-            max_build_points: 20_000,
+            max_build_points: crate::pipeline::DEFAULT_MAX_BUILD_POINTS,
         }
     }
 }
