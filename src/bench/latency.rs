@@ -61,7 +61,6 @@ pub struct RclpyLatency {
     pub first_data_ms: f64,
 }
 
-/// `count` points on the surface of a bundled shape, as a PointCloud2 in `frame`.
 /// The bundled box seen by one camera 1.5 diagonals away, about 6,000 points of a `width` x 135
 /// image (width about 180), as a depth camera driver publishes it (organized, NaN where
 /// nothing is seen, with colours), in `frame`.

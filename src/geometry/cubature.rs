@@ -92,7 +92,7 @@ pub fn stratified_subset(
             )
         })
         .collect();
-    order.sort_unstable();
+    radix_sort(&mut order);
     let runs = count.clamp(1, points.len());
     let mut rng = ChaCha8Rng::seed_from_u64(points.len() as u64);
     (0..runs)
@@ -102,6 +102,33 @@ pub fn stratified_subset(
             (chosen, run.iter().map(|&(_, i)| weights[i]).sum::<f64>())
         })
         .unzip()
+}
+
+/// Sorts by key, then index (as `sort_unstable` would): least significant digit first, 11 bits
+/// a pass, as many passes as the largest key needs. The cubature sorts every solid cell of a
+/// voxel grid several times per new shape, where a comparison sort cost milliseconds each.
+fn radix_sort(order: &mut Vec<(u64, usize)>) {
+    const BITS: u32 = 11;
+    let largest = order.iter().map(|&(key, _)| key).max().unwrap_or(0);
+    let passes = (u64::BITS - largest.leading_zeros()).div_ceil(BITS);
+    // The input is in index order, and every pass is stable: ties keep that order.
+    let mut buffer = vec![(0u64, 0usize); order.len()];
+    for pass in 0..passes {
+        let digit = |key: u64| ((key >> (pass * BITS)) & ((1 << BITS) - 1)) as usize;
+        let mut starts = vec![0usize; (1 << BITS) + 1];
+        for &(key, _) in order.iter() {
+            starts[digit(key) + 1] += 1;
+        }
+        for d in 0..1 << BITS {
+            starts[d + 1] += starts[d];
+        }
+        for &entry in order.iter() {
+            let d = digit(entry.0);
+            buffer[starts[d]] = entry;
+            starts[d] += 1;
+        }
+        std::mem::swap(order, &mut buffer);
+    }
 }
 
 /// Interleaves the bits of three coordinates (21 bits each): nearby cells get nearby keys.
@@ -115,4 +142,22 @@ fn morton(c: [usize; 3]) -> u64 {
         (x | x << 2) & 0x1249249249249249
     };
     spread(c[0]) | spread(c[1]) << 1 | spread(c[2]) << 2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_radix_sort_orders_as_a_comparison_sort_does() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for bits in [1u32, 11, 12, 33, 64] {
+            let keys = (0..5000).map(|_| rng.random::<u64>() >> (64 - bits));
+            let mut order: Vec<(u64, usize)> = keys.enumerate().map(|(i, k)| (k, i)).collect();
+            let mut expected = order.clone();
+            expected.sort_unstable();
+            radix_sort(&mut order);
+            assert_eq!(order, expected, "{bits}-bit keys");
+        }
+    }
 }

@@ -1,36 +1,54 @@
-//! A uniform hash grid over points for nearest-neighbour queries.
-
-use std::collections::HashMap;
+//! A uniform grid over points for nearest-neighbour queries: the points sorted by cell, each
+//! cell's run found by offset (no hashing on the query path).
 
 use nalgebra::Vector3;
+
+/// At most this many cells per point (and at least 2^16 allowed): a cell asked for smaller
+/// than that is widened, so sparse outliers cannot make the grid huge.
+const CELLS_PER_POINT: usize = 8;
 
 pub struct PointIndex<'a> {
     points: &'a [Vector3<f64>],
     cell: f64,
-    buckets: HashMap<[i64; 3], Vec<u32>>,
+    origin: Vector3<f64>,
+    dims: [i64; 3],
+    /// `order[starts[c]..starts[c + 1]]`: the points in cell `c`.
+    starts: Vec<u32>,
+    order: Vec<u32>,
 }
 
 impl<'a> PointIndex<'a> {
     /// `cell` is best near the typical neighbour spacing.
     pub fn new(points: &'a [Vector3<f64>], cell: f64) -> Self {
-        let mut buckets: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-        for (i, p) in points.iter().enumerate() {
-            buckets.entry(key(p, cell)).or_default().push(i as u32);
+        let (lo, hi) = bounds(points);
+        let extent = hi - lo;
+        let limit = (CELLS_PER_POINT * points.len()).max(1 << 16) as f64;
+        let mut cell = cell.max(extent.max() * 1e-9).max(1e-300);
+        let cells = |cell: f64| {
+            extent
+                .iter()
+                .map(|e| (e / cell).floor() + 1.0)
+                .product::<f64>()
+        };
+        if cells(cell) > limit {
+            cell *= (cells(cell) / limit).cbrt() * 1.01;
         }
-        Self {
+        let dims = [0, 1, 2].map(|a| (extent[a] / cell).floor() as i64 + 1);
+        let mut index = Self {
             points,
             cell,
-            buckets,
-        }
+            origin: lo,
+            dims,
+            starts: Vec::new(),
+            order: Vec::new(),
+        };
+        index.sort_into_cells();
+        index
     }
 
     /// For points spread over a surface: a cell holding a handful of points.
     pub fn for_surface(points: &'a [Vector3<f64>]) -> Self {
-        let (mut lo, mut hi) = (points[0], points[0]);
-        for p in points {
-            lo = lo.inf(p);
-            hi = hi.sup(p);
-        }
+        let (lo, hi) = bounds(points);
         let diagonal = (hi - lo).norm().max(1e-12);
         Self::new(
             points,
@@ -38,49 +56,143 @@ impl<'a> PointIndex<'a> {
         )
     }
 
+    /// A counting sort of the points by cell.
+    fn sort_into_cells(&mut self) {
+        let count = self.dims.iter().product::<i64>() as usize;
+        let cell_of: Vec<usize> = self
+            .points
+            .iter()
+            .map(|p| self.linear(self.key(p)).unwrap_or(0))
+            .collect();
+        let mut starts = vec![0u32; count + 1];
+        for &c in &cell_of {
+            starts[c + 1] += 1;
+        }
+        for c in 0..count {
+            starts[c + 1] += starts[c];
+        }
+        let mut next = starts.clone();
+        let mut order = vec![0u32; self.points.len()];
+        for (i, &c) in cell_of.iter().enumerate() {
+            order[next[c] as usize] = i as u32;
+            next[c] += 1;
+        }
+        self.starts = starts;
+        self.order = order;
+    }
+
     /// Indices of the `k` nearest points to `query` (fewer if there are fewer points), nearest
     /// first, skipping `exclude`.
     pub fn nearest(&self, query: &Vector3<f64>, k: usize, exclude: Option<usize>) -> Vec<usize> {
-        let center = key(query, self.cell);
         let wanted = k.min(self.points.len() - usize::from(exclude.is_some()));
         if wanted == 0 {
             return Vec::new();
         }
+        let center = self.key(query);
+        // Past this ring every cell of the grid has been seen.
+        let last_ring = (0..3)
+            .map(|a| center[a].abs().max((self.dims[a] - 1 - center[a]).abs()))
+            .max()
+            .unwrap_or(0);
         let mut found: Vec<(f64, usize)> = Vec::new();
-        for ring in 0i64.. {
-            for dz in -ring..=ring {
-                for dy in -ring..=ring {
-                    for dx in -ring..=ring {
-                        if dx.abs().max(dy.abs()).max(dz.abs()) != ring {
-                            continue;
-                        }
-                        let cell = [center[0] + dx, center[1] + dy, center[2] + dz];
-                        for &i in self.buckets.get(&cell).into_iter().flatten() {
-                            let i = i as usize;
-                            if Some(i) != exclude {
-                                found.push(((self.points[i] - query).norm_squared(), i));
-                            }
-                        }
-                    }
+        for ring in 0..=last_ring {
+            self.visit_ring(center, ring, |i| {
+                if Some(i) != exclude {
+                    found.push(((self.points[i] - query).norm_squared(), i));
                 }
-            }
+            });
             // Every point not yet seen is farther than `ring` whole cells away.
             let reach = ring as f64 * self.cell;
             if found.len() >= wanted {
-                found.sort_by(|a, b| a.0.total_cmp(&b.0));
+                found.select_nth_unstable_by(wanted - 1, |a, b| a.0.total_cmp(&b.0));
                 if found[wanted - 1].0.sqrt() <= reach {
                     break;
                 }
             }
-            if ring as usize > 2 * self.buckets.len() + 2 {
-                break;
+        }
+        let by_distance =
+            |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        if found.len() > wanted {
+            found.select_nth_unstable_by(wanted - 1, by_distance);
+            found.truncate(wanted);
+        }
+        found.sort_unstable_by(by_distance);
+        found.into_iter().map(|(_, i)| i).collect()
+    }
+
+    /// Calls `visit` with every point in the cells `ring` cells (Chebyshev) from `center`.
+    fn visit_ring(&self, center: [i64; 3], ring: i64, mut visit: impl FnMut(usize)) {
+        for dz in -ring..=ring {
+            for dy in -ring..=ring {
+                // On the ring's top and bottom faces every cell of the row; elsewhere its ends.
+                let whole_row = dz.abs() == ring || dy.abs() == ring;
+                let step = if whole_row || ring == 0 {
+                    1
+                } else {
+                    2 * ring as usize
+                };
+                for dx in (-ring..=ring).step_by(step) {
+                    let cell = [center[0] + dx, center[1] + dy, center[2] + dz];
+                    let Some(c) = self.linear(cell) else {
+                        continue;
+                    };
+                    let run = self.starts[c] as usize..self.starts[c + 1] as usize;
+                    self.order[run].iter().for_each(|&i| visit(i as usize));
+                }
             }
         }
-        found.sort_by(|a, b| a.0.total_cmp(&b.0));
-        found.into_iter().take(wanted).map(|(_, i)| i).collect()
+    }
+
+    fn key(&self, p: &Vector3<f64>) -> [i64; 3] {
+        [0, 1, 2].map(|a| ((p[a] - self.origin[a]) / self.cell).floor() as i64)
+    }
+
+    /// The cell's position in `starts`, or None outside the grid.
+    fn linear(&self, [i, j, k]: [i64; 3]) -> Option<usize> {
+        let inside = (0..3).all(|a| (0..self.dims[a]).contains(&[i, j, k][a]));
+        inside.then(|| (i + self.dims[0] * (j + self.dims[1] * k)) as usize)
     }
 }
 
-fn key(p: &Vector3<f64>, cell: f64) -> [i64; 3] {
-    [0, 1, 2].map(|a| (p[a] / cell).floor() as i64)
+fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    let first = points.first().copied().unwrap_or_else(Vector3::zeros);
+    points
+        .iter()
+        .fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// Against a brute-force search, on clumpy points with far outliers and queries outside.
+    #[test]
+    fn nearest_matches_a_brute_force_search() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut points: Vec<Vector3<f64>> = (0..3000)
+            .map(|_| Vector3::new(rng.random(), rng.random(), 0.01 * rng.random::<f64>()))
+            .collect();
+        points.push(Vector3::new(1e4, -3e3, 7.0));
+        for cell in [1e-6, 0.02, 0.3, 10.0] {
+            let index = PointIndex::new(&points, cell);
+            for q in 0..200 {
+                let query = Vector3::new(rng.random::<f64>() * 1.4 - 0.2, rng.random(), 0.5);
+                let exclude = (q % 2 == 0).then_some(q);
+                let mut brute: Vec<(f64, usize)> = (0..points.len())
+                    .filter(|&i| Some(i) != exclude)
+                    .map(|i| ((points[i] - query).norm_squared(), i))
+                    .collect();
+                brute.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                let expected: Vec<usize> = brute.iter().take(7).map(|x| x.1).collect();
+                assert_eq!(index.nearest(&query, 7, exclude), expected, "cell {cell}");
+            }
+        }
+        assert_eq!(
+            PointIndex::for_surface(&points)
+                .nearest(&points[3000], 1, Some(3000))
+                .len(),
+            1
+        );
+    }
 }

@@ -212,6 +212,7 @@ impl VoxelGrid {
         let mut label = vec![u32::MAX; self.len()];
         let mut sizes = Vec::new();
         let mut stack = Vec::new();
+        let steps = self.corner_steps();
         for seed in 0..self.len() {
             if !self.solid[seed] || label[seed] != u32::MAX {
                 continue;
@@ -222,22 +223,12 @@ impl VoxelGrid {
             stack.push(seed);
             while let Some(index) = stack.pop() {
                 size += 1;
-                let [i, j, k] = self.coords(index).map(|c| c as isize);
-                for dz in -1..=1isize {
-                    for dy in -1..=1isize {
-                        for dx in -1..=1isize {
-                            let c = [i + dx, j + dy, k + dz];
-                            if (0..3).any(|a| c[a] < 0 || c[a] as usize >= self.dims[a]) {
-                                continue;
-                            }
-                            let n = self.index(c.map(|x| x as usize));
-                            if self.solid[n] && label[n] == u32::MAX {
-                                label[n] = id;
-                                stack.push(n);
-                            }
-                        }
+                self.for_corner_neighbours(index, &steps, |n| {
+                    if self.solid[n] && label[n] == u32::MAX {
+                        label[n] = id;
+                        stack.push(n);
                     }
-                }
+                });
             }
             sizes.push(size);
         }
@@ -330,8 +321,7 @@ impl VoxelGrid {
             }
         }
         while let Some(index) = queue.pop_front() {
-            for n in self.neighbours(self.coords(index)).into_iter().flatten() {
-                let n = self.index(n);
+            for n in self.face_neighbours(index) {
                 if !outside[n] && !wall[n] {
                     outside[n] = true;
                     queue.push_back(n);
@@ -344,20 +334,84 @@ impl VoxelGrid {
             .collect()
     }
 
-    /// Cells within `radius` steps (6-connected) of a set cell.
+    /// Cells within `radius` steps (6-connected) of a set cell: a breadth-first search from
+    /// the mask, `radius` layers deep, so each cell is visited once whatever the radius.
     fn dilate(&self, mask: &[bool], radius: usize) -> Vec<bool> {
-        let mut current = mask.to_vec();
+        let mut reached = mask.to_vec();
+        let mut layer: Vec<usize> = (0..self.len()).filter(|&i| mask[i]).collect();
         for _ in 0..radius {
-            let mut next = current.clone();
-            for index in (0..self.len()).filter(|&i| current[i]) {
-                for n in self.neighbours(self.coords(index)).into_iter().flatten() {
-                    let n = self.index(n);
-                    next[n] = true;
+            let mut next = Vec::new();
+            for &index in &layer {
+                for n in self.face_neighbours(index) {
+                    if !reached[n] {
+                        reached[n] = true;
+                        next.push(n);
+                    }
                 }
             }
-            current = next;
+            layer = next;
         }
-        current
+        reached
+    }
+
+    /// The indices of the (up to 6) cells sharing a face with the cell at `index`.
+    fn face_neighbours(&self, index: usize) -> impl Iterator<Item = usize> {
+        let [i, j, k] = self.coords(index);
+        let [nx, ny, nz] = self.dims;
+        let (row, slab) = (nx, nx * ny);
+        [
+            (i > 0, index.wrapping_sub(1)),
+            (i + 1 < nx, index + 1),
+            (j > 0, index.wrapping_sub(row)),
+            (j + 1 < ny, index + row),
+            (k > 0, index.wrapping_sub(slab)),
+            (k + 1 < nz, index + slab),
+        ]
+        .into_iter()
+        .filter_map(|(inside, n)| inside.then_some(n))
+    }
+
+    /// The 26 steps to the cells sharing at least a corner with a cell: (i, j, k) and the
+    /// index offset.
+    fn corner_steps(&self) -> [([isize; 3], isize); 26] {
+        let (row, slab) = (
+            self.dims[0] as isize,
+            (self.dims[0] * self.dims[1]) as isize,
+        );
+        let mut steps = [([0; 3], 0); 26];
+        let around = (0..27isize).filter(|&o| o != 13);
+        for (step, o) in steps.iter_mut().zip(around) {
+            let d = [o % 3 - 1, (o / 3) % 3 - 1, o / 9 - 1];
+            *step = (d, d[0] + d[1] * row + d[2] * slab);
+        }
+        steps
+    }
+
+    /// Calls `visit` with the index of every cell sharing at least a corner with the cell at
+    /// `index`; `steps` from [`Self::corner_steps`].
+    fn for_corner_neighbours(
+        &self,
+        index: usize,
+        steps: &[([isize; 3], isize); 26],
+        mut visit: impl FnMut(usize),
+    ) {
+        let c = self.coords(index);
+        // Away from the grid's faces every step lands inside, and needs no check.
+        if (0..3).all(|a| c[a] > 0 && c[a] + 1 < self.dims[a]) {
+            steps
+                .iter()
+                .for_each(|&(_, offset)| visit((index as isize + offset) as usize));
+            return;
+        }
+        for &(d, offset) in steps {
+            let inside = (0..3).all(|a| {
+                let n = c[a] as isize + d[a];
+                n >= 0 && (n as usize) < self.dims[a]
+            });
+            if inside {
+                visit((index as isize + offset) as usize);
+            }
+        }
     }
 }
 
