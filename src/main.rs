@@ -127,6 +127,21 @@ enum BenchCommand {
         /// Where to write the step-time-against-error plot (SVG).
         #[arg(long, default_value = "target/bench/sim.svg")]
         plot: PathBuf,
+        /// Only these shapes (plate, rod, creature; comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        shape: Vec<String>,
+        /// Only these scenarios (hanging, drop, poke).
+        #[arg(long, value_delimiter = ',')]
+        scenario: Vec<String>,
+        /// Only these handle counts (besides the constant one).
+        #[arg(long, value_delimiter = ',')]
+        handles: Vec<usize>,
+        /// Only these cubature sizes.
+        #[arg(long, value_delimiter = ',')]
+        cubature: Vec<usize>,
+        /// Only these solvers.
+        #[arg(long, value_delimiter = ',', value_enum)]
+        solver: Vec<cli::simulate::SolverArg>,
     },
 }
 
@@ -161,8 +176,32 @@ fn main() -> ExitCode {
             quick: false,
             json: false,
             plot: "target/bench/sim.svg".into(),
+            shape: Vec::new(),
+            scenario: Vec::new(),
+            handles: Vec::new(),
+            cubature: Vec::new(),
+            solver: Vec::new(),
         }) {
-            BenchCommand::Sim { quick, json, plot } => run_bench_sim(quick, json, &plot),
+            BenchCommand::Sim {
+                quick,
+                json,
+                plot,
+                shape,
+                scenario,
+                handles,
+                cubature,
+                solver,
+            } => {
+                let options = SimBenchOptions {
+                    quick,
+                    shapes: shape,
+                    scenarios: scenario,
+                    handles,
+                    cubatures: cubature,
+                    solvers: solver.into_iter().map(Into::into).collect(),
+                };
+                run_bench_sim(&options, json, &plot)
+            }
             BenchCommand::Latency {
                 json,
                 domain_id,
@@ -378,8 +417,12 @@ fn run_bench_latency(
     Ok(())
 }
 
-fn run_bench_sim(quick: bool, json: bool, plot: &std::path::Path) -> physskin::Result<()> {
-    let report = run_sim_bench(&SimBenchOptions { quick }, |line| eprintln!("{line}"))?;
+fn run_bench_sim(
+    options: &SimBenchOptions,
+    json: bool,
+    plot: &std::path::Path,
+) -> physskin::Result<()> {
+    let report = run_sim_bench(options, |line| eprintln!("{line}"))?;
     write_plot(&report, plot)?;
     if json {
         cli::print_json(&report);
@@ -406,7 +449,7 @@ fn write_plot(report: &SimBenchReport, path: &std::path::Path) -> physskin::Resu
 
 fn print_table(report: &SimBenchReport) {
     println!(
-        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>6} {:>6}",
+        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>6} {:>6}",
         "shape",
         "verts",
         "scenario",
@@ -416,6 +459,7 @@ fn print_table(report: &SimBenchReport) {
         "solver",
         "step_ms",
         "mean_ms",
+        "p99_ms",
         "fem_ms",
         "speedup",
         "err_%",
@@ -425,7 +469,7 @@ fn print_table(report: &SimBenchReport) {
     );
     for r in &report.rows {
         println!(
-            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>6} {:>6}",
+            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>6} {:>6}",
             r.shape,
             r.vertices,
             r.scenario,
@@ -435,6 +479,7 @@ fn print_table(report: &SimBenchReport) {
             r.solver,
             r.step_ms,
             r.step_mean_ms,
+            r.step_p99_ms,
             r.fem_step_ms,
             r.speedup,
             r.error_pct,
@@ -443,5 +488,7 @@ fn print_table(report: &SimBenchReport) {
             r.fallback_steps
         );
     }
-    println!("lift 100k points: {:.3} ms (median)", report.lift_100k_ms);
+    if let Some(ms) = report.lift_100k_ms {
+        println!("lift 100k points: {ms:.3} ms (median)");
+    }
 }

@@ -100,6 +100,64 @@ fn quick_sim_bench_reports_every_row_with_speed_next_to_error() {
 }
 
 #[test]
+fn sim_bench_filters_run_only_the_chosen_rows_and_refuse_unknown_names() {
+    let plot = std::env::temp_dir().join(format!("physskin-sim-f-{}.svg", std::process::id()));
+    let out = succeeded(
+        physskin()
+            .args([
+                "bench",
+                "sim",
+                "--quick",
+                "--json",
+                "--shape",
+                "rod",
+                "--scenario",
+                "poke",
+                "--handles",
+                "8",
+                "--cubature",
+                "256",
+                "--solver",
+                "quasi-newton",
+                "--plot",
+            ])
+            .arg(&plot),
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = report["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{report}");
+    let row = &rows[0];
+    for (key, value) in [
+        ("shape", "rod"),
+        ("scenario", "poke"),
+        ("solver", "quasi_newton"),
+    ] {
+        assert_eq!(row[key], value, "{row}");
+    }
+    assert_eq!(
+        (row["handles"].as_u64(), row["cubature"].as_u64()),
+        (Some(8), Some(256))
+    );
+    let (median, p99) = (
+        row["step_ms"].as_f64().unwrap(),
+        row["step_p99_ms"].as_f64().unwrap(),
+    );
+    assert!(median > 0.0 && p99 >= median, "{row}");
+    // Without the creature there is no lifting figure, and no invented one.
+    assert!(report.get("lift_100k_ms").is_none(), "{report}");
+    std::fs::remove_file(&plot).ok();
+    for (flag, bad) in [("--shape", "teapot"), ("--scenario", "juggle")] {
+        let out = physskin()
+            .args(["bench", "sim", "--quick", flag, bad])
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(bad), "{stderr}");
+    }
+}
+
+#[test]
 fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
     let dir = std::env::temp_dir().join(format!("physskin-infer-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

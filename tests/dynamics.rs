@@ -135,6 +135,8 @@ fn rigid_motions_are_exact_and_cost_no_elastic_energy() {
         let expected = rotation * p + translation;
         assert!((Vector3::new(x[0] as f64, x[1] as f64, x[2] as f64) - expected).norm() < 1e-5);
     }
+    // The solver turns its held Hessian by the body's mean rotation: it must be the rotation.
+    assert!((f.subspace.mean_rotation(&z) - rotation).amax() < 1e-9);
     for model in [MaterialModel::NeoHookean, MaterialModel::StableNeoHookean] {
         // A rigidly moving free body: zero gravity, moving at constant velocity, stays rigid.
         let params = SimParams {

@@ -64,9 +64,18 @@ enum FieldArg {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
-enum SolverArg {
+pub(crate) enum SolverArg {
     Newton,
     QuasiNewton,
+}
+
+impl From<SolverArg> for Solver {
+    fn from(arg: SolverArg) -> Self {
+        match arg {
+            SolverArg::Newton => Solver::Newton,
+            SolverArg::QuasiNewton => Solver::QuasiNewton,
+        }
+    }
 }
 
 /// `x,y,z` as a point.
@@ -83,10 +92,7 @@ pub(super) fn parse_point(text: &str) -> std::result::Result<Vector3<f64>, Strin
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
-    let solver = match args.solver {
-        SolverArg::Newton => Solver::Newton,
-        SolverArg::QuasiNewton => Solver::QuasiNewton,
-    };
+    let solver = Solver::from(args.solver);
     let Some(input) = args.input.clone() else {
         let options = SimulateOptions {
             shape: args.shape,

@@ -95,6 +95,9 @@ const LBFGS_PAIRS: usize = 8;
 /// After this many quasi-Newton iterations in one step, the held Hessian is refreshed.
 const REFRESH_AFTER_ITERATIONS: usize = 8;
 const ARMIJO: f64 = 1e-4;
+/// A turn of the body (largest entry of the rotation's change) past which the preconditioner
+/// is turned with it.
+const TURN_TOLERANCE: f64 = 1e-3;
 
 /// One deformable object simulated in its skinning subspace.
 pub struct ReducedSim {
@@ -126,6 +129,15 @@ pub struct ReducedSim {
     diagonal: f64,
     pokes: Vec<(DVector<f64>, Poke)>,
     rest_hessian: Option<DMatrix<f64>>,
+    /// What the quasi-Newton preconditioner holds besides contact: elasticity (at rest, or at
+    /// the state of the last refresh) plus inertia, damping and pins.
+    held: Option<DMatrix<f64>>,
+    /// The body's mean rotation where `held` was assembled.
+    held_rotation: Matrix3<f64>,
+    /// Whether the factored preconditioner includes contact curvature.
+    held_with_contact: bool,
+    /// The rotation, from `held_rotation`, that the factored preconditioner was turned by.
+    factored_turn: Matrix3<f64>,
     history: VecDeque<(DVector<f64>, DVector<f64>)>,
     preconditioner: Option<DenseCholesky>,
     /// Convergence threshold on |dz . g| (J), from the tolerance and the object's size.
@@ -161,6 +173,10 @@ impl ReducedSim {
             diagonal,
             pokes: Vec::new(),
             rest_hessian: None,
+            held: None,
+            held_rotation: Matrix3::identity(),
+            held_with_contact: false,
+            factored_turn: Matrix3::identity(),
             history: VecDeque::new(),
             preconditioner: None,
             subspace,
@@ -437,6 +453,32 @@ impl ReducedSim {
         }
     }
 
+    /// Refactors the preconditioner for the state `z` when the body has turned or contact has
+    /// started, gone on or ended since it was factored. Elasticity is invariant under a
+    /// rotation of the whole body, so the held elastic Hessian turned by that rotation is the
+    /// Hessian of the turned state: a tumbling body keeps an accurate preconditioner without
+    /// reassembling it. Contact curvature changes from one step to the next and is added
+    /// exactly. Both cost a few small products and one 12K x 12K factorization, a fraction of
+    /// the elastic Hessian's assembly; without them, a falling or landing body costs many
+    /// iterations and a refresh of the whole Hessian.
+    fn hold_at(&mut self, z: &DMatrix<f64>) {
+        let contact = self.contact_curvature(z);
+        self.held_matrix();
+        let turn = self.subspace.mean_rotation(z) * self.held_rotation.transpose();
+        let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
+        if contact.is_none() && !self.held_with_contact && !turned {
+            return;
+        }
+        let held = self.held.as_ref().expect("made above");
+        let mut matrix = turn_blocks(held, &turn);
+        if let Some(contact) = &contact {
+            matrix += contact;
+        }
+        self.held_with_contact = contact.is_some();
+        self.factored_turn = turn;
+        self.preconditioner = Some(self.factor_hessian(matrix));
+    }
+
     /// Advances one time step.
     pub fn step(&mut self) -> StepReport {
         let started = Instant::now();
@@ -447,6 +489,9 @@ impl ReducedSim {
         self.prepare();
         self.find_candidates(&predicted);
         self.find_sticks();
+        if self.solver == Solver::QuasiNewton {
+            self.hold_at(&predicted);
+        }
         let objective = self.step_objective(&predicted, &previous);
         let mut current = self.evaluate(&z, &objective);
         // Curvature pairs carry over from the previous steps: the Hessian changes little between
@@ -460,7 +505,7 @@ impl ReducedSim {
                 // Slow progress: the held Hessian no longer describes the state. Refactor it
                 // here and hold it from now on; pairs measured against the old one would pull
                 // the new one back toward it.
-                self.preconditioner = Some(self.factor_hessian(self.hessian_at(&z)));
+                self.hold_new(self.smooth_hessian_at(&z), &z);
                 history.clear();
                 since_refresh = 0;
                 report.refreshes += 1;
@@ -518,6 +563,7 @@ impl ReducedSim {
         // state: refactor it at the new state before the next step.
         if self.solver == Solver::QuasiNewton && report.fallback {
             self.preconditioner = None;
+            self.held = None;
             self.history.clear();
         }
         self.z_prev = std::mem::replace(&mut self.z, z);
@@ -637,6 +683,16 @@ impl ReducedSim {
 
     /// The PSD-projected Hessian of the step objective at `z`.
     fn hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut hessian = self.smooth_hessian_at(z);
+        if let Some(contact) = self.contact_curvature(z) {
+            hessian += contact;
+        }
+        hessian
+    }
+
+    /// The Hessian of the step objective at `z` without contact: PSD-projected elasticity,
+    /// inertia, damping and pins.
+    fn smooth_hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let material = self.material;
         let hessians: Vec<Matrix9> = self
             .subspace
@@ -646,23 +702,27 @@ impl ReducedSim {
             .collect();
         let mut hessian = self.subspace.elastic_hessian(&hessians);
         add_kron_identity(&mut hessian, &self.quadratic_part());
+        hessian
+    }
+
+    /// The curvature of the contact and friction springs at `z` (None: nothing touches):
+    /// sum s (phi phi^T) (x) (n n^T) over touching points, n their normal (or friction
+    /// tangent) and s its stiffness.
+    fn contact_curvature(&self, z: &DMatrix<f64>) -> Option<DMatrix<f64>> {
         let kc = self.params.contact_stiffness;
+        let mut springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = Vec::new();
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
             let x = contact.rest + z * &contact.phi;
             if let Some(p) = self.obstacle(o).penetration(&x) {
-                let a = point_jacobian(&contact.phi, &p.normal);
-                hessian.ger(kc * contact.weight, &a, &a, 1.0);
+                springs.push((&contact.phi, kc * contact.weight, p.normal));
             }
         }
         for stick in &self.sticks {
             let phi = &self.contacts[stick.point].phi;
-            for t in &stick.tangents {
-                let a = point_jacobian(phi, t);
-                hessian.ger(stick.stiffness, &a, &a, 1.0);
-            }
+            springs.extend(stick.tangents.iter().map(|t| (phi, stick.stiffness, *t)));
         }
-        hessian
+        (!springs.is_empty()).then(|| kronecker_springs(&springs, 4 * self.subspace.handles()))
     }
 
     /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive
@@ -691,19 +751,42 @@ impl ReducedSim {
     /// and pins; after a hard step, the full Hessian at the current state, held for the steps
     /// that follow until another hard step.
     fn build_preconditioner(&mut self) -> DenseCholesky {
-        let matrix = if self.z.amax() == 0.0 {
-            let rest = self.rest_hessian.get_or_insert_with(|| {
-                let h = self.material.stress_derivative(&Matrix3::identity(), true);
-                self.subspace
-                    .elastic_hessian(&vec![h; self.subspace.cubature_len()])
-            });
-            let mut matrix = rest.clone();
-            add_kron_identity(&mut matrix, &self.quadratic_part());
-            matrix
-        } else {
-            self.hessian_at(&self.z)
-        };
+        let matrix = self.held_matrix().clone();
+        self.held_with_contact = false;
+        self.factored_turn = Matrix3::identity();
         self.factor_hessian(matrix)
+    }
+
+    /// Holds `matrix`, the Hessian without contact at `z`, and factors it with the contact
+    /// curvature at `z`.
+    fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
+        self.held = Some(matrix);
+        self.held_rotation = self.subspace.mean_rotation(z);
+        self.held_with_contact = true;
+        self.factored_turn = Matrix3::identity();
+        self.hold_at(z);
+    }
+
+    /// The held matrix, made on first use: at rest the rest-state elasticity plus inertia
+    /// and pins, otherwise the Hessian without contact at the current state.
+    fn held_matrix(&mut self) -> &DMatrix<f64> {
+        if self.held.is_none() {
+            let matrix = if self.z.amax() == 0.0 {
+                let rest = self.rest_hessian.get_or_insert_with(|| {
+                    let h = self.material.stress_derivative(&Matrix3::identity(), true);
+                    self.subspace
+                        .elastic_hessian(&vec![h; self.subspace.cubature_len()])
+                });
+                let mut matrix = rest.clone();
+                add_kron_identity(&mut matrix, &self.quadratic_part());
+                matrix
+            } else {
+                self.smooth_hessian_at(&self.z)
+            };
+            self.held_rotation = self.subspace.mean_rotation(&self.z);
+            self.held = Some(matrix);
+        }
+        self.held.as_ref().expect("made above")
     }
 
     fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {
@@ -795,12 +878,115 @@ fn add_kron_identity(h: &mut DMatrix<f64>, q: &DMatrix<f64>) {
     }
 }
 
-/// d(n . x)/dz for x = X + Z phi: the flat vector phi (x) n.
-fn point_jacobian(phi: &DVector<f64>, n: &Vector3<f64>) -> DVector<f64> {
-    DVector::from_fn(3 * phi.len(), |i, _| phi[i / 3] * n[i % 3])
+/// (I (x) R) H (I (x) R^T) in flat z order: every 3 x 3 block of H turned by R.
+fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
+    let blocks = h.nrows() / 3;
+    let mut out = DMatrix::zeros(h.nrows(), h.ncols());
+    for b in 0..blocks {
+        for a in 0..blocks {
+            let block: Matrix3<f64> = h.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
+            out.fixed_view_mut::<3, 3>(3 * a, 3 * b)
+                .copy_from(&(r * block * r.transpose()));
+        }
+    }
+    out
+}
+
+/// sum_i s_i (phi_i phi_i^T) (x) (n_i n_i^T) in flat z order, as six (4K x 4K) products over
+/// the springs, one per pair of axes, instead of a (12K)^2 rank-one update per spring.
+fn kronecker_springs(springs: &[(&DVector<f64>, f64, Vector3<f64>)], n4: usize) -> DMatrix<f64> {
+    let phis = DMatrix::from_fn(n4, springs.len(), |a, i| springs[i].0[a]);
+    let mut out = DMatrix::zeros(3 * n4, 3 * n4);
+    for d in 0..3 {
+        for e in d..3 {
+            let mut weighted = phis.clone();
+            for (i, (_, s, n)) in springs.iter().enumerate() {
+                weighted.column_mut(i).scale_mut(s * n[d] * n[e]);
+            }
+            let block = &phis * weighted.transpose();
+            for b in 0..n4 {
+                for a in 0..n4 {
+                    out[(3 * a + d, 3 * b + e)] = block[(a, b)];
+                    out[(3 * a + e, 3 * b + d)] = block[(a, b)];
+                }
+            }
+        }
+    }
+    out
 }
 
 /// Whether a search direction with this slope (d . g) goes downhill; NaN does not.
 pub(crate) fn is_descent(slope: f64) -> bool {
     slope < 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// d(n . x)/dz for x = X + Z phi: the flat vector phi (x) n.
+    fn point_jacobian(phi: &DVector<f64>, n: &Vector3<f64>) -> DVector<f64> {
+        DVector::from_fn(3 * phi.len(), |i, _| phi[i / 3] * n[i % 3])
+    }
+
+    fn random_vector(rng: &mut impl Rng, n: usize) -> DVector<f64> {
+        DVector::from_fn(n, |_, _| rng.random::<f64>() * 2.0 - 1.0)
+    }
+
+    /// The Kronecker-block contact curvature equals the sum of its springs' rank-one terms,
+    /// and the preconditioner factored from it solves as a fresh factorization of the whole
+    /// matrix does.
+    #[test]
+    fn contact_curvature_by_blocks_matches_rank_one_terms() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let n4 = 4 * 5;
+        let phis: Vec<DVector<f64>> = (0..40).map(|_| random_vector(&mut rng, n4)).collect();
+        let springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = phis
+            .iter()
+            .map(|phi| {
+                let n = Vector3::new(rng.random(), rng.random(), rng.random()).normalize();
+                (phi, 1e7 * rng.random::<f64>(), n)
+            })
+            .collect();
+        let mut expected = DMatrix::zeros(3 * n4, 3 * n4);
+        for (phi, s, n) in &springs {
+            let a = point_jacobian(phi, n);
+            expected.ger(*s, &a, &a, 1.0);
+        }
+        let blocks = kronecker_springs(&springs, n4);
+        assert!((&blocks - &expected).amax() <= 1e-9 * expected.amax());
+        let base = DMatrix::from_diagonal_element(3 * n4, 3 * n4, 1e3);
+        let whole = &base + &expected;
+        let rhs = random_vector(&mut rng, 3 * n4);
+        let solve = |m: &DMatrix<f64>| {
+            let mut x = rhs.clone();
+            DenseCholesky::new(m.as_slice(), m.nrows())
+                .expect("positive definite")
+                .solve(x.as_mut_slice());
+            x
+        };
+        let (fresh, held) = (solve(&whole), solve(&(&base + &blocks)));
+        assert!((&held - &fresh).norm() <= 1e-9 * fresh.norm());
+    }
+
+    /// Turning every block by R is the congruence by I (x) R: a quadratic form evaluated at
+    /// (I (x) R) v gives what the original gives at v.
+    #[test]
+    fn turned_blocks_are_the_rotated_quadratic_form() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+        let n = 3 * 6;
+        let a = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>());
+        let h = &a * a.transpose();
+        let r = *nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -1.1, 0.7)).matrix();
+        let turned = turn_blocks(&h, &r);
+        let v = random_vector(&mut rng, n);
+        let mut rv = v.clone();
+        for b in 0..n / 3 {
+            let turned_block = r * Vector3::new(v[3 * b], v[3 * b + 1], v[3 * b + 2]);
+            rv.fixed_rows_mut::<3>(3 * b).copy_from(&turned_block);
+        }
+        let (original, rotated) = (v.dot(&(&h * &v)), rv.dot(&(&turned * &rv)));
+        assert!((original - rotated).abs() <= 1e-12 * original.abs());
+    }
 }

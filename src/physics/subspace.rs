@@ -31,6 +31,9 @@ pub struct Subspace {
     mass_phi: DMatrix<f64>,
     /// sum_p rho v_p phi_p (4K); gravity's reduced force is this (x) g.
     mass_moment: DVector<f64>,
+    /// The volume-weighted mean of G (4K x 3): the body's mean deformation gradient is
+    /// I + Z times this.
+    mean_gradient: DMatrix<f64>,
     total_mass: f64,
     density: f64,
 }
@@ -70,7 +73,9 @@ impl Subspace {
             mass_phi.ger(m, &phi, &phi, 1.0);
             mass_moment.axpy(m, &phi, 1.0);
         }
+        let mean_gradient = mean_gradient(&g_all, &cubature.volumes, 4 * k);
         Self {
+            mean_gradient,
             field,
             handles: k,
             normalization,
@@ -135,6 +140,24 @@ impl Subspace {
     }
     pub fn mass_moment(&self) -> &DVector<f64> {
         &self.mass_moment
+    }
+
+    /// The rotation of the body as a whole at `z`: the rotation of the polar decomposition of
+    /// its volume-weighted mean deformation gradient (the identity for a degenerate one).
+    pub fn mean_rotation(&self, z: &DMatrix<f64>) -> Matrix3<f64> {
+        let f = Matrix3::identity() + z * &self.mean_gradient;
+        let svd = f.svd(true, true);
+        match (svd.u, svd.v_t) {
+            (Some(u), Some(v_t)) => {
+                let mut rotation = u * v_t;
+                if rotation.determinant() < 0.0 {
+                    let flip = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
+                    rotation = u * flip * v_t;
+                }
+                rotation
+            }
+            _ => Matrix3::identity(),
+        }
     }
 
     /// Deformation gradients at every cubature point for the handle matrix `z` (3 x 4K), as
@@ -269,6 +292,21 @@ impl Subspace {
         }
         hessian
     }
+}
+
+/// sum_p v_p G_p / sum_p v_p from G laid out as in `Subspace::g_all`.
+fn mean_gradient(g_all: &[f64], volumes: &[f64], rows: usize) -> DMatrix<f64> {
+    let columns = 3 * volumes.len();
+    let total: f64 = volumes.iter().sum::<f64>().max(1e-300);
+    DMatrix::from_fn(rows, 3, |row, e| {
+        let g = &g_all[row * columns..(row + 1) * columns];
+        volumes
+            .iter()
+            .enumerate()
+            .map(|(p, v)| v * g[3 * p + e])
+            .sum::<f64>()
+            / total
+    })
 }
 
 /// A dot product in eight independent lanes: a plain iterator sum is one serial dependency
