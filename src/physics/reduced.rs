@@ -464,7 +464,13 @@ impl ReducedSim {
     fn hold_at(&mut self, z: &DMatrix<f64>) {
         let contact = self.contact_curvature(z);
         self.held_matrix();
-        let turn = self.subspace.mean_rotation(z) * self.held_rotation.transpose();
+        // A pinned body does not turn as a whole: its mean rotation is bending, which turning
+        // the held matrix would misdescribe.
+        let turn = if self.pins.is_empty() {
+            self.subspace.mean_rotation(z) * self.held_rotation.transpose()
+        } else {
+            Matrix3::identity()
+        };
         let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
         if contact.is_none() && !self.held_with_contact && !turned {
             return;
