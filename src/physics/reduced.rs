@@ -768,6 +768,8 @@ impl ReducedSim {
     fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
         self.held = Some(matrix);
         self.held_rotation = self.subspace.mean_rotation(z);
+        // Marked as factored with contact, so that `hold_at` refactors whether or not anything
+        // touches: the factor in place belongs to the old matrix.
         self.held_with_contact = true;
         self.factored_turn = Matrix3::identity();
         self.hold_at(z);
