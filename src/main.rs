@@ -110,6 +110,11 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Contact at rest: balls placed on the floor, how far they roll in 2 s.
+    Contact {
+        #[arg(long)]
+        json: bool,
+    },
     /// One camera's scans of the bundled shapes, completed and simulated: volume, error
     /// against the FEM of the whole object beside the whole mesh's body, step times.
     Real {
@@ -211,6 +216,7 @@ fn main() -> ExitCode {
             BenchCommand::Scene { json, seconds } => cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
             BenchCommand::Stress { json } => run_bench_stress(json),
+            BenchCommand::Contact { json } => run_bench_contact(json),
             BenchCommand::Real { json } => run_bench_real(json),
             BenchCommand::Soak {
                 json,
@@ -305,6 +311,32 @@ fn run_bench_real(json: bool) -> physskin::Result<()> {
     println!(
         "worst: volume off by {:.1} %, error {:.2}x the whole mesh's, step {:.3} ms",
         r.worst_volume_error_pct, r.worst_error_ratio, r.worst_step_ms
+    );
+    Ok(())
+}
+
+fn run_bench_contact(json: bool) -> physskin::Result<()> {
+    let r = physskin::bench::run_contact_bench(|line| eprintln!("{line}"))?;
+    if json {
+        cli::print_json(&r);
+        return Ok(());
+    }
+    println!("| ball radius m | size | E Pa | moved in 2 s, mm | step median ms | step p99 ms | decision |");
+    println!("|---:|---|---:|---:|---:|---:|---|");
+    for row in &r.resting_ball {
+        println!(
+            "| {} | {} | {:.0e} | {:.3} | {:.3} | {:.3} | {} |",
+            row.radius_m,
+            row.size,
+            row.young_pa,
+            row.drift_mm,
+            row.step_ms_median,
+            row.step_ms_p99,
+            row.decision
+        );
+    }
+    println!(
+        "stacked blocks, ball on a soft slab, grasp: not built yet (soft-soft contact, gripper)"
     );
     Ok(())
 }

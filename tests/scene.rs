@@ -411,3 +411,52 @@ fn scene_mistakes_name_the_object_and_the_problem() {
         .to_string();
     assert!(missing.contains("no/such/scene.yaml"), "{missing}");
 }
+
+/// A press holds the block down long enough for it to fall asleep, then jumps away in one
+/// step: the block must wake and spring back, not stay dented.
+#[test]
+fn a_link_lifting_off_a_sleeping_body_wakes_it() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file = SceneFile::load(&root.join("tests/data/press/press.yaml")).unwrap();
+    let options = SceneOptions {
+        scripted: false,
+        ..Default::default()
+    };
+    let model = NeuralModel::bundled().unwrap();
+    let mut scene = Scene::build(&file, &model, &FieldCache::default(), &options).unwrap();
+    let top = |scene: &Scene| {
+        let p = scene.points("block").unwrap();
+        p.chunks(3)
+            .filter(|q| q[0].abs() < 0.04 && q[1].abs() < 0.04 && q[2] > 0.2)
+            .map(|q| q[2] as f64)
+            .fold(0.0, f64::max)
+    };
+    let (robots, names) = (vec!["press".to_string()], vec!["lift".to_string()]);
+    let mut run = |scene: &mut Scene, lift: &dyn Fn(f64) -> f64, steps: usize| {
+        for i in 0..steps {
+            let position = lift(i as f64 / 60.0);
+            scene
+                .set_joint_positions(&robots, &names, &[position])
+                .unwrap();
+            scene.step();
+        }
+    };
+    run(&mut scene, &|_| 0.0, 60);
+    let rest = top(&scene);
+    run(&mut scene, &|t| (0.17 * t).min(0.17), 120);
+    let pressed = top(&scene);
+    assert!(
+        rest - pressed > 0.005,
+        "pressed {pressed:.4} from {rest:.4}"
+    );
+    assert!(
+        scene.body("block").unwrap().is_sleeping(),
+        "asleep under the press"
+    );
+    run(&mut scene, &|_| 0.0, 60);
+    let released = top(&scene);
+    assert!(
+        (released - rest).abs() < 0.002,
+        "after the press lifted: {released:.4} m, at rest {rest:.4} m"
+    );
+}

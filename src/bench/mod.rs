@@ -1,5 +1,6 @@
 //! Benchmarks that print tables (and JSON): speed next to error against the full-space reference.
 
+mod contact;
 mod fields;
 mod latency;
 mod plot;
@@ -13,6 +14,7 @@ mod stats;
 mod stress;
 mod transport;
 
+pub use contact::{run_contact_bench, ContactReport, RestingBallRow};
 pub use fields::{
     evaluate_fields, interior_points, prepare_input, EvalMean, EvalOptions, EvalReport,
     PreparedInput, ShapeEval,

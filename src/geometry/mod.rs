@@ -2,6 +2,7 @@
 //! test, cubature and tetrahedral meshes of the interior.
 
 mod completion;
+mod contact_samples;
 mod cubature;
 mod downsample;
 mod mesh_io;
@@ -14,6 +15,7 @@ mod tetmesh;
 mod voxel;
 
 pub use completion::{complete_view, Completed, Completion, CompletionError};
+pub use contact_samples::contact_samples;
 pub use cubature::{stratified_subset, Cubature};
 pub use downsample::voxel_downsample;
 pub use mesh_io::{

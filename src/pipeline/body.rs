@@ -10,8 +10,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{
-    sample_surface, Completed, Cubature, Normalization, Shape, SurfaceSamples, SurfaceSampling,
-    VoxelGrid,
+    contact_samples, sample_surface, Completed, Cubature, Normalization, Shape, SurfaceSamples,
+    SurfaceSampling, VoxelGrid,
 };
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, StepReport, Subspace};
 use crate::skinning::{NeuralModel, SkinningField, TruncatedField};
@@ -262,7 +262,7 @@ impl SoftBody {
         let NetworkInput {
             map,
             grid,
-            world,
+            contact,
             voxelize_ms,
             ..
         } = input;
@@ -291,7 +291,13 @@ impl SoftBody {
             options.solver,
             (hi - lo).norm(),
         )?;
-        apply_support(&mut sim, options, &cubature, &world.points, &world.areas);
+        apply_support(
+            &mut sim,
+            options,
+            &cubature,
+            &contact.points,
+            &contact.areas,
+        );
         sim.prepare();
         timings.subspace_ms = ms(t);
 
@@ -319,7 +325,7 @@ impl SoftBody {
             bounds: bounds_of(&deformed),
             deformed,
             cubature,
-            surface: world,
+            surface: contact,
             timings,
             last: None,
             sleep: options.sleep,
@@ -422,24 +428,27 @@ impl SoftBody {
     }
 
     /// Replaces the moving obstacles (robot links at their current poses). A collider that
-    /// moved to within reach of a sleeping body wakes it.
+    /// moved to within reach of a sleeping body, or away from it (a press lifting off the block
+    /// it held down), wakes it.
     pub fn set_colliders(&mut self, colliders: Vec<Obstacle>) {
         if self.activity.asleep {
             let margin = 0.1 * self.diagonal();
             let (lo, hi) = self.bounds;
+            let near = |(clo, chi): &(Vector3<f64>, Vector3<f64>)| {
+                (0..3).all(|d| clo[d] - margin <= hi[d] && chi[d] + margin >= lo[d])
+            };
             let before = &self.activity.colliders_when_asleep;
             let woken = colliders.iter().enumerate().any(|(i, c)| {
-                let Some((clo, chi)) = c.bounds(0.0) else {
-                    return false;
-                };
-                let overlaps = (0..3).all(|d| clo[d] - margin <= hi[d] && chi[d] + margin >= lo[d]);
-                let moved = match before.get(i) {
-                    Some(Some((blo, bhi))) => {
-                        (blo - clo).amax().max((bhi - chi).amax()) > 1e-6 * margin
+                let now = c.bounds(0.0);
+                match (before.get(i).copied().flatten(), now) {
+                    (Some(was), Some(now)) => {
+                        let moved =
+                            (was.0 - now.0).amax().max((was.1 - now.1).amax()) > 1e-6 * margin;
+                        moved && (near(&was) || near(&now))
                     }
-                    _ => true,
-                };
-                overlaps && moved
+                    (None, Some(now)) => near(&now),
+                    (_, None) => false,
+                }
             });
             self.activity.disturbed |= woken;
         }
@@ -659,7 +668,8 @@ impl SoftBody {
 struct NetworkInput {
     map: Normalization,
     grid: VoxelGrid,
-    world: SurfaceSamples,
+    /// Evenly spread surface samples, the points that collide.
+    contact: SurfaceSamples,
     surface: SurfaceSamples,
     reference: Vec<Vector3<f64>>,
     voxelize_ms: f64,
@@ -680,16 +690,18 @@ impl NetworkInput {
                 "the shape encloses no volume at this voxel resolution".into(),
             ));
         }
-        let (world, surface, reference) = network_input(
+        let (_, surface, reference) = network_input(
             shape,
             &grid,
             options.surface_points,
             options.reference_points,
         );
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        let contact = contact_samples(shape, &grid, options.surface_points, &mut rng);
         Ok(Self {
             map: shape.normalization(),
             grid,
-            world,
+            contact,
             surface,
             reference,
             voxelize_ms: started.elapsed().as_secs_f64() * 1e3,
