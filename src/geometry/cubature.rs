@@ -27,7 +27,8 @@ impl Cubature {
     /// every solid cell of `grid` is split into 2 x 2 x 2 sub-cells, the sub-cells are sorted in
     /// Morton (Z) order, the order is cut into `target` runs of equal length, and each run gives
     /// one of its sub-cell centers, drawn at random (seeded), weighted by the run's volume. The
-    /// volumes are then scaled to add up to `total_volume` (the exact volume of a closed mesh,
+    /// weights are reweighted to the solid's exact centroid and second moments
+    /// ([`match_moments`]), then scaled to add up to `total_volume` (the exact volume of a closed mesh,
     /// or the grid's own estimate).
     ///
     /// A random member rather than the run's centroid: on a thin part, centroids of runs
