@@ -28,7 +28,7 @@ impl Cubature {
     /// Morton (Z) order, the order is cut into `target` runs of equal length, and each run gives
     /// one of its sub-cell centers, drawn at random (seeded), weighted by the run's volume. The
     /// weights are reweighted to the solid's exact centroid and second moments
-    /// ([`match_moments`]), then scaled to add up to `total_volume` (the exact volume of a closed mesh,
+    /// (`match_moments`), then scaled to add up to `total_volume` (the exact volume of a closed mesh,
     /// or the grid's own estimate).
     ///
     /// A random member rather than the run's centroid: on a thin part, centroids of runs
