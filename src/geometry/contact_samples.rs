@@ -14,9 +14,17 @@ use rand::Rng;
 
 use super::cubature::stratified_subset;
 use super::point_index::PointIndex;
-use super::sampling::{sample_surface, SurfaceSamples, SurfaceSampling};
+use super::sampling::estimated_area;
 use super::shape::Shape;
 use super::voxel::VoxelGrid;
+
+/// Surface points that collide, with the area each stands for (they add up to the surface's).
+/// No normals: a penetration's direction comes from the obstacle.
+#[derive(Clone, Debug, Default)]
+pub struct ContactSamples {
+    pub points: Vec<Vector3<f64>>,
+    pub areas: Vec<f64>,
+}
 
 /// About `count` points that collide: a mesh's vertices, its triangles divided where they are
 /// coarser than `count` points need, each with a third of the area of the triangles around it;
@@ -27,14 +35,9 @@ pub fn contact_samples(
     grid: &VoxelGrid,
     count: usize,
     rng: &mut impl Rng,
-) -> SurfaceSamples {
+) -> ContactSamples {
     let fine = if shape.is_point_cloud() {
-        let options = SurfaceSampling {
-            count: 4 * count,
-            edge_fraction: 0.0,
-            ..Default::default()
-        };
-        sample_surface(shape, grid, &options, rng)
+        cloud_shares(shape, grid, 4 * count, rng)
     } else {
         let lumped = lumped_vertices(shape, spacing(shape, count));
         if lumped.points.len() <= 2 * count {
@@ -44,6 +47,30 @@ pub fn contact_samples(
         lumped
     };
     centroidal(&fine, count, 0.5 * grid.cell)
+}
+
+/// Up to `count` of a cloud's points (all of them, if fewer), each with an equal share of the
+/// surface area estimated from `grid`.
+fn cloud_shares(
+    shape: &Shape,
+    grid: &VoxelGrid,
+    count: usize,
+    rng: &mut impl Rng,
+) -> ContactSamples {
+    let all = &shape.positions;
+    let points: Vec<Vector3<f64>> = if all.len() <= count {
+        all.clone()
+    } else {
+        rand::seq::index::sample(rng, all.len(), count)
+            .into_iter()
+            .map(|i| all[i])
+            .collect()
+    };
+    let share = estimated_area(grid) / points.len().max(1) as f64;
+    ContactSamples {
+        areas: vec![share; points.len()],
+        points,
+    }
 }
 
 /// Edge length of a regular triangle lattice with `count` vertices over `shape`'s surface.
@@ -59,8 +86,8 @@ fn spacing(shape: &Shape, count: usize) -> f64 {
 
 /// Every triangle divided into n x n similar ones (n from its longest edge and `spacing`, at
 /// most 64), the corners shared between triangles merged, each carrying a third of the area of
-/// the small triangles it belongs to and their area-weighted normal.
-fn lumped_vertices(shape: &Shape, spacing: f64) -> SurfaceSamples {
+/// the small triangles it belongs to.
+fn lumped_vertices(shape: &Shape, spacing: f64) -> ContactSamples {
     let longest = |t: usize| {
         let [a, b, c] = shape.triangle(t);
         [(b - a).norm(), (c - b).norm(), (a - c).norm()]
@@ -72,41 +99,34 @@ fn lumped_vertices(shape: &Shape, spacing: f64) -> SurfaceSamples {
     }
     let quantum = spacing * 1e-6;
     let mut index: HashMap<[i64; 3], usize> = HashMap::new();
-    let mut out = SurfaceSamples::default();
-    let mut add = |p: Vector3<f64>, normal: Vector3<f64>, area: f64| {
+    let mut out = ContactSamples::default();
+    let mut add = |p: Vector3<f64>, area: f64| {
         let key = (p / quantum).map(|x| x.round() as i64).into();
         let i = *index.entry(key).or_insert_with(|| {
             out.points.push(p);
-            out.normals.push(Vector3::zeros());
             out.areas.push(0.0);
             out.points.len() - 1
         });
-        out.normals[i] += normal * area;
         out.areas[i] += area;
     };
     for t in 0..shape.triangles.len() {
         let [a, b, c] = shape.triangle(t);
-        let cross = (b - a).cross(&(c - a));
         let n = ((longest(t) / spacing).ceil() as usize).clamp(1, 64);
         let (u, v) = ((b - a) / n as f64, (c - a) / n as f64);
-        let share = 0.5 * cross.norm() / (n * n) as f64 / 3.0;
-        let normal = cross.try_normalize(1e-300).unwrap_or(Vector3::z());
+        let share = 0.5 * (b - a).cross(&(c - a)).norm() / (n * n) as f64 / 3.0;
         let at = |i: usize, j: usize| a + u * i as f64 + v * j as f64;
         for i in 0..n {
             for j in 0..n - i {
                 for p in [at(i, j), at(i + 1, j), at(i, j + 1)] {
-                    add(p, normal, share);
+                    add(p, share);
                 }
                 if i + j + 1 < n {
                     for p in [at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)] {
-                        add(p, normal, share);
+                        add(p, share);
                     }
                 }
             }
         }
-    }
-    for n in &mut out.normals {
-        *n = n.try_normalize(1e-300).unwrap_or(Vector3::z());
     }
     out
 }
@@ -114,54 +134,45 @@ fn lumped_vertices(shape: &Shape, spacing: f64) -> SurfaceSamples {
 /// The mesh's own vertices (those on a triangle), each with a third of its triangles' area:
 /// the same as [`lumped_vertices`] when no triangle needs dividing, by index instead of by
 /// position, which matters on dense scans of a million triangles.
-fn lumped_mesh_vertices(shape: &Shape) -> SurfaceSamples {
-    let mut normals = vec![Vector3::zeros(); shape.positions.len()];
+fn lumped_mesh_vertices(shape: &Shape) -> ContactSamples {
     let mut areas = vec![0.0; shape.positions.len()];
     for (t, triangle) in shape.triangles.iter().enumerate() {
         let [a, b, c] = shape.triangle(t);
-        let cross = (b - a).cross(&(c - a));
+        let third = (b - a).cross(&(c - a)).norm() / 6.0;
         for &v in triangle {
-            normals[v as usize] += cross / 6.0;
-            areas[v as usize] += cross.norm() / 6.0;
+            areas[v as usize] += third;
         }
     }
-    let mut out = SurfaceSamples::default();
-    for ((p, n), a) in shape.positions.iter().zip(normals).zip(areas) {
-        if a > 0.0 {
-            out.points.push(*p);
-            out.normals
-                .push(n.try_normalize(1e-300).unwrap_or(Vector3::z()));
-            out.areas.push(a);
-        }
-    }
-    out
+    let (points, areas) = shape
+        .positions
+        .iter()
+        .zip(areas)
+        .filter(|(_, a)| *a > 0.0)
+        .unzip();
+    ContactSamples { points, areas }
 }
 
 /// `count` of `fine` (spread evenly along a space-filling curve quantized to `cell`), each
-/// moved to the centroid of the fine samples nearest to it, with their summed area and mean
-/// normal.
-fn centroidal(fine: &SurfaceSamples, count: usize, cell: f64) -> SurfaceSamples {
+/// moved to the centroid of the fine samples nearest to it, with their summed area.
+fn centroidal(fine: &ContactSamples, count: usize, cell: f64) -> ContactSamples {
     let (seeds, _) = stratified_subset(&fine.points, &fine.areas, cell, count);
     let seed_points: Vec<Vector3<f64>> = seeds.iter().map(|&i| fine.points[i]).collect();
     let index = PointIndex::for_surface(&seed_points);
-    let mut out = SurfaceSamples {
+    let mut out = ContactSamples {
         points: vec![Vector3::zeros(); seeds.len()],
-        normals: vec![Vector3::zeros(); seeds.len()],
         areas: vec![0.0; seeds.len()],
     };
-    for ((p, n), a) in fine.points.iter().zip(&fine.normals).zip(&fine.areas) {
+    for (p, a) in fine.points.iter().zip(&fine.areas) {
         // A seed is its own nearest, so no cell is empty.
         let area = a.max(f64::MIN_POSITIVE);
         let Some(&s) = index.nearest(p, 1, None).first() else {
             continue;
         };
         out.points[s] += p * area;
-        out.normals[s] += n * area;
         out.areas[s] += area;
     }
-    for ((p, n), a) in out.points.iter_mut().zip(&mut out.normals).zip(&out.areas) {
+    for (p, a) in out.points.iter_mut().zip(&out.areas) {
         *p /= *a;
-        *n = n.try_normalize(1e-300).unwrap_or(Vector3::z());
     }
     out
 }
@@ -172,14 +183,14 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
-    use crate::geometry::{box_mesh, sdf_mesh};
+    use crate::geometry::{box_mesh, sample_surface, sdf_mesh, SurfaceSampling};
 
     /// Where the floor's force acts on a ball of radius 0.1 m pressed `depth` into it, tilted by
     /// `tilt` about y, relative to the point below its centre (m).
-    fn patch_offset(samples: &SurfaceSamples, depth: f64, tilt: f64) -> f64 {
+    fn patch_offset(points: &[Vector3<f64>], areas: &[f64], depth: f64, tilt: f64) -> f64 {
         let turn = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), tilt);
         let (mut force, mut moment) = (0.0, Vector3::zeros());
-        for (p, a) in samples.points.iter().zip(&samples.areas) {
+        for (p, a) in points.iter().zip(areas) {
             let x = turn * p;
             let d = (depth - 0.1 - x.z).max(0.0);
             force += a * d;
@@ -195,17 +206,17 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(13);
         let contact = contact_samples(&ball, &grid, 4096, &mut rng);
         let random = sample_surface(&ball, &grid, &SurfaceSampling::default(), &mut rng);
-        let total = |s: &SurfaceSamples| s.areas.iter().sum::<f64>();
-        assert!((total(&contact) - total(&random)).abs() < 1e-9 * total(&random));
+        let total = |areas: &[f64]| areas.iter().sum::<f64>();
+        assert!((total(&contact.areas) - total(&random.areas)).abs() < 1e-9 * total(&random.areas));
         for tilt in [0.0, 0.01, 0.03] {
-            let offset = patch_offset(&contact, 0.004, tilt);
+            let offset = patch_offset(&contact.points, &contact.areas, 0.004, tilt);
             assert!(
                 offset < 2e-4,
                 "tilted {tilt}: patch centre {offset:e} m off"
             );
         }
         // What the samples are for: plain random ones are off by a millimetre or more.
-        assert!(patch_offset(&random, 0.004, 0.0) > 1e-3);
+        assert!(patch_offset(&random.points, &random.areas, 0.004, 0.0) > 1e-3);
     }
 
     #[test]

@@ -35,29 +35,7 @@ impl Cubature {
     /// spanning its thickness all lie on the mid-surface, where bending causes no strain, and the
     /// subspace would bend for free.
     pub fn stratified(grid: &VoxelGrid, target: usize, total_volume: f64) -> Cubature {
-        let half = grid.cell / 2.0;
-        let solid: Vec<usize> = (0..grid.len()).filter(|&i| grid.solid[i]).collect();
-        // Eight sub-cells per voxel make small grids fine enough to choose from; on large
-        // grids the voxels alone are plenty, and sorting 8x as many candidates only costs time.
-        let (centers, cell) = if solid.len() >= 16 * target {
-            let centers: Vec<_> = solid
-                .iter()
-                .map(|&i| grid.cell_center(grid.coords(i)))
-                .collect();
-            (centers, grid.cell)
-        } else {
-            let mut centers = Vec::with_capacity(8 * solid.len());
-            for &index in &solid {
-                let corner = grid.cell_corner(grid.coords(index));
-                for s in 0..8 {
-                    let offset =
-                        Vector3::new((s & 1) as f64, ((s >> 1) & 1) as f64, (s >> 2) as f64);
-                    centers.push(corner + (offset + Vector3::repeat(0.5)) * half);
-                }
-            }
-            (centers, half)
-        };
-        let weights = vec![cell.powi(3); centers.len()];
+        let (centers, weights, cell) = sub_cells(grid, target);
         let (chosen, mut volumes) = stratified_subset(&centers, &weights, cell, target);
         let points: Vec<_> = chosen.iter().map(|&i| centers[i]).collect();
         match_moments(&points, &mut volumes, &centers, &weights);
@@ -67,6 +45,42 @@ impl Cubature {
         }
         Cubature { points, volumes }
     }
+
+    /// The points of [`Cubature::stratified`] alone, for callers that need no volumes (the
+    /// network's reference points): matching the moments of 4096 points costs milliseconds.
+    pub fn stratified_points(grid: &VoxelGrid, target: usize) -> Vec<Vector3<f64>> {
+        let (centers, weights, cell) = sub_cells(grid, target);
+        let (chosen, _) = stratified_subset(&centers, &weights, cell, target);
+        chosen.iter().map(|&i| centers[i]).collect()
+    }
+}
+
+/// The candidates for `target` cubature points: the centres of the solid cells, or of their
+/// 2 x 2 x 2 sub-cells on small grids, with their volumes and the cell size they are on.
+fn sub_cells(grid: &VoxelGrid, target: usize) -> (Vec<Vector3<f64>>, Vec<f64>, f64) {
+    let half = grid.cell / 2.0;
+    let solid: Vec<usize> = (0..grid.len()).filter(|&i| grid.solid[i]).collect();
+    // Eight sub-cells per voxel make small grids fine enough to choose from; on large grids
+    // the voxels alone are plenty, and sorting 8x as many candidates only costs time.
+    let (centers, cell) = if solid.len() >= 16 * target {
+        let centers: Vec<_> = solid
+            .iter()
+            .map(|&i| grid.cell_center(grid.coords(i)))
+            .collect();
+        (centers, grid.cell)
+    } else {
+        let mut centers = Vec::with_capacity(8 * solid.len());
+        for &index in &solid {
+            let corner = grid.cell_corner(grid.coords(index));
+            for s in 0..8 {
+                let offset = Vector3::new((s & 1) as f64, ((s >> 1) & 1) as f64, (s >> 2) as f64);
+                centers.push(corner + (offset + Vector3::repeat(0.5)) * half);
+            }
+        }
+        (centers, half)
+    };
+    let weights = vec![cell.powi(3); centers.len()];
+    (centers, weights, cell)
 }
 
 /// Monomials up to degree two of a point, centred at `c` and scaled by `s`: 1, x, y, z, then

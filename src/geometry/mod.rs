@@ -15,7 +15,7 @@ mod tetmesh;
 mod voxel;
 
 pub use completion::{complete_view, Completed, Completion, CompletionError};
-pub use contact_samples::contact_samples;
+pub use contact_samples::{contact_samples, ContactSamples};
 pub use cubature::{stratified_subset, Cubature};
 pub use downsample::voxel_downsample;
 pub use mesh_io::{

@@ -169,7 +169,7 @@ fn sample_cloud(
 
 /// Surface area of the solid as the count of exposed cell faces, scaled by 2/3 (the mean ratio
 /// of a staircase to the smooth surface it approximates, over all orientations).
-fn estimated_area(grid: &VoxelGrid) -> f64 {
+pub(super) fn estimated_area(grid: &VoxelGrid) -> f64 {
     let mut faces = 0usize;
     for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
         let [i, j, k] = grid.coords(index);

@@ -10,8 +10,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{
-    contact_samples, sample_surface, Completed, Cubature, Normalization, Shape, SurfaceSamples,
-    SurfaceSampling, VoxelGrid,
+    contact_samples, sample_surface, Completed, ContactSamples, Cubature, Normalization, Shape,
+    SurfaceSamples, SurfaceSampling, VoxelGrid,
 };
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, StepReport, Subspace};
 use crate::skinning::{NeuralModel, SkinningField, TruncatedField};
@@ -128,7 +128,7 @@ pub struct SoftBody {
     deformed: Vec<f32>,
     cubature: Cubature,
     /// Surface samples (world) and their areas: the points that collide.
-    surface: SurfaceSamples,
+    surface: ContactSamples,
     timings: BuildTimings,
     last: Option<StepReport>,
     sleep: Option<SleepRule>,
@@ -669,7 +669,7 @@ struct NetworkInput {
     map: Normalization,
     grid: VoxelGrid,
     /// Evenly spread surface samples, the points that collide.
-    contact: SurfaceSamples,
+    contact: ContactSamples,
     surface: SurfaceSamples,
     reference: Vec<Vector3<f64>>,
     voxelize_ms: f64,
@@ -734,8 +734,7 @@ pub(crate) fn network_input(
         normals: world.normals.clone(),
         areas: world.areas.clone(),
     };
-    let reference = Cubature::stratified(grid, reference_points, grid.solid_volume())
-        .points
+    let reference = Cubature::stratified_points(grid, reference_points)
         .iter()
         .map(|p| map.to_normalized(p))
         .collect();
