@@ -270,6 +270,12 @@ struct RotationSvd {
     v: Matrix3<f64>,
 }
 
+/// The rotation of the polar decomposition of `f` (a reflection absorbed as in
+/// [`RotationSvd`]); None when the SVD does not converge.
+pub(crate) fn polar_rotation(f: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    RotationSvd::new(f).map(|r| r.u * r.v.transpose())
+}
+
 impl RotationSvd {
     fn new(f: &Matrix3<f64>) -> Option<Self> {
         let svd = f.try_svd(true, true, EPSILON, MAX_ITERATIONS)?;

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::material::{Material, Matrix9};
+use super::material::{polar_rotation, Material, Matrix9};
 
 use crate::geometry::{Cubature, Normalization};
 use crate::skinning::SkinningField;
@@ -143,21 +143,10 @@ impl Subspace {
     }
 
     /// The rotation of the body as a whole at `z`: the rotation of the polar decomposition of
-    /// its volume-weighted mean deformation gradient (the identity for a degenerate one).
+    /// its volume-weighted mean deformation gradient (the identity when its SVD fails).
     pub fn mean_rotation(&self, z: &DMatrix<f64>) -> Matrix3<f64> {
         let f = Matrix3::identity() + z * &self.mean_gradient;
-        let svd = f.svd(true, true);
-        match (svd.u, svd.v_t) {
-            (Some(u), Some(v_t)) => {
-                let mut rotation = u * v_t;
-                if rotation.determinant() < 0.0 {
-                    let flip = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
-                    rotation = u * flip * v_t;
-                }
-                rotation
-            }
-            _ => Matrix3::identity(),
-        }
+        polar_rotation(&f).unwrap_or_else(Matrix3::identity)
     }
 
     /// Deformation gradients at every cubature point for the handle matrix `z` (3 x 4K), as
