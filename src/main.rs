@@ -321,14 +321,15 @@ fn run_bench_contact(json: bool) -> physskin::Result<()> {
         cli::print_json(&r);
         return Ok(());
     }
-    println!("| ball radius m | size | E Pa | moved in 2 s, mm | step median ms | step p99 ms | decision |");
-    println!("|---:|---|---:|---:|---:|---:|---|");
+    println!("| ball radius m | size | E Pa | rolling friction m | moved in 2 s, mm | step median ms | step p99 ms | decision |");
+    println!("|---:|---|---:|---:|---:|---:|---:|---|");
     for row in &r.resting_ball {
         println!(
-            "| {} | {} | {:.0e} | {:.3} | {:.3} | {:.3} | {} |",
+            "| {} | {} | {:.0e} | {} | {:.3} | {:.3} | {:.3} | {} |",
             row.radius_m,
             row.size,
             row.young_pa,
+            row.rolling_friction_m,
             row.drift_mm,
             row.step_ms_median,
             row.step_ms_p99,

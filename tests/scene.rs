@@ -233,6 +233,52 @@ fn friction_holds_a_block_a_frictionless_floor_lets_slide() {
     );
 }
 
+/// Mean of an object's points now.
+fn centroid(scene: &Scene, name: &str) -> Vector3<f64> {
+    let points = scene.points(name).unwrap();
+    let sum = points.chunks(3).fold(Vector3::zeros(), |s, p| {
+        s + Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    });
+    sum / (points.len() / 3) as f64
+}
+
+#[test]
+fn a_resting_ball_stays_put_and_a_push_still_rolls_it() {
+    // The scene's default rolling friction (1 mm): without it this ball, with the sizes the
+    // budget picks, rolls 5 cm in 2 s (`bench contact`).
+    let file = SceneFile::parse(
+        "floor: 0\nsleep: null\nobjects:\n  - name: ball\n    shape: {sphere: 0.1}\n    \
+         position: [0, 0, 0.1]\n",
+    )
+    .unwrap();
+    let mut scene = build(&file, &FieldCache::default());
+    for _ in 0..30 {
+        scene.step();
+    }
+    let start = centroid(&scene, "ball");
+    let mut drift: f64 = 0.0;
+    for _ in 0..120 {
+        scene.step();
+        drift = drift.max((centroid(&scene, "ball") - start).xy().norm());
+    }
+    assert!(drift < 2e-3, "resting ball moved {:.4} mm", drift * 1e3);
+    // A push at the centre of a fifth of its weight (4.19 kg) for 0.5 s needs a torque far
+    // above the limit to roll the ball without slipping: it rolls.
+    scene
+        .push(
+            "ball",
+            Vector3::new(0.0, 0.0, 0.1),
+            Vector3::new(8.2, 0.0, 0.0),
+            0.5,
+        )
+        .unwrap();
+    for _ in 0..60 {
+        scene.step();
+    }
+    let rolled = centroid(&scene, "ball").x - start.x;
+    assert!(rolled > 0.1, "pushed ball moved {rolled:.4} m");
+}
+
 #[test]
 fn still_objects_sleep_cost_nothing_and_wake_on_a_link_or_a_push() {
     let file = scene_file(
@@ -432,7 +478,7 @@ fn a_link_lifting_off_a_sleeping_body_wakes_it() {
             .fold(0.0, f64::max)
     };
     let (robots, names) = (vec!["press".to_string()], vec!["lift".to_string()]);
-    let mut run = |scene: &mut Scene, lift: &dyn Fn(f64) -> f64, steps: usize| {
+    let run = |scene: &mut Scene, lift: &dyn Fn(f64) -> f64, steps: usize| {
         for i in 0..steps {
             let position = lift(i as f64 / 60.0);
             scene

@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::stats::quantile;
-use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
+use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions, DEFAULT_ROLLING_FRICTION};
 use crate::skinning::NeuralModel;
 use crate::Result;
 
@@ -27,6 +27,8 @@ pub struct RestingBallRow {
     /// "auto" (the scene's error budget picks) or a fixed "handles/cubature".
     pub size: String,
     pub young_pa: f64,
+    /// Rolling friction, m (the scene file's default unless 0 is named).
+    pub rolling_friction_m: f64,
     /// The size the scene chose and why.
     pub decision: String,
     /// Largest sideways move of the ball's centroid over the measured seconds.
@@ -52,15 +54,19 @@ pub fn run_contact_bench(log: impl Fn(&str)) -> Result<ContactReport> {
     let model = Arc::new(NeuralModel::bundled()?);
     let cache = FieldCache::default();
     let mut rows = Vec::new();
-    for (radius, size, young) in [
-        (0.1, "auto", 1e5),
-        (0.1, "17/256", 1e5),
-        (0.1, "auto", 1e7),
-        (0.05, "auto", 1e5),
+    let rolling = DEFAULT_ROLLING_FRICTION;
+    for (radius, size, young, rolling) in [
+        (0.1, "auto", 1e5, rolling),
+        (0.1, "auto", 1e5, 0.0),
+        (0.1, "17/256", 1e5, rolling),
+        (0.1, "17/256", 1e5, 0.0),
+        (0.1, "auto", 1e7, rolling),
+        (0.05, "auto", 1e5, rolling),
     ] {
-        let row = resting_ball(&model, &cache, radius, size, young)?;
+        let row = resting_ball(&model, &cache, radius, size, young, rolling)?;
         log(&format!(
-            "ball r {radius} m, {size}, E {young:.0e}: moved {:.3} mm, step p99 {:.3} ms",
+            "ball r {radius} m, {size}, E {young:.0e}, rolling friction {rolling} m: moved {:.3} \
+             mm, step p99 {:.3} ms",
             row.drift_mm, row.step_ms_p99
         ));
         rows.push(row);
@@ -81,6 +87,7 @@ fn resting_ball(
     radius: f64,
     size: &str,
     young: f64,
+    rolling: f64,
 ) -> Result<RestingBallRow> {
     let sizes = match size.split_once('/') {
         Some((handles, cubature)) => format!("    handles: {handles}\n    cubature: {cubature}\n"),
@@ -88,7 +95,7 @@ fn resting_ball(
     };
     // Sleeping off: a sleeping ball is held still, which would hide the drift.
     let yaml = format!(
-        "floor: 0\nsleep: null\nobjects:\n  - name: ball\n    shape: {{sphere: {radius}}}\n    \
+        "floor: 0\nsleep: null\nrolling_friction: {rolling}\nobjects:\n  - name: ball\n    shape: {{sphere: {radius}}}\n    \
          position: [0, 0, {radius}]\n    material: {{young: {young}}}\n{sizes}"
     );
     let file = SceneFile::parse(&yaml).map_err(|reason| crate::Error::InvalidParameter {
@@ -119,6 +126,7 @@ fn resting_ball(
         radius_m: radius,
         size: size.to_string(),
         young_pa: young,
+        rolling_friction_m: rolling,
         decision,
         drift_mm: drift * 1e3,
         step_ms_median: quantile(&step_ms, 0.5),

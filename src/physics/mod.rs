@@ -6,6 +6,7 @@ mod lift;
 mod material;
 mod obstacle;
 mod reduced;
+mod rolling;
 mod scene;
 mod subspace;
 

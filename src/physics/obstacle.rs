@@ -75,6 +75,18 @@ impl Obstacle {
     }
 }
 
+/// Two unit tangents orthogonal to `normal` and to each other.
+pub(crate) fn tangents(normal: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let helper = if normal.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let t1 = normal.cross(&helper).normalize();
+    let t2 = normal.cross(&t1);
+    [t1, t2]
+}
+
 /// Friction anchors of points resting on static obstacles, kept from step to step while the
 /// point touches (on moving obstacles a point is tied where it is at the step's start).
 #[derive(Clone, Debug, Default)]
@@ -143,18 +155,10 @@ impl Stick {
         if stiffness.is_nan() || stiffness <= 0.0 {
             return None;
         }
-        let n = p.normal;
-        let helper = if n.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let t1 = n.cross(&helper).normalize();
-        let t2 = n.cross(&t1);
         Some(Self {
             point,
             anchor,
-            tangents: [t1, t2],
+            tangents: tangents(&p.normal),
             stiffness,
         })
     }

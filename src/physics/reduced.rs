@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::material::{Material, Matrix9};
 use super::obstacle::{Anchors, Obstacle, Stick};
+use super::rolling::{RollAnchors, RollingStick, ROLL_SLIP};
 use super::scene::{Poke, SimParams};
 use super::subspace::Subspace;
 use crate::error::{Error, Result};
@@ -125,6 +126,9 @@ pub struct ReducedSim {
     sticks: Vec<Stick>,
     /// Friction anchors of contacts resting on static obstacles.
     anchors: Anchors,
+    /// This step's rolling friction: one per obstacle touched at its start.
+    rolls: Vec<RollingStick>,
+    roll_anchors: RollAnchors,
     /// The object's bounding-box diagonal, m.
     diagonal: f64,
     pokes: Vec<(DVector<f64>, Poke)>,
@@ -170,6 +174,8 @@ impl ReducedSim {
             candidates: Vec::new(),
             sticks: Vec::new(),
             anchors: Anchors::default(),
+            rolls: Vec::new(),
+            roll_anchors: RollAnchors::default(),
             diagonal,
             pokes: Vec::new(),
             rest_hessian: None,
@@ -405,18 +411,28 @@ impl ReducedSim {
         self.candidates = candidates;
     }
 
-    /// Friction for this step: the candidate contacts that touch at the step's start.
+    /// Friction for this step: the candidate contacts that touch at its start, and the
+    /// rolling friction of the body on each obstacle they touch.
     fn find_sticks(&mut self) {
         self.sticks.clear();
+        self.rolls.clear();
         let (kc, mu) = (self.params.contact_stiffness, self.params.friction);
-        if mu == 0.0 {
+        if mu == 0.0 && self.params.rolling_friction == 0.0 {
             return;
         }
         let statics = self.obstacles.len();
+        let mut pushes: Vec<(usize, Vector3<f64>)> = Vec::new();
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
             let x = contact.rest + &self.z * &contact.phi;
-            if let Some(p) = self.obstacle(o).penetration(&x) {
+            let Some(p) = self.obstacle(o).penetration(&x) else {
+                continue;
+            };
+            match pushes.iter_mut().find(|(touched, _)| *touched == o) {
+                Some((_, force)) => *force += p.normal * (kc * contact.weight * p.depth),
+                None => pushes.push((o, p.normal * (kc * contact.weight * p.depth))),
+            }
+            if mu > 0.0 {
                 // Kept anchors hold a resting object instead of letting it creep a little
                 // every step.
                 let anchor = self.anchors.tie((c, o), o < statics, &x, &p.normal);
@@ -425,6 +441,27 @@ impl ReducedSim {
             }
         }
         self.anchors.end_step();
+        self.find_rolls(&pushes, statics);
+    }
+
+    /// Rolling friction on each obstacle pushing with a total force from `pushes`.
+    fn find_rolls(&mut self, pushes: &[(usize, Vector3<f64>)], statics: usize) {
+        let rho = self.params.rolling_friction;
+        if rho > 0.0 && !pushes.is_empty() {
+            let rotation = self.subspace.mean_rotation(&self.z);
+            let lever = 0.5 * self.diagonal;
+            for (o, force) in pushes {
+                let n = force.norm();
+                let normal = force / n;
+                let anchor =
+                    self.roll_anchors
+                        .tie(*o, *o < statics, &rotation, &normal, ROLL_SLIP / lever);
+                let gradient = self.subspace.mean_gradient();
+                self.rolls
+                    .extend(RollingStick::new(&anchor, &normal, n, rho, lever, gradient));
+            }
+        }
+        self.roll_anchors.end_step();
     }
 
     fn obstacle(&self, index: usize) -> &Obstacle {
@@ -637,6 +674,11 @@ impl ReducedSim {
             energy += e;
             gradient += g * contact.phi.transpose();
         }
+        for roll in &self.rolls {
+            let (e, g) = roll.energy_and_gradient(z);
+            energy += e;
+            gradient += g;
+        }
         let total = &gradient + times_symmetric(z, &objective.quadratic) - &objective.linear;
         Evaluation {
             nonquadratic: energy,
@@ -728,7 +770,14 @@ impl ReducedSim {
             let phi = &self.contacts[stick.point].phi;
             springs.extend(stick.tangents.iter().map(|t| (phi, stick.stiffness, *t)));
         }
-        (!springs.is_empty()).then(|| kronecker_springs(&springs, 4 * self.subspace.handles()))
+        if springs.is_empty() && self.rolls.is_empty() {
+            return None;
+        }
+        let mut curvature = kronecker_springs(&springs, 4 * self.subspace.handles());
+        for roll in &self.rolls {
+            roll.add_curvature(&mut curvature);
+        }
+        Some(curvature)
     }
 
     /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive

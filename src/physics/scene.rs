@@ -32,6 +32,10 @@ pub struct SimParams {
     /// Coulomb friction coefficient of contacts (lagged stick friction, see `Stick`). Default 0.
     #[serde(default)]
     pub friction: f64,
+    /// Rolling friction, m: a body resting on an obstacle resists rolling with a torque of up
+    /// to this length times the normal force (see `physics::rolling`). Default 0.
+    #[serde(default)]
+    pub rolling_friction: f64,
     /// Newton stops when the step's mass-weighted RMS length is below this fraction of the
     /// bounding-box diagonal. Default 1e-5.
     pub tolerance: f64,
@@ -53,6 +57,7 @@ impl Default for SimParams {
             pin_stiffness: 1e8,
             contact_stiffness: 1e7,
             friction: 0.0,
+            rolling_friction: 0.0,
             tolerance: 1e-5,
             max_iterations: 20,
         }
@@ -102,6 +107,11 @@ impl SimParams {
             self.friction.is_finite() && self.friction >= 0.0,
             "friction",
             || format!("must be >= 0, got {}", self.friction),
+        )?;
+        ensure(
+            self.rolling_friction.is_finite() && self.rolling_friction >= 0.0,
+            "rolling_friction",
+            || format!("must be >= 0 m, got {}", self.rolling_friction),
         )?;
         ensure(self.tolerance > 0.0, "tolerance", || {
             "must be positive".into()

@@ -144,6 +144,11 @@ impl Subspace {
 
     /// The rotation of the body as a whole at `z`: the rotation of the polar decomposition of
     /// its volume-weighted mean deformation gradient (the identity when its SVD fails).
+    /// G (4K x 3) with F = I + Z G the volume-mean deformation gradient.
+    pub fn mean_gradient(&self) -> &DMatrix<f64> {
+        &self.mean_gradient
+    }
+
     pub fn mean_rotation(&self, z: &DMatrix<f64>) -> Matrix3<f64> {
         let f = Matrix3::identity() + z * &self.mean_gradient;
         polar_rotation(&f).unwrap_or_else(Matrix3::identity)

@@ -27,6 +27,10 @@ pub struct SceneFile {
     /// Coulomb friction coefficient of every contact (floor, links, static objects). Default 0.5.
     #[serde(default = "default_friction")]
     pub friction: f64,
+    /// Rolling friction of every contact, m: the largest resisting torque per newton of normal
+    /// force (MuJoCo's rolling coefficient). Default [`DEFAULT_ROLLING_FRICTION`].
+    #[serde(default = "default_rolling_friction")]
+    pub rolling_friction: f64,
     /// Largest simulation error allowed to an object whose `handles` or `cubature` is `auto`,
     /// percent of its size, measured against the full-space FEM. Default 5.
     #[serde(default = "default_budget")]
@@ -246,6 +250,12 @@ fn default_damping() -> f64 {
 fn default_friction() -> f64 {
     0.5
 }
+/// The rolling friction of a scene that names none, m.
+pub const DEFAULT_ROLLING_FRICTION: f64 = 1e-3;
+
+fn default_rolling_friction() -> f64 {
+    DEFAULT_ROLLING_FRICTION
+}
 fn default_budget() -> f64 {
     5.0
 }
@@ -313,6 +323,12 @@ impl SceneFile {
         }
         if !(self.friction.is_finite() && self.friction >= 0.0) {
             return Err(format!("friction must be >= 0, got {}", self.friction));
+        }
+        if !(self.rolling_friction.is_finite() && self.rolling_friction >= 0.0) {
+            return Err(format!(
+                "rolling_friction must be >= 0 m, got {}",
+                self.rolling_friction
+            ));
         }
         if let Some(rule) = &self.sleep {
             positive("sleep.speed".into(), rule.speed)?;

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 pub use budget::{choose_resolution, Choice};
 pub use file::{
     Attachment, Keyframe, MaterialSpec, ObjectKind, ObjectSpec, PoseSpec, Region, Resolution,
-    RobotSpec, SceneFile, ShapeSpec, Source,
+    RobotSpec, SceneFile, ShapeSpec, Source, DEFAULT_ROLLING_FRICTION,
 };
 pub use reference::{reference_errors, ObjectError, Recorder};
 pub use robot::Robot;

@@ -655,6 +655,7 @@ fn deformable_object(
         gravity: Vector3::from(file.gravity),
         damping: file.damping,
         friction: file.friction,
+        rolling_friction: file.rolling_friction,
         ..SimParams::default()
     };
     let support = spec.support.unwrap_or(if file.floor.is_some() {
@@ -705,6 +706,7 @@ fn deformable_object(
                 sim.dt,
                 sim.damping,
                 sim.friction,
+                sim.rolling_friction,
                 file.error_budget_pct,
             ] {
                 v.to_bits().hash(&mut choice_key);
