@@ -34,7 +34,7 @@ pub enum Error {
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
     #[error(transparent)]
-    Params(#[from] crate::ros::params::ParamError),
+    Params(#[from] ParamError),
     #[error("i/o on {path}: {source}")]
     Io {
         path: PathBuf,
@@ -44,6 +44,19 @@ pub enum Error {
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// Why parameters were refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamError {
+    #[error("cannot read parameter file {path}: {reason}")]
+    File { path: String, reason: String },
+    #[error("parameter file {path}: {reason}")]
+    Format { path: String, reason: String },
+    #[error("parameter `{name}`: {reason}")]
+    Invalid { name: String, reason: String },
+    #[error("parameter `{name}`: no such parameter")]
+    Unknown { name: String },
+}
 
 /// Shorthand for a parameter check that fails with a message naming the parameter.
 pub(crate) fn ensure(ok: bool, name: &'static str, reason: impl FnOnce() -> String) -> Result<()> {

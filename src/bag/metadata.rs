@@ -1,9 +1,48 @@
 //! The `rosbag2` metadata record (key `serialized_metadata`): the bag's description in the
 //! YAML of rosbag2's metadata.yaml, version 9, which rosbag2 writes into every MCAP file.
+//! Also what that description is made of: each recorded topic and what each file holds.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
 
 use serde::Serialize;
 
-use super::writer::{FileSummary, TopicInfo};
+use super::qos::QosProfile;
+use super::schema::schema_text;
+use crate::ros::messages::RosMessage;
+
+/// A recorded topic: its name, type and the QoS it was offered with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TopicInfo {
+    pub name: String,
+    /// "pkg/msg/Type".
+    pub type_name: String,
+    /// The `ros2msg` schema text.
+    pub schema: String,
+    pub qos: QosProfile,
+}
+
+impl TopicInfo {
+    pub fn of<M: RosMessage>(name: &str, qos: QosProfile) -> Self {
+        Self {
+            name: name.into(),
+            type_name: M::type_name(),
+            schema: schema_text::<M>(),
+            qos,
+        }
+    }
+}
+
+/// What one file holds.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FileSummary {
+    pub path: PathBuf,
+    pub messages: u64,
+    /// Log time of the first and last message, ns (0 when empty).
+    pub start_ns: i64,
+    pub end_ns: i64,
+    pub per_topic: BTreeMap<String, u64>,
+}
 
 #[derive(Serialize)]
 struct Nanoseconds {

@@ -10,12 +10,13 @@ mod writer;
 
 use std::path::PathBuf;
 
+pub use metadata::{FileSummary, TopicInfo};
 pub use qos::QosProfile;
 pub use reader::{read_messages, read_recording, recover, BagMessage, Recording, Recovered};
 pub use recorder::{Recorder, RecorderHealth};
 pub use replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
 pub use schema::schema_text;
-pub use writer::{BagWriter, FileSummary, RecordOptions, RecordSummary, TopicInfo};
+pub use writer::{BagWriter, RecordOptions, RecordSummary};
 
 /// What went wrong with a recording, naming the file.
 #[derive(Debug, thiserror::Error)]

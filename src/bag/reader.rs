@@ -8,8 +8,9 @@ use std::path::Path;
 
 use mcap::sans_io::LinearReaderOptions;
 
+use super::metadata::TopicInfo;
 use super::qos::QosProfile;
-use super::writer::{BagWriter, RecordOptions, RecordSummary, TopicInfo};
+use super::writer::{BagWriter, RecordOptions, RecordSummary};
 use super::BagError;
 
 /// One message of a recording.

@@ -6,7 +6,8 @@ use std::sync::mpsc::{sync_channel, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
-use super::writer::{BagWriter, RecordOptions, RecordSummary, TopicInfo};
+use super::metadata::TopicInfo;
+use super::writer::{BagWriter, RecordOptions, RecordSummary};
 use super::BagError;
 use crate::ros::messages::{encode, RosMessage};
 

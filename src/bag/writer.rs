@@ -13,33 +13,8 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::metadata::bag_metadata;
-use super::qos::QosProfile;
-use super::schema::schema_text;
+use super::metadata::{bag_metadata, FileSummary, TopicInfo};
 use super::BagError;
-use crate::ros::messages::RosMessage;
-
-/// A recorded topic: its name, type and the QoS it was offered with.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TopicInfo {
-    pub name: String,
-    /// "pkg/msg/Type".
-    pub type_name: String,
-    /// The `ros2msg` schema text.
-    pub schema: String,
-    pub qos: QosProfile,
-}
-
-impl TopicInfo {
-    pub fn of<M: RosMessage>(name: &str, qos: QosProfile) -> Self {
-        Self {
-            name: name.into(),
-            type_name: M::type_name(),
-            schema: schema_text::<M>(),
-            qos,
-        }
-    }
-}
 
 /// Where and how to record.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -65,17 +40,6 @@ impl Default for RecordOptions {
             flush_interval_s: 1.0,
         }
     }
-}
-
-/// What one file holds.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct FileSummary {
-    pub path: PathBuf,
-    pub messages: u64,
-    /// Log time of the first and last message, ns (0 when empty).
-    pub start_ns: i64,
-    pub end_ns: i64,
-    pub per_topic: BTreeMap<String, u64>,
 }
 
 /// What a recording holds, over all its files.
@@ -370,7 +334,7 @@ fn add_channel(open: &mut OpenFile, topic: &TopicInfo) -> Result<(), BagError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bag::read_messages;
+    use crate::bag::{read_messages, QosProfile};
     use crate::ros::messages::Status;
 
     #[test]

@@ -9,8 +9,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+use super::input::prepare_input;
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, Scenario};
-use crate::geometry::{Cubature, Shape, SurfaceSamples, VoxelGrid};
+use crate::geometry::{Cubature, Shape, VoxelGrid};
 use crate::physics::{Solver, Subspace};
 use crate::skinning::{FieldMetrics, NeuralField, NeuralModel, SkinningField};
 use crate::Result;
@@ -132,30 +133,6 @@ pub fn evaluate_fields(
         error_ratio: mean_of(&|r| r.sim_error_pct / r.eigen_error_pct),
     };
     Ok(EvalReport { shapes: rows, mean })
-}
-
-/// What the product does with a new shape before the network: the inside test, surface samples
-/// with normals, stratified interior reference points, all in the normalized frame.
-pub struct PreparedInput {
-    pub grid: VoxelGrid,
-    pub surface: SurfaceSamples,
-    pub reference: Vec<Vector3<f64>>,
-}
-
-pub fn prepare_input(
-    shape: &Shape,
-    surface_points: usize,
-    reference_points: usize,
-) -> PreparedInput {
-    let mut grid = VoxelGrid::from_shape(shape, 128, None);
-    grid.keep_largest_component();
-    let (_, surface, reference) =
-        crate::pipeline::network_input(shape, &grid, surface_points, reference_points);
-    PreparedInput {
-        grid,
-        surface,
-        reference,
-    }
 }
 
 /// Uniform random points inside the voxel solid, normalized frame.

@@ -2,6 +2,7 @@
 
 mod contact;
 mod fields;
+mod input;
 mod latency;
 mod plot;
 mod real_bench;
@@ -15,10 +16,8 @@ mod stress;
 mod transport;
 
 pub use contact::{run_contact_bench, ContactReport, RestingBallRow};
-pub use fields::{
-    evaluate_fields, interior_points, prepare_input, EvalMean, EvalOptions, EvalReport,
-    PreparedInput, ShapeEval,
-};
+pub use fields::{evaluate_fields, interior_points, EvalMean, EvalOptions, EvalReport, ShapeEval};
+pub use input::{prepare_input, PreparedInput};
 pub use latency::{run_latency_bench, sample_cloud, LatencyReport, RclpyLatency};
 pub use real_bench::{run_real_bench, RealBenchReport, ScanRow};
 pub use real_to_sim::{simulate_input, InputSimOptions, InputSimSummary};

@@ -647,7 +647,7 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
                 ),
             });
         }
-        let input = super::fields::prepare_input(&shape.source, 4096, 4096);
+        let input = super::input::prepare_input(&shape.source, 4096, 4096);
         Arc::new(model.field(
             &input.surface,
             &input.reference,

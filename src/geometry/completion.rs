@@ -10,7 +10,7 @@
 use nalgebra::{Matrix2, Vector2, Vector3};
 use serde::Serialize;
 
-use super::sampling::neighbour_distance;
+use super::point_index::neighbour_distance;
 use super::shape::principal_extents;
 
 /// Clouds with fewer points are not examined: too few to tell one side from two.

@@ -21,8 +21,9 @@ pub use downsample::voxel_downsample;
 pub use mesh_io::{
     load_geometry, parse_obj, parse_ply, parse_stl, write_obj, write_ply, LoadError, RawGeometry,
 };
+pub use point_index::median_spacing;
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
-pub use sampling::{median_spacing, sample_surface, SurfaceSamples, SurfaceSampling};
+pub use sampling::{sample_surface, SurfaceSamples, SurfaceSampling};
 pub use scan::{scan, scan_points, Camera};
 pub use shape::{content_hash, Normalization, Shape};
 pub use tetmesh::{TetLocation, TetMesh};

@@ -1,5 +1,6 @@
 //! A uniform grid over points for nearest-neighbour queries: the points sorted by cell, each
 //! cell's run found by offset (no hashing on the query path).
+//! Also a cloud's spacing statistics measured with it: `neighbour_distance`, `median_spacing`.
 
 use nalgebra::Vector3;
 
@@ -152,6 +153,30 @@ impl<'a> PointIndex<'a> {
         let inside = (0..3).all(|a| (0..self.dims[a]).contains(&[i, j, k][a]));
         inside.then(|| (i + self.dims[0] * (j + self.dims[1] * k)) as usize)
     }
+}
+
+/// Median distance from a point to its nearest neighbour (on a subsample of up to 2000 points).
+pub fn median_spacing(points: &[Vector3<f64>]) -> f64 {
+    neighbour_distance(points, 1, 0.5)
+}
+
+/// The `quantile` of the distance from a point to its `k`-th nearest neighbour (over at most
+/// 2000 points).
+pub fn neighbour_distance(points: &[Vector3<f64>], k: usize, quantile: f64) -> f64 {
+    if points.len() < 2 {
+        return 0.0;
+    }
+    let index = PointIndex::for_surface(points);
+    let stride = (points.len() / 2000).max(1);
+    let mut d: Vec<f64> = (0..points.len())
+        .step_by(stride)
+        .filter_map(|i| {
+            let n = index.nearest(&points[i], k, Some(i));
+            n.last().map(|&j| (points[j] - points[i]).norm())
+        })
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d[((d.len() as f64 * quantile) as usize).min(d.len() - 1)]
 }
 
 fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {

@@ -423,7 +423,7 @@ fn default_closing_radius(shape: &Shape, cell: f64) -> usize {
     if !shape.is_point_cloud() {
         return 1;
     }
-    let gap = super::sampling::neighbour_distance(&shape.positions, 6, 0.9);
+    let gap = super::point_index::neighbour_distance(&shape.positions, 6, 0.9);
     ((1.5 * gap / cell).ceil() as usize).clamp(1, 8)
 }
 

@@ -122,7 +122,7 @@ ros_message!(
 );
 
 ros_message!(
-    /// sensor_msgs/msg/PointCloud2: read it with [`super::cloud::decode_cloud`].
+    /// sensor_msgs/msg/PointCloud2: read it with `decode_cloud` (module `ros::cloud`).
     PointCloud2 = "sensor_msgs" {
         header: Header,
         height: u32,

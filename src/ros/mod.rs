@@ -7,6 +7,7 @@ pub mod camera_cloud;
 mod clock;
 pub mod cloud;
 pub mod cloud_objects;
+mod dds;
 mod diagnostics;
 mod markers;
 pub mod messages;
@@ -19,6 +20,7 @@ mod param_file;
 pub mod params;
 mod qos_overrides;
 mod services;
+mod shared;
 mod stage;
 mod stepper;
 mod tf;
@@ -26,12 +28,10 @@ mod tf;
 pub use args::{split_ros_args, LogLevel, RosArgs, RosArgsError};
 pub use builder::{BuildOutcome, BuildRequest, Builder, ObjectKey, ReadyBody};
 pub use clock::NodeClock;
+pub use dds::{context, publisher, qos_of, reliable_qos, sensor_qos, subscription, NodeError};
 pub use diagnostics::Health;
 pub use names::{NameError, NameResolver, Remap};
-pub use node::{
-    cloud_every, context, marker_every, publisher, qos_of, reliable_qos, run_node, sensor_qos,
-    subscription, NodeConfig, NodeError,
-};
+pub use node::{cloud_every, marker_every, run_node, NodeConfig};
 pub use outputs::{topic_table, Outputs, TF, TF_STATIC};
 pub use param_file::ParamLoader;
 pub use params::NodeParams;

@@ -9,16 +9,17 @@ use futures::StreamExt;
 use ros2_client::{Node, Publisher, Server, Subscription};
 
 use super::builder::BuildRequest;
+use super::dds::{sensor_qos, subscription, NodeError, QosTable};
 use super::messages::{
     Clock, DiagnosticArray, Interaction, JointState, Mesh, MeshStamped, PointCloud2, Status,
     TFMessage,
 };
 use super::names::NameResolver;
-use super::node::{subscription, NodeError, QosTable, Shared};
 use super::outputs::{Outputs, TF, TF_STATIC};
 use super::params::Topics;
 use super::qos_overrides::Endpoint;
 use super::services::{serve as serve_trigger, trigger_server, Control as Kind, Trigger};
+use super::shared::Shared;
 use super::stepper::StepperCommand;
 use crate::bag::{QosProfile, TopicInfo};
 use crate::scene::SceneFile;
@@ -52,7 +53,7 @@ impl Inputs {
             mesh: subscription(node, &t.mesh, q(&t.mesh))?,
             mesh_stamped: subscription(node, &t.mesh_stamped, q(&t.mesh_stamped))?,
             interaction: subscription(node, &t.interaction, q(&t.interaction))?,
-            clock: subscription(node, "/clock", super::node::sensor_qos())?,
+            clock: subscription(node, "/clock", sensor_qos())?,
             tf: subscription(node, TF, q(TF))?,
             tf_static: subscription(node, TF_STATIC, q(TF_STATIC))?,
             joints: Vec::new(),

@@ -72,7 +72,7 @@ pub fn topic_table(topics: &Topics) -> Vec<TopicInfo> {
         TopicInfo::of::<MeshStamped>(&t.mesh_stamped, QosProfile::reliable(5, true)),
         TopicInfo::of::<Interaction>(&t.interaction, QosProfile::reliable(10, false)),
         // Per-step outputs: room for several objects' samples of a tick before their readers
-        // acknowledge (the writers never wait; see node::never_blocking).
+        // acknowledge (the writers never wait; see dds::never_blocking).
         TopicInfo::of::<PointCloud2>(&t.deformed_points, QosProfile::reliable(10, false)),
         TopicInfo::of::<PointCloud2>(&t.weights_cloud, QosProfile::reliable(4, true)),
         TopicInfo::of::<SkinningWeights>(&t.weights, QosProfile::reliable(4, true)),

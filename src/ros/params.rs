@@ -13,18 +13,8 @@ use super::names::{NameError, NameResolver};
 use crate::physics::{SimParams, Solver};
 use crate::pipeline::{BodyOptions, Support};
 
-/// Why parameters were refused.
-#[derive(Debug, thiserror::Error)]
-pub enum ParamError {
-    #[error("cannot read parameter file {path}: {reason}")]
-    File { path: String, reason: String },
-    #[error("parameter file {path}: {reason}")]
-    Format { path: String, reason: String },
-    #[error("parameter `{name}`: {reason}")]
-    Invalid { name: String, reason: String },
-    #[error("parameter `{name}`: no such parameter")]
-    Unknown { name: String },
-}
+// Lives in `crate::error` (the crate error wraps it); named here too, where it always was.
+pub use crate::error::ParamError;
 
 /// Topic names, resolved by ROS 2 name rules: `~/x` is private to the node (`/ns/node/x`), a
 /// relative name lives in the node's namespace, and `--ros-args -r FROM:=TO` remaps them.

@@ -9,8 +9,8 @@ use ros2_client::ros2::policy::{Durability, History, Reliability};
 use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
 use ros2_client::{AService, Name, Node, Server, ServiceMapping, ServiceTypeName};
 
+use super::dds::NodeError;
 use super::messages::{TriggerRequest, TriggerResponse};
-use super::node::NodeError;
 use super::stepper::StepperCommand;
 
 impl ros2_client::Message for TriggerRequest {}

@@ -28,6 +28,22 @@ pub struct NeuralField {
     normalization: Normalization,
 }
 
+// `NeuralModel::field` lives here, beside the type it builds, so the model does not name
+// the field.
+impl NeuralModel {
+    /// The skinning field of one shape: `surface` samples (4096 is the trained count) and
+    /// `reference` interior points fix the output normalization; everything in the normalized
+    /// frame described by `normalization`.
+    pub fn field(
+        self: &Arc<Self>,
+        surface: &SurfaceSamples,
+        reference: &[Vector3<f64>],
+        normalization: Normalization,
+    ) -> Result<NeuralField> {
+        NeuralField::new(self.clone(), surface, reference, normalization)
+    }
+}
+
 impl NeuralField {
     pub(crate) fn new(
         model: Arc<NeuralModel>,

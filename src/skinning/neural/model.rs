@@ -5,12 +5,9 @@ use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
 use candle_core::{Device, Tensor, Var};
-use nalgebra::Vector3;
 
-use super::field::NeuralField;
 use super::network::{Network, NetworkConfig};
 use super::params::ParamBuilder;
-use crate::geometry::{Normalization, SurfaceSamples};
 use crate::{Error, Result};
 
 /// The model shipped in the repository, trained by the command in the README.
@@ -84,18 +81,6 @@ impl NeuralModel {
 
     pub fn config(&self) -> &NetworkConfig {
         self.network.config()
-    }
-
-    /// The skinning field of one shape: `surface` samples (4096 is the trained count) and
-    /// `reference` interior points fix the output normalization; everything in the normalized
-    /// frame described by `normalization`.
-    pub fn field(
-        self: &Arc<Self>,
-        surface: &SurfaceSamples,
-        reference: &[Vector3<f64>],
-        normalization: Normalization,
-    ) -> Result<NeuralField> {
-        NeuralField::new(self.clone(), surface, reference, normalization)
     }
 }
 
