@@ -380,15 +380,11 @@ fn run_bench_stress(json: bool) -> physskin::Result<()> {
 }
 
 fn run_bench_replay(json: bool) -> physskin::Result<()> {
-    let path = std::path::Path::new(physskin::demo::DEMO_BAG);
-    let bag = std::fs::read(path).map_err(|e| physskin::Error::Io {
-        path: path.into(),
-        source: e,
-    })?;
-    let r =
-        physskin::bench::run_replay_bench(&bag, std::path::Path::new("target/bench"), |line| {
-            eprintln!("{line}")
-        })?;
+    let r = physskin::bench::run_replay_bench(
+        physskin::demo::DEMO_BAG,
+        std::path::Path::new("target/bench"),
+        |line| eprintln!("{line}"),
+    )?;
     if json {
         cli::print_json(&r);
     } else {

@@ -212,6 +212,18 @@ fn infer_writes_weights_as_ply_and_npy_and_a_picture() {
             .unwrap()
             .starts_with(b"\x89PNG"));
     }
+    // Without --out or --png nothing is written, wherever it runs: the shipped sample (a real
+    // scan, the Stanford bunny) in an empty working directory.
+    let empty = dir.join("cwd");
+    std::fs::create_dir_all(&empty).unwrap();
+    let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/config/samples/bunny.obj");
+    let out = succeeded(physskin().current_dir(&empty).args(["infer", bunny]));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("1839 points") && stdout.contains("nothing written"),
+        "{stdout}"
+    );
+    assert_eq!(std::fs::read_dir(&empty).unwrap().count(), 0);
     let missing = physskin()
         .args(["infer", "/nonexistent/x.obj"])
         .output()
@@ -333,5 +345,39 @@ fn scans_simulate_and_degenerate_files_are_refused_with_their_reason() {
     );
     let json: serde_json::Value = serde_json::from_slice(&whole.stdout).unwrap();
     assert_eq!(json["completion"], serde_json::json!({}), "{json}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The README's main command, run by a binary moved away from the source tree (as an installed
+/// one is) in an empty working directory: the demo recording is compiled in, and every output
+/// lands where the options say.
+#[test]
+fn the_demo_runs_from_a_moved_binary() {
+    let dir = std::env::temp_dir().join(format!("physskin-demo-{}", std::process::id()));
+    let cwd = dir.join("cwd");
+    std::fs::create_dir_all(&cwd).unwrap();
+    let moved = dir.join("physskin");
+    std::fs::copy(env!("CARGO_BIN_EXE_physskin"), &moved).unwrap();
+    let out = succeeded(
+        Command::new(&moved)
+            .current_dir(&cwd)
+            .args(["demo", "--no-reference", "--json", "--out"])
+            .arg(dir.join("out.mcap"))
+            .arg("--picture")
+            .arg(dir.join("strip.png")),
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(report["shapes"].as_array().unwrap().len(), 3, "{report}");
+    assert!(std::fs::read(dir.join("out.mcap"))
+        .unwrap()
+        .starts_with(b"\x89MCAP"));
+    assert!(std::fs::read(dir.join("strip.png"))
+        .unwrap()
+        .starts_with(b"\x89PNG"));
+    assert_eq!(
+        std::fs::read_dir(&cwd).unwrap().count(),
+        0,
+        "wrote into its working directory"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -3,14 +3,14 @@
 
 use std::path::PathBuf;
 
-use physskin::demo::{run_demo, write_demo_bag, DemoOptions, DemoScript, DEMO_BAG};
+use physskin::demo::{run_demo, write_demo_bag, DemoOptions, DemoScript};
 use physskin::skinning::NeuralModel;
 
 #[derive(clap::Args)]
 pub struct DemoArgs {
-    /// Input recording (default: the bundled bags/demo.mcap).
-    #[arg(long, default_value = DEMO_BAG)]
-    input: PathBuf,
+    /// Input recording (default: bags/demo.mcap, compiled into the binary).
+    #[arg(long)]
+    input: Option<PathBuf>,
     /// Output recording: the inputs and every output topic.
     #[arg(long, default_value = "target/demo/demo_out.mcap")]
     out: PathBuf,
@@ -47,7 +47,12 @@ pub fn run(args: DemoArgs) -> physskin::Result<()> {
     };
     eprintln!(
         "replaying {} through the pipeline (inference, subspace, 60 Hz simulation){}...",
-        options.input.display(),
+        options
+            .input
+            .as_ref()
+            .map_or("the bundled bags/demo.mcap".into(), |p| p
+                .display()
+                .to_string()),
         if options.reference {
             ", then the FEM reference"
         } else {

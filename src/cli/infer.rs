@@ -7,7 +7,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use physskin::bench::prepare_input;
-use physskin::geometry::{complete_view, load_geometry, write_ply, RawGeometry, Shape};
+use physskin::geometry::{
+    complete_view, load_geometry, write_ply, RawGeometry, Shape, SurfaceSamples,
+};
 use physskin::io::{render_field_png, write_npy_f32};
 use physskin::skinning::{NeuralModel, SkinningField};
 use physskin::{Error, Result};
@@ -17,12 +19,12 @@ pub struct InferArgs {
     /// A mesh or point cloud: OBJ, STL or PLY.
     input: PathBuf,
     /// Weights at the input's points: .ply (positions plus one float property per handle,
-    /// weight_0 .. weight_K) or .npy (points x handles, float32).
-    #[arg(long, default_value = "weights.ply")]
-    out: PathBuf,
-    /// A picture of the blended field (three views).
-    #[arg(long, default_value = "weights.png")]
-    png: PathBuf,
+    /// weight_0 .. weight_K) or .npy (points x handles, float32). Not written when absent.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// A picture of the blended field (three views). Not drawn when absent.
+    #[arg(long)]
+    png: Option<PathBuf>,
     /// A model file instead of the bundled one.
     #[arg(long)]
     model: Option<PathBuf>,
@@ -59,19 +61,12 @@ pub fn run(args: InferArgs) -> Result<()> {
     field.evaluate(&points, &mut weights, None);
     let infer_ms = started.elapsed().as_secs_f64() * 1e3;
 
-    write_weights(&args.out, &raw, &weights, handles)?;
-    let mut surface_weights = vec![0.0; input.surface.points.len() * handles];
-    field.evaluate(&input.surface.points, &mut surface_weights, None);
-    let file = create(&args.png)?;
-    render_field_png(
-        &input.surface.points,
-        Some(&input.surface.normals),
-        &surface_weights,
-        handles,
-        360,
-        &mut BufWriter::new(file),
-    )
-    .map_err(|e| Error::Geometry(e.to_string()))?;
+    if let Some(path) = &args.out {
+        write_weights(path, &raw, &weights, handles)?;
+    }
+    if let Some(path) = &args.png {
+        draw_field(path, &input.surface, &field, handles)?;
+    }
     println!(
         "{}: {} points, {} handles (constant + {} learned); sampling {:.1} ms, inference {:.1} ms",
         args.input.display(),
@@ -81,12 +76,39 @@ pub fn run(args: InferArgs) -> Result<()> {
         prepare_ms,
         infer_ms
     );
-    println!(
-        "weights: {}\npicture: {}",
-        args.out.display(),
-        args.png.display()
-    );
+    match (&args.out, &args.png) {
+        (None, None) => {
+            println!("nothing written: --out FILE (.ply or .npy) and --png FILE say where")
+        }
+        (out, png) => {
+            for (what, path) in [("weights", out), ("picture", png)] {
+                if let Some(path) = path {
+                    println!("{what}: {}", path.display());
+                }
+            }
+        }
+    }
     Ok(())
+}
+
+/// The blended field on the network's surface samples, three views.
+fn draw_field(
+    path: &Path,
+    surface: &SurfaceSamples,
+    field: &dyn SkinningField,
+    handles: usize,
+) -> Result<()> {
+    let mut weights = vec![0.0; surface.points.len() * handles];
+    field.evaluate(&surface.points, &mut weights, None);
+    render_field_png(
+        &surface.points,
+        Some(&surface.normals),
+        &weights,
+        handles,
+        360,
+        &mut BufWriter::new(create(path)?),
+    )
+    .map_err(|e| Error::Geometry(e.to_string()))
 }
 
 fn create(path: &Path) -> Result<File> {

@@ -20,14 +20,15 @@ use crate::ros::NodeParams;
 use crate::skinning::NeuralModel;
 use crate::{Error, Result};
 
-/// The bundled demo recording, in the source tree.
-pub const DEMO_BAG: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/demo.mcap");
+/// The bundled demo recording (`bags/demo.mcap`), compiled into the binary so that a moved or
+/// installed binary still has its demo.
+pub const DEMO_BAG: &[u8] = include_bytes!("../../bags/demo.mcap");
 
 /// What the demo reads and writes.
 #[derive(Clone, Debug)]
 pub struct DemoOptions {
-    /// The input recording. Default the bundled `bags/demo.mcap`.
-    pub input: PathBuf,
+    /// The input recording. Default (None) the bundled `bags/demo.mcap`, [`DEMO_BAG`].
+    pub input: Option<PathBuf>,
     /// The output recording (inputs and every output topic). Default target/demo/demo_out.mcap.
     pub out: PathBuf,
     /// The strip of frames. Default target/demo/demo.png.
@@ -43,7 +44,7 @@ pub struct DemoOptions {
 impl Default for DemoOptions {
     fn default() -> Self {
         Self {
-            input: DEMO_BAG.into(),
+            input: None,
             out: "target/demo/demo_out.mcap".into(),
             picture: "target/demo/demo.png".into(),
             frames: 6,
@@ -76,10 +77,16 @@ pub struct DemoSummary {
 
 /// Runs the demo.
 pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoSummary> {
-    let bytes = std::fs::read(&options.input).map_err(|e| Error::Io {
-        path: options.input.clone(),
-        source: e,
-    })?;
+    let (bytes, name) = match &options.input {
+        Some(path) => {
+            let bytes = std::fs::read(path).map_err(|e| Error::Io {
+                path: path.clone(),
+                source: e,
+            })?;
+            (std::borrow::Cow::Owned(bytes), path.display().to_string())
+        }
+        None => (DEMO_BAG.into(), "bags/demo.mcap (bundled)".to_string()),
+    };
     let params = NodeParams::default();
     let script = DemoScript::new();
     let mut trajectories = if options.reference {
@@ -132,13 +139,7 @@ pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoS
             captured.push(frame);
         }
     };
-    let summary = replay(
-        &bytes,
-        &options.input.display().to_string(),
-        model,
-        &replay_options,
-        &mut observe,
-    )?;
+    let summary = replay(&bytes, &name, model, &replay_options, &mut observe)?;
 
     let errors = if options.reference {
         let period = (1e9 / params.rate_hz) as i64;

@@ -11,9 +11,12 @@ use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+mod contact;
+mod held;
+
 use super::material::{Material, Matrix9};
 use super::obstacle::{Anchors, Obstacle, Stick};
-use super::rolling::{RollAnchors, RollingStick, ROLL_SLIP};
+use super::rolling::{RollAnchors, RollingStick};
 use super::scene::{Poke, SimParams};
 use super::subspace::Subspace;
 use crate::error::{Error, Result};
@@ -96,9 +99,6 @@ const LBFGS_PAIRS: usize = 8;
 /// After this many quasi-Newton iterations in one step, the held Hessian is refreshed.
 const REFRESH_AFTER_ITERATIONS: usize = 8;
 const ARMIJO: f64 = 1e-4;
-/// A turn of the body (largest entry of the rotation's change) past which the preconditioner
-/// is turned with it.
-const TURN_TOLERANCE: f64 = 1e-3;
 
 /// One deformable object simulated in its skinning subspace.
 pub struct ReducedSim {
@@ -369,110 +369,6 @@ impl ReducedSim {
         !self.contacts.is_empty()
     }
 
-    /// The broad phase: the (contact, obstacle) pairs to test during a step from state `z`.
-    /// A point farther from an obstacle's bounding box (or a floor) than a tenth of the
-    /// object's size plus twice its predicted move is taken not to reach it within the step.
-    fn find_candidates(&mut self, z: &DMatrix<f64>) {
-        self.candidates.clear();
-        if self.contacts.is_empty() {
-            return;
-        }
-        let positions: Vec<Vector3<f64>> =
-            self.contacts.iter().map(|c| c.rest + z * &c.phi).collect();
-        let reach = self
-            .contacts
-            .iter()
-            .zip(&positions)
-            .map(|(c, x)| (x - (c.rest + &self.z * &c.phi)).norm())
-            .fold(0.0, f64::max);
-        let margin = 0.1 * self.diagonal + 2.0 * reach;
-        let bounds: Vec<_> = self
-            .obstacles
-            .iter()
-            .chain(&self.colliders)
-            .map(|o| o.bounds(margin))
-            .collect();
-        let mut candidates = std::mem::take(&mut self.candidates);
-        for (c, x) in positions.iter().enumerate() {
-            for (o, b) in bounds.iter().enumerate() {
-                let near = match (self.obstacle(o), b) {
-                    // A floor is near only the points within the margin above it: testing all
-                    // of an object's surface against it every evaluation would cost more than
-                    // the rest of the step.
-                    (Obstacle::Plane { normal, offset }, _) => offset - normal.dot(x) > -margin,
-                    (_, Some((lo, hi))) => (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]),
-                    (_, None) => true,
-                };
-                if near {
-                    candidates.push((c, o));
-                }
-            }
-        }
-        self.candidates = candidates;
-    }
-
-    /// Friction for this step: the candidate contacts that touch at its start, and the
-    /// rolling friction of the body on each obstacle they touch.
-    fn find_sticks(&mut self) {
-        self.sticks.clear();
-        self.rolls.clear();
-        let (kc, mu) = (self.params.contact_stiffness, self.params.friction);
-        if mu == 0.0 && self.params.rolling_friction == 0.0 {
-            return;
-        }
-        let statics = self.obstacles.len();
-        let mut pushes: Vec<(usize, Vector3<f64>)> = Vec::new();
-        for &(c, o) in &self.candidates {
-            let contact = &self.contacts[c];
-            let x = contact.rest + &self.z * &contact.phi;
-            let Some(p) = self.obstacle(o).penetration(&x) else {
-                continue;
-            };
-            match pushes.iter_mut().find(|(touched, _)| *touched == o) {
-                Some((_, force)) => *force += p.normal * (kc * contact.weight * p.depth),
-                None => pushes.push((o, p.normal * (kc * contact.weight * p.depth))),
-            }
-            if mu > 0.0 {
-                // Kept anchors hold a resting object instead of letting it creep a little
-                // every step.
-                let anchor = self.anchors.tie((c, o), o < statics, &x, &p.normal);
-                self.sticks
-                    .extend(Stick::new(c, anchor, &p, contact.weight, kc, mu));
-            }
-        }
-        self.anchors.end_step();
-        self.find_rolls(&pushes, statics);
-    }
-
-    /// Rolling friction on each obstacle pushing with a total force from `pushes`.
-    fn find_rolls(&mut self, pushes: &[(usize, Vector3<f64>)], statics: usize) {
-        let rho = self.params.rolling_friction;
-        if rho > 0.0 && !pushes.is_empty() {
-            let rotation = self.subspace.mean_rotation(&self.z);
-            let lever = 0.5 * self.diagonal;
-            for (o, force) in pushes {
-                let n = force.norm();
-                let normal = force / n;
-                let anchor =
-                    self.roll_anchors
-                        .tie(*o, *o < statics, &rotation, &normal, ROLL_SLIP / lever);
-                let gradient = self.subspace.mean_gradient();
-                self.rolls
-                    .extend(RollingStick::new(&anchor, &normal, n, rho, lever, gradient));
-            }
-        }
-        self.roll_anchors.end_step();
-    }
-
-    fn obstacle(&self, index: usize) -> &Obstacle {
-        let statics = self.obstacles.len();
-        if index < statics {
-            &self.obstacles[index]
-        } else {
-            &self.colliders[index - statics]
-        }
-    }
-
     pub fn add_poke(&mut self, poke: Poke) {
         // Finished pokes are dropped here, so a long stream of them costs nothing.
         let now = self.time;
@@ -488,38 +384,6 @@ impl ReducedSim {
         if self.solver == Solver::QuasiNewton && self.preconditioner.is_none() {
             self.preconditioner = Some(self.build_preconditioner());
         }
-    }
-
-    /// Refactors the preconditioner for the state `z` when the body has turned or contact has
-    /// started, gone on or ended since it was factored. Elasticity is invariant under a
-    /// rotation of the whole body, so the held elastic Hessian turned by that rotation is the
-    /// Hessian of the turned state: a tumbling body keeps an accurate preconditioner without
-    /// reassembling it. Contact curvature changes from one step to the next and is added
-    /// exactly. Both cost a few small products and one 12K x 12K factorization, a fraction of
-    /// the elastic Hessian's assembly; without them, a falling or landing body costs many
-    /// iterations and a refresh of the whole Hessian.
-    fn hold_at(&mut self, z: &DMatrix<f64>) {
-        let contact = self.contact_curvature(z);
-        self.held_matrix();
-        // A pinned body does not turn as a whole: its mean rotation is bending, which turning
-        // the held matrix would misdescribe.
-        let turn = if self.pins.is_empty() {
-            self.subspace.mean_rotation(z) * self.held_rotation.transpose()
-        } else {
-            Matrix3::identity()
-        };
-        let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
-        if contact.is_none() && !self.held_with_contact && !turned {
-            return;
-        }
-        let held = self.held.as_ref().expect("made above");
-        let mut matrix = turn_blocks(held, &turn);
-        if let Some(contact) = &contact {
-            matrix += contact;
-        }
-        self.held_with_contact = contact.is_some();
-        self.factored_turn = turn;
-        self.preconditioner = Some(self.factor_hessian(matrix));
     }
 
     /// Advances one time step.
@@ -753,33 +617,6 @@ impl ReducedSim {
         hessian
     }
 
-    /// The curvature of the contact and friction springs at `z` (None: nothing touches):
-    /// sum s (phi phi^T) (x) (n n^T) over touching points, n their normal (or friction
-    /// tangent) and s its stiffness.
-    fn contact_curvature(&self, z: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-        let kc = self.params.contact_stiffness;
-        let mut springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = Vec::new();
-        for &(c, o) in &self.candidates {
-            let contact = &self.contacts[c];
-            let x = contact.rest + z * &contact.phi;
-            if let Some(p) = self.obstacle(o).penetration(&x) {
-                springs.push((&contact.phi, kc * contact.weight, p.normal));
-            }
-        }
-        for stick in &self.sticks {
-            let phi = &self.contacts[stick.point].phi;
-            springs.extend(stick.tangents.iter().map(|t| (phi, stick.stiffness, *t)));
-        }
-        if springs.is_empty() && self.rolls.is_empty() {
-            return None;
-        }
-        let mut curvature = kronecker_springs(&springs, 4 * self.subspace.handles());
-        for roll in &self.rolls {
-            roll.add_curvature(&mut curvature);
-        }
-        Some(curvature)
-    }
-
     /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive
     /// definite, which a PSD-projected Hessian plus mass should never be.
     fn solve_or_descend(
@@ -800,84 +637,6 @@ impl ReducedSim {
             }
         }
         direction
-    }
-
-    /// The quasi-Newton initial Hessian, factored: at rest the rest-state Hessian plus inertia
-    /// and pins; after a hard step, the full Hessian at the current state, held for the steps
-    /// that follow until another hard step.
-    fn build_preconditioner(&mut self) -> DenseCholesky {
-        let matrix = self.held_matrix().clone();
-        self.held_with_contact = false;
-        self.factored_turn = Matrix3::identity();
-        self.factor_hessian(matrix)
-    }
-
-    /// Holds `matrix`, the Hessian without contact at `z`, and factors it with the contact
-    /// curvature at `z`.
-    fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
-        self.held = Some(matrix);
-        self.held_rotation = self.subspace.mean_rotation(z);
-        // Marked as factored with contact, so that `hold_at` refactors whether or not anything
-        // touches: the factor in place belongs to the old matrix.
-        self.held_with_contact = true;
-        self.factored_turn = Matrix3::identity();
-        self.hold_at(z);
-    }
-
-    /// The held matrix, made on first use: at rest the rest-state elasticity plus inertia
-    /// and pins, otherwise the Hessian without contact at the current state.
-    fn held_matrix(&mut self) -> &DMatrix<f64> {
-        if self.held.is_none() {
-            let matrix = if self.z.amax() == 0.0 {
-                let rest = self.rest_hessian.get_or_insert_with(|| {
-                    let h = self.material.stress_derivative(&Matrix3::identity(), true);
-                    self.subspace
-                        .elastic_hessian(&vec![h; self.subspace.cubature_len()])
-                });
-                let mut matrix = rest.clone();
-                add_kron_identity(&mut matrix, &self.quadratic_part());
-                matrix
-            } else {
-                self.smooth_hessian_at(&self.z)
-            };
-            self.held_rotation = self.subspace.mean_rotation(&self.z);
-            self.held = Some(matrix);
-        }
-        self.held.as_ref().expect("made above")
-    }
-
-    fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {
-        // Inertia makes it positive definite; the tiny ridge only guards round-off.
-        for i in 0..matrix.nrows() {
-            matrix[(i, i)] += 1e-12 * matrix[(i, i)].abs().max(1e-300);
-        }
-        DenseCholesky::new(matrix.as_slice(), matrix.nrows())
-            .expect("inertia plus a PSD Hessian is positive definite")
-    }
-
-    /// The L-BFGS two-loop recursion with the factored rest Hessian as initial inverse.
-    fn lbfgs_direction(
-        &self,
-        gradient: &DVector<f64>,
-        history: &VecDeque<(DVector<f64>, DVector<f64>)>,
-    ) -> DVector<f64> {
-        let mut q = -gradient.clone();
-        let mut alphas = Vec::with_capacity(history.len());
-        for (s, y) in history.iter().rev() {
-            let rho = 1.0 / y.dot(s);
-            let alpha = rho * s.dot(&q);
-            q.axpy(-alpha, y, 1.0);
-            alphas.push((alpha, rho));
-        }
-        self.preconditioner
-            .as_ref()
-            .expect("built before the first step")
-            .solve(q.as_mut_slice());
-        for ((s, y), (alpha, rho)) in history.iter().zip(alphas.into_iter().rev()) {
-            let beta = rho * y.dot(&q);
-            q.axpy(alpha - beta, s, 1.0);
-        }
-        q
     }
 
     /// Energy of the pin springs at the current state (J).
@@ -935,115 +694,10 @@ fn add_kron_identity(h: &mut DMatrix<f64>, q: &DMatrix<f64>) {
     }
 }
 
-/// (I (x) R) H (I (x) R^T) in flat z order: every 3 x 3 block of H turned by R.
-fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
-    let blocks = h.nrows() / 3;
-    let mut out = DMatrix::zeros(h.nrows(), h.ncols());
-    for b in 0..blocks {
-        for a in 0..blocks {
-            let block: Matrix3<f64> = h.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
-            out.fixed_view_mut::<3, 3>(3 * a, 3 * b)
-                .copy_from(&(r * block * r.transpose()));
-        }
-    }
-    out
-}
-
-/// sum_i s_i (phi_i phi_i^T) (x) (n_i n_i^T) in flat z order, as six (4K x 4K) products over
-/// the springs, one per pair of axes, instead of a (12K)^2 rank-one update per spring.
-fn kronecker_springs(springs: &[(&DVector<f64>, f64, Vector3<f64>)], n4: usize) -> DMatrix<f64> {
-    let phis = DMatrix::from_fn(n4, springs.len(), |a, i| springs[i].0[a]);
-    let mut out = DMatrix::zeros(3 * n4, 3 * n4);
-    for d in 0..3 {
-        for e in d..3 {
-            let mut weighted = phis.clone();
-            for (i, (_, s, n)) in springs.iter().enumerate() {
-                weighted.column_mut(i).scale_mut(s * n[d] * n[e]);
-            }
-            let block = &phis * weighted.transpose();
-            for b in 0..n4 {
-                for a in 0..n4 {
-                    out[(3 * a + d, 3 * b + e)] = block[(a, b)];
-                    out[(3 * a + e, 3 * b + d)] = block[(a, b)];
-                }
-            }
-        }
-    }
-    out
-}
-
 /// Whether a search direction with this slope (d . g) goes downhill; NaN does not.
 pub(crate) fn is_descent(slope: f64) -> bool {
     slope < 0.0
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use rand::{Rng, SeedableRng};
-
-    /// d(n . x)/dz for x = X + Z phi: the flat vector phi (x) n.
-    fn point_jacobian(phi: &DVector<f64>, n: &Vector3<f64>) -> DVector<f64> {
-        DVector::from_fn(3 * phi.len(), |i, _| phi[i / 3] * n[i % 3])
-    }
-
-    fn random_vector(rng: &mut impl Rng, n: usize) -> DVector<f64> {
-        DVector::from_fn(n, |_, _| rng.random::<f64>() * 2.0 - 1.0)
-    }
-
-    /// The Kronecker-block contact curvature equals the sum of its springs' rank-one terms,
-    /// and the preconditioner factored from it solves as a fresh factorization of the whole
-    /// matrix does.
-    #[test]
-    fn contact_curvature_by_blocks_matches_rank_one_terms() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let n4 = 4 * 5;
-        let phis: Vec<DVector<f64>> = (0..40).map(|_| random_vector(&mut rng, n4)).collect();
-        let springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = phis
-            .iter()
-            .map(|phi| {
-                let n = Vector3::new(rng.random(), rng.random(), rng.random()).normalize();
-                (phi, 1e7 * rng.random::<f64>(), n)
-            })
-            .collect();
-        let mut expected = DMatrix::zeros(3 * n4, 3 * n4);
-        for (phi, s, n) in &springs {
-            let a = point_jacobian(phi, n);
-            expected.ger(*s, &a, &a, 1.0);
-        }
-        let blocks = kronecker_springs(&springs, n4);
-        assert!((&blocks - &expected).amax() <= 1e-9 * expected.amax());
-        let base = DMatrix::from_diagonal_element(3 * n4, 3 * n4, 1e3);
-        let whole = &base + &expected;
-        let rhs = random_vector(&mut rng, 3 * n4);
-        let solve = |m: &DMatrix<f64>| {
-            let mut x = rhs.clone();
-            DenseCholesky::new(m.as_slice(), m.nrows())
-                .expect("positive definite")
-                .solve(x.as_mut_slice());
-            x
-        };
-        let (fresh, held) = (solve(&whole), solve(&(&base + &blocks)));
-        assert!((&held - &fresh).norm() <= 1e-9 * fresh.norm());
-    }
-
-    /// Turning every block by R is the congruence by I (x) R: a quadratic form evaluated at
-    /// (I (x) R) v gives what the original gives at v.
-    #[test]
-    fn turned_blocks_are_the_rotated_quadratic_form() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
-        let n = 3 * 6;
-        let a = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>());
-        let h = &a * a.transpose();
-        let r = *nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -1.1, 0.7)).matrix();
-        let turned = turn_blocks(&h, &r);
-        let v = random_vector(&mut rng, n);
-        let mut rv = v.clone();
-        for b in 0..n / 3 {
-            let turned_block = r * Vector3::new(v[3 * b], v[3 * b + 1], v[3 * b + 2]);
-            rv.fixed_rows_mut::<3>(3 * b).copy_from(&turned_block);
-        }
-        let (original, rotated) = (v.dot(&(&h * &v)), rv.dot(&(&turned * &rv)));
-        assert!((original - rotated).abs() <= 1e-12 * original.abs());
-    }
-}
+mod tests;

@@ -1,0 +1,167 @@
+//! Contact of a reduced body: the broad phase, this step's friction (point sticks and
+//! rolling), and the contact and friction curvature the solvers add to their Hessians.
+
+use nalgebra::{DMatrix, DVector, Vector3};
+
+use super::ReducedSim;
+use crate::physics::obstacle::{Obstacle, Stick};
+use crate::physics::rolling::{RollingStick, ROLL_SLIP};
+
+impl ReducedSim {
+    /// The broad phase: the (contact, obstacle) pairs to test during a step from state `z`.
+    /// A point farther from an obstacle's bounding box (or a floor) than a tenth of the
+    /// object's size plus twice its predicted move is taken not to reach it within the step.
+    pub(super) fn find_candidates(&mut self, z: &DMatrix<f64>) {
+        self.candidates.clear();
+        if self.contacts.is_empty() {
+            return;
+        }
+        let positions: Vec<Vector3<f64>> =
+            self.contacts.iter().map(|c| c.rest + z * &c.phi).collect();
+        let reach = self
+            .contacts
+            .iter()
+            .zip(&positions)
+            .map(|(c, x)| (x - (c.rest + &self.z * &c.phi)).norm())
+            .fold(0.0, f64::max);
+        let margin = 0.1 * self.diagonal + 2.0 * reach;
+        let bounds: Vec<_> = self
+            .obstacles
+            .iter()
+            .chain(&self.colliders)
+            .map(|o| o.bounds(margin))
+            .collect();
+        let mut candidates = std::mem::take(&mut self.candidates);
+        for (c, x) in positions.iter().enumerate() {
+            for (o, b) in bounds.iter().enumerate() {
+                let near = match (self.obstacle(o), b) {
+                    // A floor is near only the points within the margin above it: testing all
+                    // of an object's surface against it every evaluation would cost more than
+                    // the rest of the step.
+                    (Obstacle::Plane { normal, offset }, _) => offset - normal.dot(x) > -margin,
+                    (_, Some((lo, hi))) => (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]),
+                    (_, None) => true,
+                };
+                if near {
+                    candidates.push((c, o));
+                }
+            }
+        }
+        self.candidates = candidates;
+    }
+
+    /// Friction for this step: the candidate contacts that touch at its start, and the
+    /// rolling friction of the body on each obstacle they touch.
+    pub(super) fn find_sticks(&mut self) {
+        self.sticks.clear();
+        self.rolls.clear();
+        let (kc, mu) = (self.params.contact_stiffness, self.params.friction);
+        if mu == 0.0 && self.params.rolling_friction == 0.0 {
+            return;
+        }
+        let statics = self.obstacles.len();
+        let mut pushes: Vec<(usize, Vector3<f64>)> = Vec::new();
+        for &(c, o) in &self.candidates {
+            let contact = &self.contacts[c];
+            let x = contact.rest + &self.z * &contact.phi;
+            let Some(p) = self.obstacle(o).penetration(&x) else {
+                continue;
+            };
+            match pushes.iter_mut().find(|(touched, _)| *touched == o) {
+                Some((_, force)) => *force += p.normal * (kc * contact.weight * p.depth),
+                None => pushes.push((o, p.normal * (kc * contact.weight * p.depth))),
+            }
+            if mu > 0.0 {
+                // Kept anchors hold a resting object instead of letting it creep a little
+                // every step.
+                let anchor = self.anchors.tie((c, o), o < statics, &x, &p.normal);
+                self.sticks
+                    .extend(Stick::new(c, anchor, &p, contact.weight, kc, mu));
+            }
+        }
+        self.anchors.end_step();
+        self.find_rolls(&pushes, statics);
+    }
+
+    /// Rolling friction on each obstacle pushing with a total force from `pushes`.
+    pub(super) fn find_rolls(&mut self, pushes: &[(usize, Vector3<f64>)], statics: usize) {
+        let rho = self.params.rolling_friction;
+        if rho > 0.0 && !pushes.is_empty() {
+            let rotation = self.subspace.mean_rotation(&self.z);
+            let lever = 0.5 * self.diagonal;
+            for (o, force) in pushes {
+                let n = force.norm();
+                let normal = force / n;
+                let anchor =
+                    self.roll_anchors
+                        .tie(*o, *o < statics, &rotation, &normal, ROLL_SLIP / lever);
+                let gradient = self.subspace.mean_gradient();
+                self.rolls
+                    .extend(RollingStick::new(&anchor, &normal, n, rho, lever, gradient));
+            }
+        }
+        self.roll_anchors.end_step();
+    }
+
+    pub(super) fn obstacle(&self, index: usize) -> &Obstacle {
+        let statics = self.obstacles.len();
+        if index < statics {
+            &self.obstacles[index]
+        } else {
+            &self.colliders[index - statics]
+        }
+    }
+
+    /// The curvature of the contact and friction springs at `z` (None: nothing touches):
+    /// sum s (phi phi^T) (x) (n n^T) over touching points, n their normal (or friction
+    /// tangent) and s its stiffness.
+    pub(super) fn contact_curvature(&self, z: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+        let kc = self.params.contact_stiffness;
+        let mut springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = Vec::new();
+        for &(c, o) in &self.candidates {
+            let contact = &self.contacts[c];
+            let x = contact.rest + z * &contact.phi;
+            if let Some(p) = self.obstacle(o).penetration(&x) {
+                springs.push((&contact.phi, kc * contact.weight, p.normal));
+            }
+        }
+        for stick in &self.sticks {
+            let phi = &self.contacts[stick.point].phi;
+            springs.extend(stick.tangents.iter().map(|t| (phi, stick.stiffness, *t)));
+        }
+        if springs.is_empty() && self.rolls.is_empty() {
+            return None;
+        }
+        let mut curvature = kronecker_springs(&springs, 4 * self.subspace.handles());
+        for roll in &self.rolls {
+            roll.add_curvature(&mut curvature);
+        }
+        Some(curvature)
+    }
+}
+
+/// sum_i s_i (phi_i phi_i^T) (x) (n_i n_i^T) in flat z order, as six (4K x 4K) products over
+/// the springs, one per pair of axes, instead of a (12K)^2 rank-one update per spring.
+pub(super) fn kronecker_springs(
+    springs: &[(&DVector<f64>, f64, Vector3<f64>)],
+    n4: usize,
+) -> DMatrix<f64> {
+    let phis = DMatrix::from_fn(n4, springs.len(), |a, i| springs[i].0[a]);
+    let mut out = DMatrix::zeros(3 * n4, 3 * n4);
+    for d in 0..3 {
+        for e in d..3 {
+            let mut weighted = phis.clone();
+            for (i, (_, s, n)) in springs.iter().enumerate() {
+                weighted.column_mut(i).scale_mut(s * n[d] * n[e]);
+            }
+            let block = &phis * weighted.transpose();
+            for b in 0..n4 {
+                for a in 0..n4 {
+                    out[(3 * a + d, 3 * b + e)] = block[(a, b)];
+                    out[(3 * a + e, 3 * b + d)] = block[(a, b)];
+                }
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,139 @@
+//! The quasi-Newton solver's held matrix: the Hessian it keeps factored between steps, turned
+//! with the body and updated with contact, and the L-BFGS direction preconditioned by it.
+
+use std::collections::VecDeque;
+
+use nalgebra::{DMatrix, DVector, Matrix3};
+
+use super::{add_kron_identity, ReducedSim};
+use crate::linalg::DenseCholesky;
+
+/// A turn of the body (largest entry of the rotation's change) past which the preconditioner
+/// is turned with it.
+const TURN_TOLERANCE: f64 = 1e-3;
+
+impl ReducedSim {
+    /// Refactors the preconditioner for the state `z` when the body has turned or contact has
+    /// started, gone on or ended since it was factored. Elasticity is invariant under a
+    /// rotation of the whole body, so the held elastic Hessian turned by that rotation is the
+    /// Hessian of the turned state: a tumbling body keeps an accurate preconditioner without
+    /// reassembling it. Contact curvature changes from one step to the next and is added
+    /// exactly. Both cost a few small products and one 12K x 12K factorization, a fraction of
+    /// the elastic Hessian's assembly; without them, a falling or landing body costs many
+    /// iterations and a refresh of the whole Hessian.
+    pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) {
+        let contact = self.contact_curvature(z);
+        self.held_matrix();
+        // A pinned body does not turn as a whole: its mean rotation is bending, which turning
+        // the held matrix would misdescribe.
+        let turn = if self.pins.is_empty() {
+            self.subspace.mean_rotation(z) * self.held_rotation.transpose()
+        } else {
+            Matrix3::identity()
+        };
+        let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
+        if contact.is_none() && !self.held_with_contact && !turned {
+            return;
+        }
+        let held = self.held.as_ref().expect("made above");
+        let mut matrix = turn_blocks(held, &turn);
+        if let Some(contact) = &contact {
+            matrix += contact;
+        }
+        self.held_with_contact = contact.is_some();
+        self.factored_turn = turn;
+        self.preconditioner = Some(self.factor_hessian(matrix));
+    }
+
+    /// The quasi-Newton initial Hessian, factored: at rest the rest-state Hessian plus inertia
+    /// and pins; after a hard step, the full Hessian at the current state, held for the steps
+    /// that follow until another hard step.
+    pub(super) fn build_preconditioner(&mut self) -> DenseCholesky {
+        let matrix = self.held_matrix().clone();
+        self.held_with_contact = false;
+        self.factored_turn = Matrix3::identity();
+        self.factor_hessian(matrix)
+    }
+
+    /// Holds `matrix`, the Hessian without contact at `z`, and factors it with the contact
+    /// curvature at `z`.
+    pub(super) fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
+        self.held = Some(matrix);
+        self.held_rotation = self.subspace.mean_rotation(z);
+        // Marked as factored with contact, so that `hold_at` refactors whether or not anything
+        // touches: the factor in place belongs to the old matrix.
+        self.held_with_contact = true;
+        self.factored_turn = Matrix3::identity();
+        self.hold_at(z);
+    }
+
+    /// The held matrix, made on first use: at rest the rest-state elasticity plus inertia
+    /// and pins, otherwise the Hessian without contact at the current state.
+    pub(super) fn held_matrix(&mut self) -> &DMatrix<f64> {
+        if self.held.is_none() {
+            let matrix = if self.z.amax() == 0.0 {
+                let rest = self.rest_hessian.get_or_insert_with(|| {
+                    let h = self.material.stress_derivative(&Matrix3::identity(), true);
+                    self.subspace
+                        .elastic_hessian(&vec![h; self.subspace.cubature_len()])
+                });
+                let mut matrix = rest.clone();
+                add_kron_identity(&mut matrix, &self.quadratic_part());
+                matrix
+            } else {
+                self.smooth_hessian_at(&self.z)
+            };
+            self.held_rotation = self.subspace.mean_rotation(&self.z);
+            self.held = Some(matrix);
+        }
+        self.held.as_ref().expect("made above")
+    }
+
+    pub(super) fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {
+        // Inertia makes it positive definite; the tiny ridge only guards round-off.
+        for i in 0..matrix.nrows() {
+            matrix[(i, i)] += 1e-12 * matrix[(i, i)].abs().max(1e-300);
+        }
+        DenseCholesky::new(matrix.as_slice(), matrix.nrows())
+            .expect("inertia plus a PSD Hessian is positive definite")
+    }
+
+    /// The L-BFGS two-loop recursion with the factored rest Hessian as initial inverse.
+    pub(super) fn lbfgs_direction(
+        &self,
+        gradient: &DVector<f64>,
+        history: &VecDeque<(DVector<f64>, DVector<f64>)>,
+    ) -> DVector<f64> {
+        let mut q = -gradient.clone();
+        let mut alphas = Vec::with_capacity(history.len());
+        for (s, y) in history.iter().rev() {
+            let rho = 1.0 / y.dot(s);
+            let alpha = rho * s.dot(&q);
+            q.axpy(-alpha, y, 1.0);
+            alphas.push((alpha, rho));
+        }
+        self.preconditioner
+            .as_ref()
+            .expect("built before the first step")
+            .solve(q.as_mut_slice());
+        for ((s, y), (alpha, rho)) in history.iter().zip(alphas.into_iter().rev()) {
+            let beta = rho * y.dot(&q);
+            q.axpy(alpha - beta, s, 1.0);
+        }
+        q
+    }
+}
+
+/// (I (x) R) H (I (x) R^T) in flat z order: every 3 x 3 block of H turned by R.
+pub(super) fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
+    let blocks = h.nrows() / 3;
+    let mut out = DMatrix::zeros(h.nrows(), h.ncols());
+    for b in 0..blocks {
+        for a in 0..blocks {
+            let block: Matrix3<f64> = h.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
+            out.fixed_view_mut::<3, 3>(3 * a, 3 * b)
+                .copy_from(&(r * block * r.transpose()));
+        }
+    }
+    out
+}

@@ -1,0 +1,73 @@
+//! Unit tests of the reduced solver's contact curvature and held-matrix turn.
+
+use nalgebra::{DMatrix, DVector, Vector3};
+
+use super::contact::kronecker_springs;
+use super::held::turn_blocks;
+use crate::linalg::DenseCholesky;
+use rand::{Rng, SeedableRng};
+
+/// d(n . x)/dz for x = X + Z phi: the flat vector phi (x) n.
+fn point_jacobian(phi: &DVector<f64>, n: &Vector3<f64>) -> DVector<f64> {
+    DVector::from_fn(3 * phi.len(), |i, _| phi[i / 3] * n[i % 3])
+}
+
+fn random_vector(rng: &mut impl Rng, n: usize) -> DVector<f64> {
+    DVector::from_fn(n, |_, _| rng.random::<f64>() * 2.0 - 1.0)
+}
+
+/// The Kronecker-block contact curvature equals the sum of its springs' rank-one terms,
+/// and the preconditioner factored from it solves as a fresh factorization of the whole
+/// matrix does.
+#[test]
+fn contact_curvature_by_blocks_matches_rank_one_terms() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let n4 = 4 * 5;
+    let phis: Vec<DVector<f64>> = (0..40).map(|_| random_vector(&mut rng, n4)).collect();
+    let springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = phis
+        .iter()
+        .map(|phi| {
+            let n = Vector3::new(rng.random(), rng.random(), rng.random()).normalize();
+            (phi, 1e7 * rng.random::<f64>(), n)
+        })
+        .collect();
+    let mut expected = DMatrix::zeros(3 * n4, 3 * n4);
+    for (phi, s, n) in &springs {
+        let a = point_jacobian(phi, n);
+        expected.ger(*s, &a, &a, 1.0);
+    }
+    let blocks = kronecker_springs(&springs, n4);
+    assert!((&blocks - &expected).amax() <= 1e-9 * expected.amax());
+    let base = DMatrix::from_diagonal_element(3 * n4, 3 * n4, 1e3);
+    let whole = &base + &expected;
+    let rhs = random_vector(&mut rng, 3 * n4);
+    let solve = |m: &DMatrix<f64>| {
+        let mut x = rhs.clone();
+        DenseCholesky::new(m.as_slice(), m.nrows())
+            .expect("positive definite")
+            .solve(x.as_mut_slice());
+        x
+    };
+    let (fresh, held) = (solve(&whole), solve(&(&base + &blocks)));
+    assert!((&held - &fresh).norm() <= 1e-9 * fresh.norm());
+}
+
+/// Turning every block by R is the congruence by I (x) R: a quadratic form evaluated at
+/// (I (x) R) v gives what the original gives at v.
+#[test]
+fn turned_blocks_are_the_rotated_quadratic_form() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+    let n = 3 * 6;
+    let a = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>());
+    let h = &a * a.transpose();
+    let r = *nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -1.1, 0.7)).matrix();
+    let turned = turn_blocks(&h, &r);
+    let v = random_vector(&mut rng, n);
+    let mut rv = v.clone();
+    for b in 0..n / 3 {
+        let turned_block = r * Vector3::new(v[3 * b], v[3 * b + 1], v[3 * b + 2]);
+        rv.fixed_rows_mut::<3>(3 * b).copy_from(&turned_block);
+    }
+    let (original, rotated) = (v.dot(&(&h * &v)), rv.dot(&(&turned * &rv)));
+    assert!((original - rotated).abs() <= 1e-12 * original.abs());
+}
