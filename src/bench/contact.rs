@@ -58,6 +58,8 @@ pub fn run_contact_bench(log: impl Fn(&str)) -> Result<ContactReport> {
     for (radius, size, young, rolling) in [
         (0.1, "auto", 1e5, rolling),
         (0.1, "auto", 1e5, 0.0),
+        // MuJoCo's default rolling coefficient.
+        (0.1, "auto", 1e5, 1e-4),
         (0.1, "17/256", 1e5, rolling),
         (0.1, "17/256", 1e5, 0.0),
         (0.1, "auto", 1e7, rolling),
