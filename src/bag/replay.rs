@@ -17,6 +17,7 @@ use crate::ros::messages::{
     from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
     TFMessage, Time,
 };
+use crate::ros::params::Topics;
 use crate::ros::{
     BuildOutcome, BuildRequest, Builder, NameResolver, NodeClock, NodeParams, Outputs, Stage,
     StageOptions, TfBuffer,
@@ -139,63 +140,11 @@ pub fn replay(
     } else {
         Some(SceneFile::load(std::path::Path::new(&params.scene))?)
     };
-    // Joint-state topic to the robots on it.
-    let mut joint_topics: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    for r in scene_file.iter().flat_map(|f| &f.robots) {
-        joint_topics
-            .entry(r.joint_states.clone())
-            .or_default()
-            .push(r.name.clone());
-    }
+    let joint_topics = robots_by_joint_topic(scene_file.as_ref());
     let recording = read_recording(bytes, source)?;
-    let inputs: Vec<BagMessage> = recording
-        .messages
-        .into_iter()
-        .filter(|m| {
-            [
-                topics.points.as_str(),
-                &topics.mesh,
-                &topics.mesh_stamped,
-                &topics.interaction,
-                TF,
-                TF_STATIC,
-            ]
-            .contains(&m.topic.as_str())
-                || joint_topics.contains_key(&m.topic)
-        })
-        .collect();
-    let recorder = match &options.record {
-        Some(record) => Some(Recorder::start(
-            record.clone(),
-            options.record_topics.clone(),
-        )?),
-        None => None,
-    };
+    let inputs = replayed_inputs(recording.messages, topics, &joint_topics);
     let clock = NodeClock::simulated();
-    let outputs = Outputs {
-        dds: None,
-        recorder,
-        shm: options
-            .shm
-            .as_ref()
-            .map(crate::shm::ShmPublisher::create)
-            .transpose()?,
-        topics: topics.clone(),
-        publish: params.publish.clone(),
-        clock: clock.clone(),
-        timings: options.timings,
-        log: None,
-        dropped: Default::default(),
-    };
-    outputs.declare_topics();
-    if let Some(recorder) = &outputs.recorder {
-        for topic in joint_topics.keys() {
-            recorder.declare(crate::bag::TopicInfo::of::<JointState>(
-                topic,
-                crate::bag::QosProfile::sensor(5),
-            ))?;
-        }
-    }
+    let outputs = replay_outputs(options, topics, &clock, &joint_topics)?;
 
     // A damaged recording replays what is intact; each damaged part is reported once.
     for damage in &recording.damage {
@@ -215,36 +164,7 @@ pub fn replay(
         last.log_time + (options.tail_s * 1e9) as i64,
     );
     let period = (1e9 / params.rate_hz) as i64;
-    let tf = Arc::new(std::sync::RwLock::new(TfBuffer::new(params.tf.buffer_s)));
-    let mut builder = Builder::default();
-    let mut stage = Stage::immediate(StageOptions {
-        fixed_frame: params.fixed_frame.clone(),
-        tf: Some(tf.clone()),
-        object_timeout_ns: (params.object_timeout_s * 1e9) as i64,
-        marker_every: crate::ros::marker_every(params),
-        cloud_every: crate::ros::cloud_every(params),
-        registry: Some(builder.registry()),
-    });
-    let mut reserved = 0;
-    let mut scene_rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
-    if let Some(file) = &scene_file {
-        let options = SceneOptions {
-            scripted: false,
-            ..SceneOptions::default()
-        };
-        let scene = Scene::build(file, model, &FieldCache::default(), &options)?;
-        clock.set(&Time::from_nanos(start));
-        stage.set_scene(scene, 1, params.mesh_frame.clone(), &outputs);
-        for (id, _, body) in stage.scene_bodies() {
-            scene_rest.insert(id, body.deformed().to_vec());
-            reserved = reserved.max(id);
-        }
-    }
-    builder.reserve_ids(reserved);
-    let mut rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
-    let mut shapes: BTreeMap<u32, ShapeSummary> = BTreeMap::new();
-    let mut step_times: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
-    let mut scene_moved: BTreeMap<u32, f64> = BTreeMap::new();
+    let mut run = Run::start(params, model, &outputs, &clock, scene_file.as_ref(), start)?;
     let decoded: Vec<Result<Input, String>> = inputs
         .iter()
         .map(|m| input(m, source, params, topics, &joint_topics))
@@ -258,127 +178,316 @@ pub fn replay(
     while tick_time <= end {
         while let Some((m, d)) = next_input.next_if(|(m, _)| m.log_time <= tick_time) {
             clock.set(&Time::from_nanos(m.log_time));
-            match d {
-                Ok(Input::Geometry(requests)) => {
-                    transforms.feed(&tf, m.log_time, true, &outputs);
-                    for request in requests {
-                        let mut request = request.clone();
-                        let placed = tf
-                            .read()
-                            .map_err(|_| "the tf buffer is poisoned".to_string())
-                            .and_then(|buffer| request.into_fixed_frame(params, &buffer));
-                        let outcome = match placed {
-                            Ok(()) => {
-                                stage.seen(&request.key(), &outputs);
-                                builder.build(&request, params, model, &outputs)
-                            }
-                            Err(problem) => {
-                                outputs.report(Status::ERROR, 0, "input_rejected", problem);
-                                BuildOutcome::Rejected
-                            }
-                        };
-                        let request = &request;
-                        if let BuildOutcome::Ready(ready, announcement) = outcome {
-                            let points: Vec<f32> = request
-                                .points
-                                .iter()
-                                .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
-                                .collect();
-                            shapes.insert(
-                                ready.id,
-                                ShapeSummary {
-                                    shape_id: ready.id,
-                                    frame: ready.frame.clone(),
-                                    source: request.source.into(),
-                                    points: ready.body.point_count(),
-                                    handles: ready.body.handles(),
-                                    build_ms: ready.body.timings().total_ms,
-                                    ..Default::default()
-                                },
-                            );
-                            rest.insert(ready.id, points);
-                            announcement.publish(&outputs);
-                            stage.add(*ready, &outputs, false);
-                        } else if let BuildOutcome::Rejected = outcome {
-                            summary.rejected += 1;
-                        }
-                    }
-                }
-                Ok(Input::Interaction(i)) => {
-                    transforms.feed(&tf, m.log_time, false, &outputs);
-                    stage.interact(i, &outputs)
-                }
-                Ok(Input::Transforms) => transforms.feed(&tf, m.log_time, false, &outputs),
-                Ok(Input::Joints(robots, state)) => stage.set_joints(robots, state, &outputs),
-                Err(problem) => {
-                    summary.rejected += 1;
-                    outputs.report(Status::ERROR, 0, "input_rejected", problem.clone());
-                }
-            }
+            run.take(m.log_time, d, &mut transforms, &mut summary);
             if let Some(recorder) = &outputs.recorder {
                 recorder.record_raw(&m.topic, m.log_time, m.publish_time, &m.data)?;
             }
         }
         if let Some(pace) = options.pace {
-            let due = Duration::from_secs_f64((tick_time - start) as f64 / 1e9 / pace);
-            if let Some(wait) = due.checked_sub(wall.elapsed()) {
-                std::thread::sleep(wait);
-            }
+            keep_pace(pace, tick_time - start, wall);
         }
         clock.set(&Time::from_nanos(tick_time));
-        stage.tick(&outputs);
+        run.stage.tick(&outputs);
         summary.ticks += 1;
-        for b in stage.bodies() {
-            if let Some(report) = b.body.last_step() {
-                step_times
-                    .entry(b.id)
-                    .or_default()
-                    .push(report.seconds * 1e3);
-            }
-            if let (Some(shape), Some(rest)) = (shapes.get_mut(&b.id), rest.get(&b.id)) {
-                shape.max_displacement_m = shape
-                    .max_displacement_m
-                    .max(max_distance(b.body.deformed(), rest));
-            }
-        }
-        for (id, _, body) in stage.scene_bodies() {
-            if let Some(rest) = scene_rest.get(&id) {
-                let moved = max_distance(body.deformed(), rest);
-                let entry = scene_moved.entry(id).or_insert(0.0);
-                *entry = entry.max(moved);
-            }
-        }
+        run.measure();
         observe(&Tick {
             time_ns: tick_time,
-            stage: &stage,
+            stage: &run.stage,
         });
         tick_time += period;
     }
     summary.wall_seconds = wall.elapsed().as_secs_f64();
     summary.sim_seconds = (tick_time - period - start) as f64 / 1e9;
     summary.realtime_factor = summary.sim_seconds / summary.wall_seconds.max(1e-9);
-    for (id, mut shape) in shapes {
-        let mut times = step_times.remove(&id).unwrap_or_default();
-        times.sort_by(f64::total_cmp);
-        shape.steps = times.len();
-        if !times.is_empty() {
-            shape.step_ms_median = times[times.len() / 2];
-            shape.step_ms_p99 = times[((times.len() as f64 * 0.99) as usize).min(times.len() - 1)];
-        }
-        summary.shapes.push(shape);
-    }
-    for (id, name, body) in stage.scene_bodies() {
-        summary.scene_objects.push(SceneObjectSummary {
-            shape_id: id,
-            name: name.into(),
-            handles: body.handles(),
-            cubature: body.cubature_len(),
-            max_displacement_m: scene_moved.get(&id).copied().unwrap_or(0.0),
-            decision: body.decision().into(),
-        });
-    }
+    run.summarize(&mut summary);
     summary.recording = finish(&outputs)?;
     Ok(summary)
+}
+
+/// Joint-state topic to the robots on it.
+fn robots_by_joint_topic(scene_file: Option<&SceneFile>) -> BTreeMap<String, Vec<String>> {
+    let mut joint_topics: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for r in scene_file.into_iter().flat_map(|f| &f.robots) {
+        joint_topics
+            .entry(r.joint_states.clone())
+            .or_default()
+            .push(r.name.clone());
+    }
+    joint_topics
+}
+
+/// The recorded messages on the topics the node listens to, in their recorded order.
+fn replayed_inputs(
+    messages: Vec<BagMessage>,
+    topics: &Topics,
+    joint_topics: &BTreeMap<String, Vec<String>>,
+) -> Vec<BagMessage> {
+    messages
+        .into_iter()
+        .filter(|m| {
+            [
+                topics.points.as_str(),
+                &topics.mesh,
+                &topics.mesh_stamped,
+                &topics.interaction,
+                TF,
+                TF_STATIC,
+            ]
+            .contains(&m.topic.as_str())
+                || joint_topics.contains_key(&m.topic)
+        })
+        .collect()
+}
+
+/// The replay's outputs: the recorder and shared memory the options ask for, on the simulated
+/// `clock`, with every output topic and the scene robots' joint-state topics declared.
+fn replay_outputs(
+    options: &ReplayOptions,
+    topics: &Topics,
+    clock: &NodeClock,
+    joint_topics: &BTreeMap<String, Vec<String>>,
+) -> crate::Result<Outputs> {
+    let recorder = match &options.record {
+        Some(record) => Some(Recorder::start(
+            record.clone(),
+            options.record_topics.clone(),
+        )?),
+        None => None,
+    };
+    let outputs = Outputs {
+        dds: None,
+        recorder,
+        shm: options
+            .shm
+            .as_ref()
+            .map(crate::shm::ShmPublisher::create)
+            .transpose()?,
+        topics: topics.clone(),
+        publish: options.params.publish.clone(),
+        clock: clock.clone(),
+        timings: options.timings,
+        log: None,
+        dropped: Default::default(),
+    };
+    outputs.declare_topics();
+    if let Some(recorder) = &outputs.recorder {
+        for topic in joint_topics.keys() {
+            recorder.declare(crate::bag::TopicInfo::of::<JointState>(
+                topic,
+                crate::bag::QosProfile::sensor(5),
+            ))?;
+        }
+    }
+    Ok(outputs)
+}
+
+/// Sleeps until the wall clock since `wall` catches up with `elapsed_ns` of log time played
+/// `pace` times the recorded speed.
+fn keep_pace(pace: f64, elapsed_ns: i64, wall: Instant) {
+    let due = Duration::from_secs_f64(elapsed_ns as f64 / 1e9 / pace);
+    if let Some(wait) = due.checked_sub(wall.elapsed()) {
+        std::thread::sleep(wait);
+    }
+}
+
+/// The pipeline a replay drives and what it measures of each body along the way.
+struct Run<'a> {
+    params: &'a NodeParams,
+    model: &'a Arc<NeuralModel>,
+    outputs: &'a Outputs,
+    // The fields below drop in this order, as the locals of the single function this was split
+    // from did: the stage before the builder before the tf buffer.
+    /// Largest displacement so far of each scene object from where the scene built it, m.
+    scene_moved: BTreeMap<u32, f64>,
+    /// Each body's step times, ms.
+    step_times: BTreeMap<u32, Vec<f64>>,
+    shapes: BTreeMap<u32, ShapeSummary>,
+    /// Each built body's input points, x, y, z.
+    rest: BTreeMap<u32, Vec<f32>>,
+    /// Each scene object's points as the scene built them, x, y, z.
+    scene_rest: BTreeMap<u32, Vec<f32>>,
+    stage: Stage,
+    builder: Builder,
+    tf: Arc<std::sync::RwLock<TfBuffer>>,
+}
+
+impl<'a> Run<'a> {
+    /// The stage and builder of a replay starting at log time `start`, with the scene of
+    /// `scene_file` set on the stage when there is one (its ids reserved from the builder).
+    fn start(
+        params: &'a NodeParams,
+        model: &'a Arc<NeuralModel>,
+        outputs: &'a Outputs,
+        clock: &NodeClock,
+        scene_file: Option<&SceneFile>,
+        start: i64,
+    ) -> crate::Result<Self> {
+        let tf = Arc::new(std::sync::RwLock::new(TfBuffer::new(params.tf.buffer_s)));
+        let mut builder = Builder::default();
+        let mut stage = Stage::immediate(StageOptions {
+            fixed_frame: params.fixed_frame.clone(),
+            tf: Some(tf.clone()),
+            object_timeout_ns: (params.object_timeout_s * 1e9) as i64,
+            marker_every: crate::ros::marker_every(params),
+            cloud_every: crate::ros::cloud_every(params),
+            registry: Some(builder.registry()),
+        });
+        let mut reserved = 0;
+        let mut scene_rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
+        if let Some(file) = scene_file {
+            let options = SceneOptions {
+                scripted: false,
+                ..SceneOptions::default()
+            };
+            let scene = Scene::build(file, model, &FieldCache::default(), &options)?;
+            clock.set(&Time::from_nanos(start));
+            stage.set_scene(scene, 1, params.mesh_frame.clone(), outputs);
+            for (id, _, body) in stage.scene_bodies() {
+                scene_rest.insert(id, body.deformed().to_vec());
+                reserved = reserved.max(id);
+            }
+        }
+        builder.reserve_ids(reserved);
+        Ok(Self {
+            params,
+            model,
+            outputs,
+            scene_moved: BTreeMap::new(),
+            step_times: BTreeMap::new(),
+            shapes: BTreeMap::new(),
+            rest: BTreeMap::new(),
+            scene_rest,
+            stage,
+            builder,
+            tf,
+        })
+    }
+
+    /// Hands one decoded input, logged at `log_time`, to the pipeline; a refused one counts in
+    /// `summary.rejected`.
+    fn take(
+        &mut self,
+        log_time: i64,
+        d: &Result<Input, String>,
+        transforms: &mut TransformFeed,
+        summary: &mut ReplaySummary,
+    ) {
+        let outputs = self.outputs;
+        match d {
+            Ok(Input::Geometry(requests)) => {
+                transforms.feed(&self.tf, log_time, true, outputs);
+                for request in requests {
+                    self.build(request, summary);
+                }
+            }
+            Ok(Input::Interaction(i)) => {
+                transforms.feed(&self.tf, log_time, false, outputs);
+                self.stage.interact(i, outputs)
+            }
+            Ok(Input::Transforms) => transforms.feed(&self.tf, log_time, false, outputs),
+            Ok(Input::Joints(robots, state)) => self.stage.set_joints(robots, state, outputs),
+            Err(problem) => {
+                summary.rejected += 1;
+                outputs.report(Status::ERROR, 0, "input_rejected", problem.clone());
+            }
+        }
+    }
+
+    /// Places `request` in the fixed frame and builds its body; a ready body joins the stage
+    /// and the summary's shapes, a refused one counts in `summary.rejected`.
+    fn build(&mut self, request: &BuildRequest, summary: &mut ReplaySummary) {
+        let (params, model, outputs) = (self.params, self.model, self.outputs);
+        let mut request = request.clone();
+        let placed = self
+            .tf
+            .read()
+            .map_err(|_| "the tf buffer is poisoned".to_string())
+            .and_then(|buffer| request.into_fixed_frame(params, &buffer));
+        let outcome = match placed {
+            Ok(()) => {
+                self.stage.seen(&request.key(), outputs);
+                self.builder.build(&request, params, model, outputs)
+            }
+            Err(problem) => {
+                outputs.report(Status::ERROR, 0, "input_rejected", problem);
+                BuildOutcome::Rejected
+            }
+        };
+        let request = &request;
+        if let BuildOutcome::Ready(ready, announcement) = outcome {
+            let points: Vec<f32> = request
+                .points
+                .iter()
+                .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                .collect();
+            self.shapes.insert(
+                ready.id,
+                ShapeSummary {
+                    shape_id: ready.id,
+                    frame: ready.frame.clone(),
+                    source: request.source.into(),
+                    points: ready.body.point_count(),
+                    handles: ready.body.handles(),
+                    build_ms: ready.body.timings().total_ms,
+                    ..Default::default()
+                },
+            );
+            self.rest.insert(ready.id, points);
+            announcement.publish(outputs);
+            self.stage.add(*ready, outputs, false);
+        } else if let BuildOutcome::Rejected = outcome {
+            summary.rejected += 1;
+        }
+    }
+
+    /// After a tick: each body's step time and how far its points and the scene's have moved.
+    fn measure(&mut self) {
+        for b in self.stage.bodies() {
+            if let Some(report) = b.body.last_step() {
+                self.step_times
+                    .entry(b.id)
+                    .or_default()
+                    .push(report.seconds * 1e3);
+            }
+            if let (Some(shape), Some(rest)) = (self.shapes.get_mut(&b.id), self.rest.get(&b.id)) {
+                shape.max_displacement_m = shape
+                    .max_displacement_m
+                    .max(max_distance(b.body.deformed(), rest));
+            }
+        }
+        for (id, _, body) in self.stage.scene_bodies() {
+            if let Some(rest) = self.scene_rest.get(&id) {
+                let moved = max_distance(body.deformed(), rest);
+                let entry = self.scene_moved.entry(id).or_insert(0.0);
+                *entry = entry.max(moved);
+            }
+        }
+    }
+
+    /// Puts the shapes, with their step-time statistics, and the scene's objects in `summary`.
+    fn summarize(&mut self, summary: &mut ReplaySummary) {
+        for (id, mut shape) in std::mem::take(&mut self.shapes) {
+            let mut times = self.step_times.remove(&id).unwrap_or_default();
+            times.sort_by(f64::total_cmp);
+            shape.steps = times.len();
+            if !times.is_empty() {
+                shape.step_ms_median = times[times.len() / 2];
+                shape.step_ms_p99 =
+                    times[((times.len() as f64 * 0.99) as usize).min(times.len() - 1)];
+            }
+            summary.shapes.push(shape);
+        }
+        for (id, name, body) in self.stage.scene_bodies() {
+            summary.scene_objects.push(SceneObjectSummary {
+                shape_id: id,
+                name: name.into(),
+                handles: body.handles(),
+                cubature: body.cubature_len(),
+                max_displacement_m: self.scene_moved.get(&id).copied().unwrap_or(0.0),
+                decision: body.decision().into(),
+            });
+        }
+    }
 }
 
 /// The largest distance between corresponding points of two x, y, z arrays.

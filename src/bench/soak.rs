@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use ros2_client::{Context, Node, Publisher, Subscription};
 use serde::Serialize;
 
 use super::latency::{client_node, dds, open_interfaces, sample_cloud};
@@ -15,6 +16,7 @@ use crate::bag::read_messages;
 use crate::ros::messages::{
     from_cdr, Header, Interaction, Point, PointCloud2, Status, SubspaceState, Vector3,
 };
+use crate::ros::params::Topics;
 use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
 use crate::skinning::NeuralModel;
 use crate::Result;
@@ -90,6 +92,11 @@ fn poke(frame: &str, kind: u8, x: f64) -> Interaction {
     }
 }
 
+/// The frames, shapes and point counts the client's shapes cycle through.
+const FRAMES: [&str; 3] = ["soak_a", "soak_b", "soak_c"];
+const SHAPES: [&str; 5] = ["creature", "sphere", "box", "rod", "plate"];
+const COUNTS: [usize; 4] = [2_000, 5_000, 10_000, 20_000];
+
 /// Runs the node in this process for `options.seconds` and a client beside it that keeps
 /// changing its shapes and poking them.
 pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport> {
@@ -108,51 +115,12 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
     }
     let model = NeuralModel::bundled()?;
     let stop = Arc::new(AtomicBool::new(false));
-    let mut config = NodeConfig {
-        domain_id: options.domain_id,
-        ..NodeConfig::default()
-    };
-    let topics = config
-        .params
-        .topics
-        .resolved(&config.names)
-        .expect("the default names are valid");
-    config.params.record.path = options.record.display().to_string();
-    config.params.record.split_duration_s = 60.0;
-    config.params.record.topics = vec![
-        topics.points.clone(),
-        topics.interaction.clone(),
-        topics.state.clone(),
-        topics.status.clone(),
-    ];
+    let (config, topics) = node_config(options);
     let node = {
         let stop = stop.clone();
         std::thread::spawn(move || run_node(config, model, stop))
     };
-    let client_result = (|| {
-        let ctx = context(options.domain_id, false)?;
-        let mut client = client_node(&ctx, "physskin_soak")?;
-        let points = publisher::<PointCloud2>(&mut client, &topics.points, reliable_qos(5, false))?;
-        let pokes =
-            publisher::<Interaction>(&mut client, &topics.interaction, reliable_qos(10, false))?;
-        let states =
-            subscription::<SubspaceState>(&mut client, &topics.state, reliable_qos(100, false))?;
-        let statuses = subscription::<Status>(&mut client, &topics.status, reliable_qos(50, true))?;
-        let spinner = client.spinner().map_err(|e| dds(format!("{e:?}")))?;
-        std::thread::spawn(move || smol::block_on(spinner.spin()));
-        smol::block_on(smol::future::race(
-            async {
-                points.wait_for_subscription(&client).await;
-                states.wait_for_publisher(&client).await;
-            },
-            async {
-                smol::Timer::after(Duration::from_secs(20)).await;
-            },
-        ));
-        // The node and context must outlive the endpoints: dropping them ends the client.
-        Ok::<_, crate::Error>((ctx, client, points, pokes, states, statuses))
-    })();
-    let (_ctx, _client, points, pokes, states, statuses) = match client_result {
+    let client = match connect(options.domain_id, &topics) {
         Ok(c) => c,
         Err(e) => {
             stop.store(true, Ordering::Relaxed);
@@ -161,9 +129,6 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
         }
     };
 
-    let frames = ["soak_a", "soak_b", "soak_c"];
-    let shapes = ["creature", "sphere", "box", "rod", "plate"];
-    let counts = [2_000, 5_000, 10_000, 20_000];
     let mut report = SoakReport {
         seconds: options.seconds,
         shapes_sent: 0,
@@ -183,6 +148,89 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
         recording_complete: false,
         recorded: BTreeMap::new(),
     };
+    drive(options, &client, &mut report, &log);
+    stop.store(true, Ordering::Relaxed);
+    let stats = node
+        .join()
+        .map_err(|_| dds("the node thread panicked".into()))??;
+    report.ticks = stats.ticks;
+    report.missed_ticks = stats.missed;
+    summarize_memory(&mut report);
+    check_recording(&options.record, &mut report)?;
+    Ok(report)
+}
+
+/// The node's config for a soak, and its topics: the default ones, with the inputs, states and
+/// statuses recorded to `options.record` in files split every minute.
+fn node_config(options: &SoakOptions) -> (NodeConfig, Topics) {
+    let mut config = NodeConfig {
+        domain_id: options.domain_id,
+        ..NodeConfig::default()
+    };
+    let topics = config
+        .params
+        .topics
+        .resolved(&config.names)
+        .expect("the default names are valid");
+    config.params.record.path = options.record.display().to_string();
+    config.params.record.split_duration_s = 60.0;
+    config.params.record.topics = vec![
+        topics.points.clone(),
+        topics.interaction.clone(),
+        topics.state.clone(),
+        topics.status.clone(),
+    ];
+    (config, topics)
+}
+
+/// The soak's client: its node and endpoints on the node's topics.
+struct Client {
+    // The fields drop in this order: the endpoints before the client node and its context,
+    // which must outlive them (dropping them ends the client).
+    statuses: Subscription<Status>,
+    states: Subscription<SubspaceState>,
+    pokes: Publisher<Interaction>,
+    points: Publisher<PointCloud2>,
+    _client: Node,
+    _ctx: Context,
+}
+
+/// Starts the client in `domain_id` with its spinner, and waits up to 20 s for the node to
+/// take its clouds and publish states.
+fn connect(domain_id: u16, topics: &Topics) -> Result<Client> {
+    let ctx = context(domain_id, false)?;
+    let mut client = client_node(&ctx, "physskin_soak")?;
+    let points = publisher::<PointCloud2>(&mut client, &topics.points, reliable_qos(5, false))?;
+    let pokes =
+        publisher::<Interaction>(&mut client, &topics.interaction, reliable_qos(10, false))?;
+    let states =
+        subscription::<SubspaceState>(&mut client, &topics.state, reliable_qos(100, false))?;
+    let statuses = subscription::<Status>(&mut client, &topics.status, reliable_qos(50, true))?;
+    let spinner = client.spinner().map_err(|e| dds(format!("{e:?}")))?;
+    std::thread::spawn(move || smol::block_on(spinner.spin()));
+    smol::block_on(smol::future::race(
+        async {
+            points.wait_for_subscription(&client).await;
+            states.wait_for_publisher(&client).await;
+        },
+        async {
+            smol::Timer::after(Duration::from_secs(20)).await;
+        },
+    ));
+    // The node and context must outlive the endpoints: dropping them ends the client.
+    Ok(Client {
+        statuses,
+        states,
+        pokes,
+        points,
+        _client: client,
+        _ctx: ctx,
+    })
+}
+
+/// The client's side of the soak, for `options.seconds`: a new shape every 2 s, a poke every
+/// 0.1 s, a bad input every 5 s and a memory sample every second, counting what comes back.
+fn drive(options: &SoakOptions, client: &Client, report: &mut SoakReport, log: &dyn Fn(&str)) {
     let started = Instant::now();
     let send = |what: &str, sent: bool| {
         if !sent {
@@ -194,83 +242,100 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
     while started.elapsed().as_secs_f64() < options.seconds {
         let t = started.elapsed().as_secs_f64();
         if t >= next_shape {
-            let frame = frames[n % frames.len()];
+            let frame = FRAMES[n % FRAMES.len()];
             let cloud = sample_cloud(
-                shapes[n % shapes.len()],
-                counts[n % counts.len()],
+                SHAPES[n % SHAPES.len()],
+                COUNTS[n % COUNTS.len()],
                 frame,
                 n as u64,
             );
-            send("a shape", points.publish(cloud).is_ok());
+            send("a shape", client.points.publish(cloud).is_ok());
             report.shapes_sent += 1;
             n += 1;
             next_shape += 2.0;
         }
         if t >= next_poke {
-            let k = report.pokes_sent;
-            let frame = frames[k % frames.len()];
-            let (kind, x) = match k % 30 {
-                0 => (Interaction::PIN, 0.0),
-                15 => (Interaction::RELEASE, 0.0),
-                _ => (Interaction::FORCE, if k % 2 == 0 { 3.0 } else { -3.0 }),
-            };
-            if pokes.publish(poke(frame, kind, x)).is_ok() {
+            if client
+                .pokes
+                .publish(scheduled_poke(report.pokes_sent))
+                .is_ok()
+            {
                 report.pokes_sent += 1;
             }
             next_poke += 0.1;
         }
         if t >= next_bad {
-            // Alternately a cloud without z and a poke with a NaN force.
-            if report.bad_inputs_sent % 2 == 0 {
-                let mut cloud = sample_cloud("sphere", 500, "soak_bad", 1);
-                cloud.fields.retain(|f| f.name != "z");
-                send("a bad cloud", points.publish(cloud).is_ok());
-            } else {
-                let _ = pokes.publish(poke("soak_a", Interaction::FORCE, f64::NAN));
-            }
+            send_bad_input(client, report.bad_inputs_sent, &send);
             report.bad_inputs_sent += 1;
             next_bad += 5.0;
         }
         if t >= next_sample {
-            report.memory.push(MemorySample {
-                at_s: t,
-                rss_mb: rss_mb(),
-            });
-            if report.memory.len() % 60 == 0 {
-                log(&format!(
-                    "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB",
-                    report.shapes_sent,
-                    report.pokes_sent,
-                    report.states_received,
-                    rss_mb()
-                ));
-            }
+            sample_memory(report, t, log);
             next_sample += 1.0;
         }
-        while let Ok(Some((state, _))) = states.take() {
-            report.states_received += 1;
-            let finite = state
-                .z
-                .iter()
-                .chain(&state.z_velocity)
-                .chain([&state.elastic_energy, &state.kinetic_energy])
-                .all(|v| v.is_finite());
-            report.non_finite_states += !finite as usize;
-        }
-        while let Ok(Some((status, _))) = statuses.take() {
-            *report.statuses.entry(status.event).or_default() += 1;
-        }
+        receive(client, report);
         std::thread::sleep(Duration::from_millis(5));
     }
-    stop.store(true, Ordering::Relaxed);
-    let stats = node
-        .join()
-        .map_err(|_| dds("the node thread panicked".into()))??;
-    report.ticks = stats.ticks;
-    report.missed_ticks = stats.missed;
-    summarize_memory(&mut report);
-    check_recording(&options.record, &mut report)?;
-    Ok(report)
+}
+
+/// The `k`th poke: on each frame in turn, a pin every 30 pokes and its release 15 later, and
+/// forces alternating in direction between them.
+fn scheduled_poke(k: usize) -> Interaction {
+    let frame = FRAMES[k % FRAMES.len()];
+    let (kind, x) = match k % 30 {
+        0 => (Interaction::PIN, 0.0),
+        15 => (Interaction::RELEASE, 0.0),
+        _ => (Interaction::FORCE, if k % 2 == 0 { 3.0 } else { -3.0 }),
+    };
+    poke(frame, kind, x)
+}
+
+/// Sends the `k`th bad input; `send` logs a cloud that failed to go out.
+fn send_bad_input(client: &Client, k: usize, send: &dyn Fn(&str, bool)) {
+    // Alternately a cloud without z and a poke with a NaN force.
+    if k % 2 == 0 {
+        let mut cloud = sample_cloud("sphere", 500, "soak_bad", 1);
+        cloud.fields.retain(|f| f.name != "z");
+        send("a bad cloud", client.points.publish(cloud).is_ok());
+    } else {
+        let _ = client
+            .pokes
+            .publish(poke("soak_a", Interaction::FORCE, f64::NAN));
+    }
+}
+
+/// Samples the resident memory at `t` (s); every 60 samples, a progress line.
+fn sample_memory(report: &mut SoakReport, t: f64, log: &dyn Fn(&str)) {
+    report.memory.push(MemorySample {
+        at_s: t,
+        rss_mb: rss_mb(),
+    });
+    if report.memory.len() % 60 == 0 {
+        log(&format!(
+            "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB",
+            report.shapes_sent,
+            report.pokes_sent,
+            report.states_received,
+            rss_mb()
+        ));
+    }
+}
+
+/// Counts the states (and those with a NaN or Inf) and the statuses received since the last call.
+fn receive(client: &Client, report: &mut SoakReport) {
+    while let Ok(Some((state, _))) = client.states.take() {
+        report.states_received += 1;
+        let finite = state
+            .z
+            .iter()
+            .chain(&state.z_velocity)
+            .chain([&state.elastic_energy, &state.kinetic_energy])
+            .all(|v| v.is_finite());
+        report.non_finite_states += !finite as usize;
+    }
+    while let Ok(Some((status, _))) = client.statuses.take() {
+        *report.statuses.entry(status.event).or_default() += 1;
+    }
 }
 
 fn summarize_memory(report: &mut SoakReport) {

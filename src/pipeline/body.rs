@@ -5,106 +5,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::{DMatrix, Isometry3, Vector3};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use crate::geometry::{
-    contact_samples, sample_surface, Completed, ContactSamples, Cubature, Normalization, Shape,
-    SurfaceSamples, SurfaceSampling, VoxelGrid,
-};
-use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, StepReport, Subspace};
-use crate::skinning::{NeuralModel, SkinningField, TruncatedField};
+use super::input::{truncate, NetworkInput};
+use super::options::{BodyOptions, SleepRule, Support};
+use crate::geometry::{Completed, ContactSamples, Cubature, Normalization, Shape, VoxelGrid};
+use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, StepReport, Subspace};
+use crate::skinning::{NeuralModel, SkinningField};
 use crate::Result;
-
-/// What holds an object in place.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Support {
-    /// Nothing: the object falls freely.
-    Free,
-    /// A floor (z = the object's lowest point), penalty contact.
-    Floor,
-    /// The top 10% of the object (against gravity) is pinned: it hangs.
-    PinTop,
-    /// The bottom 10% (along gravity) is pinned: it stands.
-    PinBottom,
-}
-
-/// How a body is built from geometry.
-#[derive(Clone, Debug)]
-pub struct BodyOptions {
-    /// Surface samples encoded by the network. Default 4096 (the trained count).
-    pub surface_points: usize,
-    /// Interior points that fix the field's output normalization. Default 2048.
-    pub reference_points: usize,
-    /// Voxels across the longest side for the inside test. Default 64.
-    pub voxel_resolution: usize,
-    /// Cubature points of the elastic energy. Default 256.
-    pub cubature: usize,
-    pub sim: SimParams,
-    /// Default quasi-Newton.
-    pub solver: Solver,
-    /// Default pin_bottom.
-    pub support: Support,
-    /// Handles kept, the constant one included: the smoothest of the field's. Default all.
-    pub handles: Option<usize>,
-    /// When the body may sleep. Default never.
-    pub sleep: Option<SleepRule>,
-    /// Height of the floor of `Support::Floor`; None: the object's lowest point. Default None.
-    pub floor_z: Option<f64>,
-}
-
-/// A body sleeps once its RMS speed has stayed below `speed` for `after` seconds with no force
-/// on it; it is then not stepped until a force, a pin, a moving attachment or a collider near
-/// it wakes it.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SleepRule {
-    /// m/s. Default 1e-3.
-    #[serde(default = "default_sleep_speed")]
-    pub speed: f64,
-    /// s. Default 0.5.
-    #[serde(default = "default_sleep_after")]
-    pub after: f64,
-}
-
-fn default_sleep_speed() -> f64 {
-    1e-3
-}
-fn default_sleep_after() -> f64 {
-    0.5
-}
-
-impl Default for SleepRule {
-    fn default() -> Self {
-        Self {
-            speed: default_sleep_speed(),
-            after: default_sleep_after(),
-        }
-    }
-}
-
-impl Default for BodyOptions {
-    fn default() -> Self {
-        Self {
-            surface_points: 4096,
-            reference_points: 2048,
-            voxel_resolution: 64,
-            cubature: 256,
-            sim: SimParams {
-                damping: 1.0,
-                young: 2e5,
-                ..SimParams::default()
-            },
-            solver: Solver::QuasiNewton,
-            support: Support::PinBottom,
-            handles: None,
-            sleep: None,
-            floor_z: None,
-        }
-    }
-}
 
 /// Where the build time went, ms.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -660,105 +568,6 @@ impl SoftBody {
     pub fn pin_count(&self) -> usize {
         self.sim.pin_count()
     }
-}
-
-/// What the network reads from a shape: `surface_points` surface samples (in world units, and
-/// in the normalized frame) and `reference_points` stratified interior points (normalized) that
-/// fix the output normalization. A fixed seed: the same geometry always gives the same input.
-struct NetworkInput {
-    map: Normalization,
-    grid: VoxelGrid,
-    /// Evenly spread surface samples, the points that collide.
-    contact: ContactSamples,
-    surface: SurfaceSamples,
-    reference: Vec<Vector3<f64>>,
-    voxelize_ms: f64,
-}
-
-impl NetworkInput {
-    /// `solid`: points filling `shape` (a completed view's), voxelized in its place.
-    fn new(shape: &Shape, solid: Option<&Shape>, options: &BodyOptions) -> Result<Self> {
-        options.sim.validate()?;
-        shape.check_solid()?;
-        let started = Instant::now();
-        let grid = match solid {
-            Some(solid) => VoxelGrid::from_filled_cloud(solid, shape, options.voxel_resolution),
-            None => VoxelGrid::from_shape(shape, options.voxel_resolution, None),
-        };
-        if grid.solid_volume() <= 0.0 {
-            return Err(crate::Error::Geometry(
-                "the shape encloses no volume at this voxel resolution".into(),
-            ));
-        }
-        let (_, surface, reference) = network_input(
-            shape,
-            &grid,
-            options.surface_points,
-            options.reference_points,
-        );
-        let mut rng = ChaCha8Rng::seed_from_u64(13);
-        let contact = contact_samples(shape, &grid, options.surface_points, &mut rng);
-        Ok(Self {
-            map: shape.normalization(),
-            grid,
-            contact,
-            surface,
-            reference,
-            voxelize_ms: started.elapsed().as_secs_f64() * 1e3,
-        })
-    }
-}
-
-/// What the network reads from a shape: `surface_points` surface samples (in world units, and
-/// in the normalized frame) and `reference_points` stratified interior points (normalized) that
-/// fix the output normalization. A fixed seed: the same geometry always gives the same input.
-pub(crate) fn network_input(
-    shape: &Shape,
-    grid: &VoxelGrid,
-    surface_points: usize,
-    reference_points: usize,
-) -> (SurfaceSamples, SurfaceSamples, Vec<Vector3<f64>>) {
-    let map = shape.normalization();
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let world = sample_surface(
-        shape,
-        grid,
-        &SurfaceSampling {
-            count: surface_points,
-            ..Default::default()
-        },
-        &mut rng,
-    );
-    let surface = SurfaceSamples {
-        points: world.points.iter().map(|p| map.to_normalized(p)).collect(),
-        normals: world.normals.clone(),
-        areas: world.areas.clone(),
-    };
-    let reference = Cubature::stratified_points(grid, reference_points)
-        .iter()
-        .map(|p| map.to_normalized(p))
-        .collect();
-    (world, surface, reference)
-}
-
-/// Points on which the smoothest columns are chosen: a fixed number, whatever the body's own
-/// cubature, so that every size of one shape keeps the same columns.
-const TRUNCATION_POINTS: usize = 512;
-
-fn truncate(
-    field: Arc<dyn SkinningField>,
-    grid: &VoxelGrid,
-    map: &Normalization,
-    handles: usize,
-) -> Arc<dyn SkinningField> {
-    let points = Cubature::stratified(grid, TRUNCATION_POINTS, grid.solid_volume());
-    let normalized: Vec<_> = points.points.iter().map(|p| map.to_normalized(p)).collect();
-    Arc::new(TruncatedField::smoothest(
-        field,
-        &normalized,
-        &points.volumes,
-        handles,
-    ))
 }
 
 fn bounds_of(xyz: &[f32]) -> (Vector3<f64>, Vector3<f64>) {

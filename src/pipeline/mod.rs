@@ -2,8 +2,11 @@
 //! replay and embedding programs all drive this same type.
 
 mod body;
+mod input;
+mod options;
 mod seen;
 
-pub(crate) use body::network_input;
-pub use body::{BodyOptions, BuildTimings, SleepRule, SoftBody, Support};
+pub use body::{BuildTimings, SoftBody};
+pub(crate) use input::network_input;
+pub use options::{BodyOptions, SleepRule, Support};
 pub use seen::{build_seen, SeenBody, DEFAULT_MAX_BUILD_POINTS};

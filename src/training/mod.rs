@@ -1,9 +1,14 @@
 //! Self-supervised training of the neural skinning field (PISSL) on shapes generated in code.
 
+mod checkpoint;
+mod config;
+mod families;
 mod losses;
 mod optim;
+mod sdf;
 mod shapes;
 mod trainer;
 
+pub use config::{Combine, TrainingConfig};
 pub use shapes::{dataset, DatasetSpec, GeneratedShape, ShapeFamily, ShapeSample};
-pub use trainer::{train, train_from, Combine, LogLine, TrainingConfig, TrainingSummary};
+pub use trainer::{train, train_from, LogLine, TrainingSummary};

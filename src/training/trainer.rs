@@ -1,7 +1,6 @@
 //! The training loop: generated shapes, the PISSL losses combined by ConFIG, Adam with warm-up
 //! and cosine decay, a progress bar, JSON-lines log, and checkpoints that resume exactly.
 
-use std::collections::HashMap;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -15,130 +14,14 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::losses::{self, Batch, LossOptions};
+use super::checkpoint::{initialize, restore, save_checkpoint, save_model};
+use super::config::{Combine, TrainingConfig};
+use super::losses::{self, Batch, LossOptions, Losses};
 use super::optim::{config_combine, learning_rate, Adam, LossMomenta};
-use super::shapes::{dataset, DatasetSpec, ShapeSample};
+use super::shapes::{dataset, ShapeSample};
 use crate::geometry::SurfaceSamples;
-use crate::skinning::{
-    load_tensors, save_tensors, FieldMetrics, NetworkConfig, NeuralModel, SkinningField, CONFIG_KEY,
-};
+use crate::skinning::{FieldMetrics, NeuralModel, SkinningField};
 use crate::{Error, Result};
-
-/// How the loss gradients become one update.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Combine {
-    /// ConFIG: a direction with equal cosine to every loss gradient (one backward pass per loss
-    /// and step).
-    Config,
-    /// M-ConFIG: one loss's gradient per step in turn, each kept as a momentum, the momenta
-    /// combined by ConFIG. One backward pass per step: 2.5x faster per step on this machine.
-    MomentumConfig,
-    /// The weighted sum of the losses (the ablation).
-    WeightedSum,
-}
-
-/// Everything a training run depends on; saved in every checkpoint.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct TrainingConfig {
-    pub network: NetworkConfig,
-    /// Seed of the initialization, the dataset and every step's draws. Default 7.
-    pub seed: u64,
-    /// Optimizer steps (one shape each). Default 6000.
-    pub steps: usize,
-    /// Peak learning rate after warm-up. Default 5e-4.
-    pub peak_learning_rate: f64,
-    /// Learning rate at the end of the cosine decay. Default 5e-5.
-    pub final_learning_rate: f64,
-    /// Share of the steps spent warming up linearly. Default 0.01.
-    pub warmup_fraction: f64,
-    /// Generated shapes, training and held-out together. Default 384.
-    pub shapes: usize,
-    /// Every this many shapes of a family is held out. Default 8.
-    pub held_out_every: usize,
-    /// Surface points the encoder sees. Default 4096.
-    pub surface_points: usize,
-    /// Cubature points per step (three quarters inside, one quarter on the surface). Default 512.
-    pub cubature_points: usize,
-    /// Young's modulus and Poisson ratio of the training energy (normalized units). Defaults 1, 0.45.
-    pub young: f64,
-    pub poisson: f64,
-    /// Standard deviation of the random handle translations. Default 0.2.
-    pub z_std: f64,
-    /// Standard deviation of the random handle matrices; `None` (the default, the paper's
-    /// choice) draws them like the translations. 0 trains on the Dirichlet energy of the weights
-    /// alone, the objective of the skinning eigenmodes.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub z_linear_std: Option<f64>,
-    /// The Neo-Hookean share of the energy at the last step; it grows linearly from 0 over the
-    /// run. Default 1 (the paper: linear to Neo-Hookean).
-    pub final_blend: f64,
-    /// Transforms drawn per step for the Neo-Hookean part. Default 4.
-    pub z_samples: usize,
-    /// Combine the loss gradients by ConFIG (default) or a weighted sum.
-    pub combine: Combine,
-    /// Weights of the weighted sum (ConFIG only uses the directions). Defaults 1, 1e-3, 1e3.
-    pub potential_weight: f64,
-    pub smooth_weight: f64,
-    pub orth_weight: f64,
-    /// Ablation switches, all on by default.
-    pub normalize: bool,
-    pub smooth_loss: bool,
-    pub orth_loss: bool,
-    /// Steps between checkpoints (and held-out evaluations). Default 250.
-    pub checkpoint_every: usize,
-    /// Steps between log lines. Default 25.
-    pub log_every: usize,
-}
-
-impl Default for TrainingConfig {
-    fn default() -> Self {
-        Self {
-            network: NetworkConfig::default(),
-            seed: 7,
-            steps: 6000,
-            peak_learning_rate: 5e-4,
-            final_learning_rate: 5e-5,
-            warmup_fraction: 0.01,
-            shapes: 384,
-            held_out_every: 8,
-            surface_points: 4096,
-            cubature_points: 512,
-            young: 1.0,
-            poisson: 0.45,
-            z_std: 0.2,
-            z_linear_std: None,
-            final_blend: 1.0,
-            z_samples: 4,
-            combine: Combine::MomentumConfig,
-            potential_weight: 1.0,
-            smooth_weight: 1e-3,
-            orth_weight: 1e3,
-            normalize: true,
-            smooth_loss: true,
-            orth_loss: true,
-            checkpoint_every: 250,
-            log_every: 25,
-        }
-    }
-}
-
-impl TrainingConfig {
-    /// The config the bundled model was trained with (config/training.json).
-    pub fn shipped() -> TrainingConfig {
-        serde_json::from_str(include_str!("../../config/training.json"))
-            .expect("the shipped training config parses")
-    }
-
-    pub fn dataset(&self) -> DatasetSpec {
-        DatasetSpec {
-            seed: self.seed,
-            count: self.shapes,
-            held_out_every: self.held_out_every,
-        }
-    }
-}
 
 /// One line of the training log (log.jsonl).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -193,11 +76,99 @@ pub fn train_from(
     init: Option<&Path>,
 ) -> Result<TrainingSummary> {
     config.network.validate()?;
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| Error::Io { path, source }
+    std::fs::create_dir_all(dir).map_err(io_error(dir))?;
+    let (train_samples, held_samples) = sample_dataset(config);
+
+    let (model, vars) = NeuralModel::fresh(&config.network, config.seed)?;
+    let mut adam = Adam::new(vars)?;
+    let loss_count = 1 + usize::from(config.smooth_loss) + usize::from(config.orth_loss);
+    let mut momenta = LossMomenta::new(loss_count);
+    let checkpoint = dir.join(CHECKPOINT);
+    let start = starting_step(&checkpoint, init, config, &mut adam, &mut momenta)?;
+    eprintln!("{} parameters", adam.parameter_count());
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.join(LOG))
+        .map_err(io_error(&dir.join(LOG)))?;
+    // The fields are evaluated in the order the loop's state was set up before it was a struct:
+    // the log, the best checkpoint so far, the bar, then the run's clock.
+    let mut run = Run {
+        config,
+        dir,
+        model,
+        held_samples,
+        adam,
+        momenta,
+        checkpoint,
+        log,
+        best: best_in_log(dir, start),
+        bar: progress_bar(config.steps, start),
+        run_started: Instant::now(),
+        last: None,
+        sums: [0.0f64; 4],
+        summed: 0usize,
     };
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let mut step = start;
+    while step < config.steps {
+        let rate = run.optimize(&train_samples, step)?;
+        step += 1;
+        run.bar.set_position(step as u64);
+        let out_of_time =
+            max_seconds.is_some_and(|limit| run.run_started.elapsed().as_secs_f64() > limit);
+        let at_checkpoint =
+            step % config.checkpoint_every == 0 || step == config.steps || out_of_time;
+        if step % config.log_every == 0 || at_checkpoint {
+            run.write_log_line(step, rate, at_checkpoint)?;
+        }
+        if at_checkpoint {
+            run.checkpoint_at(step)?;
+        }
+        if out_of_time {
+            break;
+        }
+    }
+    run.bar.finish();
+    let model_path = dir.join(MODEL);
+    save_model(&model_path, config, &run.adam, step)?;
+    Ok(TrainingSummary {
+        steps_done: step,
+        seconds: run.run_started.elapsed().as_secs_f64(),
+        last: run.last,
+        model_path,
+        best: run.best.map(|(step, _)| (step, dir.join(BEST))),
+    })
+}
+
+/// Turns an I/O error on `path` into the crate's error, naming the path.
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
+    let path = path.to_path_buf();
+    move |source| Error::Io { path, source }
+}
+
+/// The step a run starts from: the checkpoint's, restored into `adam` and `momenta`, when
+/// there is one; else 0, from the weights of `init` when given (fine-tuning).
+fn starting_step(
+    checkpoint: &Path,
+    init: Option<&Path>,
+    config: &TrainingConfig,
+    adam: &mut Adam,
+    momenta: &mut LossMomenta,
+) -> Result<usize> {
+    let mut start = 0;
+    if checkpoint.exists() {
+        start = restore(checkpoint, config, adam, momenta)?;
+        eprintln!("resuming from {} at step {start}", checkpoint.display());
+    } else if let Some(init) = init {
+        initialize(init, &config.network, adam)?;
+        eprintln!("starting from the weights of {}", init.display());
+    }
+    Ok(start)
+}
+
+/// The training shapes' samples and those of the first 16 held-out shapes, each drawn from a
+/// generator of its own so the samples do not depend on the number of threads.
+fn sample_dataset(config: &TrainingConfig) -> (Vec<ShapeSample>, Vec<ShapeSample>) {
     let (train_shapes, held_shapes) = dataset(&config.dataset());
     let started = Instant::now();
     let sample = |(i, shape): (usize, &super::shapes::GeneratedShape)| {
@@ -218,81 +189,128 @@ pub fn train_from(
         held_samples.len(),
         started.elapsed().as_secs_f64()
     );
+    (train_samples, held_samples)
+}
 
-    let (model, vars) = NeuralModel::fresh(&config.network, config.seed)?;
-    let mut adam = Adam::new(vars)?;
-    let loss_count = 1 + usize::from(config.smooth_loss) + usize::from(config.orth_loss);
-    let mut momenta = LossMomenta::new(loss_count);
-    let checkpoint = dir.join(CHECKPOINT);
-    let mut start = 0;
-    if checkpoint.exists() {
-        start = restore(&checkpoint, config, &mut adam, &mut momenta)?;
-        eprintln!("resuming from {} at step {start}", checkpoint.display());
-    } else if let Some(init) = init {
-        initialize(init, &config.network, &adam)?;
-        eprintln!("starting from the weights of {}", init.display());
+/// The losses of `step`: its training shape, cubature batch and transforms all come from the
+/// step's own generator.
+fn step_losses(
+    config: &TrainingConfig,
+    model: &NeuralModel,
+    train_samples: &[ShapeSample],
+    step: usize,
+) -> Result<Losses> {
+    let mut rng = step_rng(config.seed, step);
+    let shape = train_samples
+        .choose(&mut rng)
+        .expect("the dataset has training shapes");
+    let batch = batch_of(shape, config.cubature_points, &mut rng)?;
+    let options = LossOptions {
+        young: config.young,
+        poisson: config.poisson,
+        z_std: config.z_std,
+        z_linear_std: config.z_linear_std.unwrap_or(config.z_std),
+        z_samples: config.z_samples,
+        blend: config.final_blend * step as f64 / config.steps.max(1) as f64,
+        normalize: config.normalize,
+    };
+    losses::compute(model.network(), &batch, &options, &mut rng)
+}
+
+/// The update of `step` from the active losses' gradients, combined as `config.combine` says
+/// (M-ConFIG updates the momentum of one loss per step, in turn).
+fn combined_gradient(
+    config: &TrainingConfig,
+    l: &Losses,
+    adam: &Adam,
+    momenta: &mut LossMomenta,
+    step: usize,
+) -> Result<Tensor> {
+    let mut active = vec![l.potential.clone()];
+    if config.smooth_loss {
+        active.push(l.smooth.clone());
     }
-    eprintln!("{} parameters", adam.parameter_count());
-    let mut log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(dir.join(LOG))
-        .map_err(io(&dir.join(LOG)))?;
-    let mut best = best_in_log(dir, start);
-    let bar = progress_bar(config.steps, start);
-    let run_started = Instant::now();
-    let mut last = None;
-    let mut sums = [0.0f64; 4];
-    let mut summed = 0usize;
-    let mut step = start;
-    while step < config.steps {
-        let mut rng = step_rng(config.seed, step);
-        let shape = train_samples
-            .choose(&mut rng)
-            .expect("the dataset has training shapes");
-        let batch = batch_of(shape, config.cubature_points, &mut rng)?;
-        let options = LossOptions {
-            young: config.young,
-            poisson: config.poisson,
-            z_std: config.z_std,
-            z_linear_std: config.z_linear_std.unwrap_or(config.z_std),
-            z_samples: config.z_samples,
-            blend: config.final_blend * step as f64 / config.steps.max(1) as f64,
-            normalize: config.normalize,
-        };
-        let l = losses::compute(model.network(), &batch, &options, &mut rng)?;
-        let mut active = vec![l.potential.clone()];
-        if config.smooth_loss {
-            active.push(l.smooth.clone());
+    if config.orth_loss {
+        active.push((&l.orth * config.orth_weight)?);
+    }
+    let gradient = match config.combine {
+        Combine::Config => {
+            let parts = active
+                .iter()
+                .map(|loss| adam.flat_gradient(loss))
+                .collect::<Result<Vec<_>>>()?;
+            config_combine(&parts)?
         }
-        if config.orth_loss {
-            active.push((&l.orth * config.orth_weight)?);
+        Combine::MomentumConfig => {
+            let turn = step % active.len();
+            let gradient = adam.flat_gradient(&active[turn])?;
+            momenta.update(turn, &gradient)?;
+            config_combine(&momenta.corrected()?)?
         }
-        let gradient = match config.combine {
-            Combine::Config => {
-                let parts = active
-                    .iter()
-                    .map(|loss| adam.flat_gradient(loss))
-                    .collect::<Result<Vec<_>>>()?;
-                config_combine(&parts)?
+        Combine::WeightedSum => {
+            let mut total = (&l.potential * config.potential_weight)?;
+            if config.smooth_loss {
+                total = (total + (&l.smooth * config.smooth_weight)?)?;
             }
-            Combine::MomentumConfig => {
-                let turn = step % active.len();
-                let gradient = adam.flat_gradient(&active[turn])?;
-                momenta.update(turn, &gradient)?;
-                config_combine(&momenta.corrected()?)?
+            if config.orth_loss {
+                total = (total + (&l.orth * config.orth_weight)?)?;
             }
-            Combine::WeightedSum => {
-                let mut total = (&l.potential * config.potential_weight)?;
-                if config.smooth_loss {
-                    total = (total + (&l.smooth * config.smooth_weight)?)?;
-                }
-                if config.orth_loss {
-                    total = (total + (&l.orth * config.orth_weight)?)?;
-                }
-                adam.flat_gradient(&total)?
-            }
-        };
+            adam.flat_gradient(&total)?
+        }
+    };
+    Ok(gradient)
+}
+
+/// The step's potential, smooth and orth losses and the batch's Omega_orth, as numbers; an
+/// error when one is not finite, which no later step recovers from.
+fn loss_values(config: &TrainingConfig, l: &Losses, step: usize) -> Result<[f64; 4]> {
+    let k = config.network.handles as f64;
+    let values = [
+        l.potential.to_scalar::<f32>()? as f64,
+        l.smooth.to_scalar::<f32>()? as f64,
+        l.orth.to_scalar::<f32>()? as f64,
+        l.orth.to_scalar::<f32>()? as f64 / (k * (k - 1.0)),
+    ];
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(Error::Model {
+            what: "training".into(),
+            reason: format!(
+                "a loss is not finite at step {step}: {values:?}; the last checkpoint is intact"
+            ),
+        });
+    }
+    Ok(values)
+}
+
+/// A training run between steps: the network and its optimizer, where it writes, and the loss
+/// sums of the log line in progress.
+struct Run<'a> {
+    config: &'a TrainingConfig,
+    dir: &'a Path,
+    model: NeuralModel,
+    held_samples: Vec<ShapeSample>,
+    adam: Adam,
+    momenta: LossMomenta,
+    /// The checkpoint file.
+    checkpoint: PathBuf,
+    log: std::fs::File,
+    /// The best checkpoint so far: (step, held-out H_spec).
+    best: Option<(usize, f64)>,
+    bar: indicatif::ProgressBar,
+    run_started: Instant,
+    last: Option<LogLine>,
+    /// Sums of the loss values since the last log line, and their count.
+    sums: [f64; 4],
+    summed: usize,
+}
+
+impl Run<'_> {
+    /// One optimizer step on a training shape: the step's losses, their combined gradient and
+    /// Adam's update at the scheduled rate, the losses summed for the log. Returns the rate.
+    fn optimize(&mut self, train_samples: &[ShapeSample], step: usize) -> Result<f64> {
+        let config = self.config;
+        let l = step_losses(config, &self.model, train_samples, step)?;
+        let gradient = combined_gradient(config, &l, &self.adam, &mut self.momenta, step)?;
         let rate = learning_rate(
             step,
             config.steps,
@@ -300,103 +318,76 @@ pub fn train_from(
             config.final_learning_rate,
             config.warmup_fraction,
         );
-        adam.step(&gradient, rate)?;
-        let k = config.network.handles as f64;
-        let values = [
-            l.potential.to_scalar::<f32>()? as f64,
-            l.smooth.to_scalar::<f32>()? as f64,
-            l.orth.to_scalar::<f32>()? as f64,
-            l.orth.to_scalar::<f32>()? as f64 / (k * (k - 1.0)),
-        ];
-        if values.iter().any(|v| !v.is_finite()) {
-            return Err(Error::Model {
-                what: "training".into(),
-                reason: format!("a loss is not finite at step {step}: {values:?}; the last checkpoint is intact"),
-            });
-        }
-        for (s, v) in sums.iter_mut().zip(values) {
+        self.adam.step(&gradient, rate)?;
+        self.add(loss_values(config, &l, step)?);
+        Ok(rate)
+    }
+
+    /// Adds one step's loss values to the sums of the next log line.
+    fn add(&mut self, values: [f64; 4]) {
+        for (s, v) in self.sums.iter_mut().zip(values) {
             *s += v;
         }
-        summed += 1;
-        step += 1;
-        bar.set_position(step as u64);
-        let out_of_time =
-            max_seconds.is_some_and(|limit| run_started.elapsed().as_secs_f64() > limit);
-        let at_checkpoint =
-            step % config.checkpoint_every == 0 || step == config.steps || out_of_time;
-        if step % config.log_every == 0 || at_checkpoint {
-            let mean = sums.map(|s| s / summed as f64);
-            let line = LogLine {
-                step,
-                learning_rate: rate,
-                potential: mean[0],
-                smooth: mean[1],
-                orth: mean[2],
-                batch_omega: mean[3],
-                seconds: run_started.elapsed().as_secs_f64(),
-                held_out: if at_checkpoint {
-                    Some(held_out_metrics(&model, &held_samples)?)
-                } else {
-                    None
-                },
-            };
-            let message = describe(&line);
-            bar.set_message(message.clone());
-            if !std::io::stderr().is_terminal() {
-                eprintln!("step {step}/{}: {message}", config.steps);
-            }
-            writeln!(
-                log,
-                "{}",
-                serde_json::to_string(&line).expect("a log line serializes")
-            )
-            .map_err(io(&dir.join(LOG)))?;
-            sums = [0.0; 4];
-            summed = 0;
-            last = Some(line);
-        }
-        if at_checkpoint {
-            // The best weights are written before the checkpoint: a run killed between the two
-            // resumes from the older checkpoint, whose log lines cannot claim a best never kept.
-            let h_spec = last
-                .as_ref()
-                .and_then(|l| l.held_out.as_ref())
-                .map(|m| m.h_spec);
-            if let Some(h_spec) = h_spec.filter(|h| best.is_none_or(|(_, b)| *h > b)) {
-                save_model(&dir.join(BEST), config, &adam, step)?;
-                best = Some((step, h_spec));
-            }
-            save_checkpoint(&checkpoint, config, &adam, &momenta, step)?;
-        }
-        if out_of_time {
-            break;
-        }
+        self.summed += 1;
     }
-    bar.finish();
-    let model_path = dir.join(MODEL);
-    save_model(&model_path, config, &adam, step)?;
-    Ok(TrainingSummary {
-        steps_done: step,
-        seconds: run_started.elapsed().as_secs_f64(),
-        last,
-        model_path,
-        best: best.map(|(step, _)| (step, dir.join(BEST))),
-    })
-}
 
-/// The network's weights after `step` steps, loadable as a model.
-fn save_model(path: &Path, config: &TrainingConfig, adam: &Adam, step: usize) -> Result<()> {
-    let params: Vec<(String, Tensor)> = adam
-        .vars
-        .iter()
-        .map(|(name, var)| (name.clone(), var.as_tensor().detach()))
-        .collect();
-    save_tensors(
-        path,
-        &config.network,
-        &params,
-        &[("physskin.training_steps", step.to_string())],
-    )
+    /// Writes the log line of `step`: the means since the last line, and the held-out metrics
+    /// at a checkpoint.
+    fn write_log_line(&mut self, step: usize, rate: f64, at_checkpoint: bool) -> Result<()> {
+        let mean = self.sums.map(|s| s / self.summed as f64);
+        let line = LogLine {
+            step,
+            learning_rate: rate,
+            potential: mean[0],
+            smooth: mean[1],
+            orth: mean[2],
+            batch_omega: mean[3],
+            seconds: self.run_started.elapsed().as_secs_f64(),
+            held_out: if at_checkpoint {
+                Some(held_out_metrics(&self.model, &self.held_samples)?)
+            } else {
+                None
+            },
+        };
+        let message = describe(&line);
+        self.bar.set_message(message.clone());
+        if !std::io::stderr().is_terminal() {
+            eprintln!("step {step}/{}: {message}", self.config.steps);
+        }
+        writeln!(
+            self.log,
+            "{}",
+            serde_json::to_string(&line).expect("a log line serializes")
+        )
+        .map_err(io_error(&self.dir.join(LOG)))?;
+        self.sums = [0.0; 4];
+        self.summed = 0;
+        self.last = Some(line);
+        Ok(())
+    }
+
+    /// Keeps the weights when the last line's held-out fields are the best so far, then writes
+    /// the checkpoint of `step`.
+    fn checkpoint_at(&mut self, step: usize) -> Result<()> {
+        // The best weights are written before the checkpoint: a run killed between the two
+        // resumes from the older checkpoint, whose log lines cannot claim a best never kept.
+        let h_spec = self
+            .last
+            .as_ref()
+            .and_then(|l| l.held_out.as_ref())
+            .map(|m| m.h_spec);
+        if let Some(h_spec) = h_spec.filter(|h| self.best.is_none_or(|(_, b)| *h > b)) {
+            save_model(&self.dir.join(BEST), self.config, &self.adam, step)?;
+            self.best = Some((step, h_spec));
+        }
+        save_checkpoint(
+            &self.checkpoint,
+            self.config,
+            &self.adam,
+            &self.momenta,
+            step,
+        )
+    }
 }
 
 /// The best checkpoint (step, held-out H_spec) up to `start` that the log records, when its
@@ -507,133 +498,10 @@ pub(crate) fn field_of_sample(
     Ok((field, points))
 }
 
-fn save_checkpoint(
-    path: &Path,
-    config: &TrainingConfig,
-    adam: &Adam,
-    momenta: &LossMomenta,
-    step: usize,
-) -> Result<()> {
-    let mut tensors = Vec::new();
-    for (i, m) in momenta.values.iter().enumerate() {
-        if let Some(m) = m {
-            tensors.push((format!("momentum.{i}"), m.clone()));
-        }
-    }
-    for (i, (name, var)) in adam.vars.iter().enumerate() {
-        tensors.push((name.clone(), var.as_tensor().detach()));
-        tensors.push((format!("adam.first.{name}"), adam.first[i].clone()));
-        tensors.push((format!("adam.second.{name}"), adam.second[i].clone()));
-    }
-    save_tensors(
-        path,
-        &config.network,
-        &tensors,
-        &[
-            ("physskin.step", step.to_string()),
-            ("physskin.adam_steps", adam.steps.to_string()),
-            (
-                "physskin.momentum_updates",
-                serde_json::to_string(&momenta.updates).expect("counts serialize"),
-            ),
-            (
-                "physskin.training_config",
-                serde_json::to_string(config).expect("a config serializes"),
-            ),
-        ],
-    )
-}
-
-/// Sets every variable from a model file with the same network config.
-fn initialize(path: &Path, network: &NetworkConfig, adam: &Adam) -> Result<()> {
-    let (tensors, metadata) = load_tensors(path)?;
-    let bad = |reason: String| Error::Model {
-        what: path.display().to_string(),
-        reason,
-    };
-    let saved: Option<NetworkConfig> = metadata
-        .get(CONFIG_KEY)
-        .and_then(|json| serde_json::from_str(json).ok());
-    if saved.as_ref() != Some(network) {
-        return Err(bad(
-            "its network config differs from the training config's".into()
-        ));
-    }
-    for (name, var) in &adam.vars {
-        var.set(&tensor_like(&tensors, name, var.as_tensor()).map_err(bad)?)?;
-    }
-    Ok(())
-}
-
-/// The tensor `name` of a loaded file, which must have the shape of `like`; else why not.
-fn tensor_like(
-    tensors: &HashMap<String, Tensor>,
-    name: &str,
-    like: &Tensor,
-) -> std::result::Result<Tensor, String> {
-    let t = tensors
-        .get(name)
-        .ok_or_else(|| format!("no tensor `{name}`"))?;
-    if t.dims() != like.dims() {
-        return Err(format!("tensor `{name}` has the wrong shape"));
-    }
-    Ok(t.clone())
-}
-
-/// Loads a checkpoint into `adam`; its config must match the run's except for the step count
-/// and logging, so a run can be extended.
-fn restore(
-    path: &Path,
-    config: &TrainingConfig,
-    adam: &mut Adam,
-    momenta: &mut LossMomenta,
-) -> Result<usize> {
-    let (tensors, metadata) = load_tensors(path)?;
-    let bad = |reason: String| Error::Model {
-        what: path.display().to_string(),
-        reason,
-    };
-    let saved: TrainingConfig = metadata
-        .get("physskin.training_config")
-        .and_then(|json| serde_json::from_str(json).ok())
-        .ok_or_else(|| bad("no training config in the checkpoint".into()))?;
-    let comparable = |c: &TrainingConfig| TrainingConfig {
-        steps: 0,
-        checkpoint_every: 0,
-        log_every: 0,
-        ..c.clone()
-    };
-    if comparable(&saved) != comparable(config) {
-        return Err(bad("the checkpoint was trained with another config (only steps and logging may change); train into another directory".into()));
-    }
-    let number = |key: &str| -> Result<usize> {
-        metadata
-            .get(key)
-            .and_then(|v| v.parse().ok())
-            .ok_or_else(|| bad(format!("no `{key}` in the checkpoint")))
-    };
-    let get = |name: &str, like: &Tensor| tensor_like(&tensors, name, like).map_err(bad);
-    for (i, (name, var)) in adam.vars.iter().enumerate() {
-        var.set(&get(name, var.as_tensor())?)?;
-        adam.first[i] = get(&format!("adam.first.{name}"), var.as_tensor())?;
-        adam.second[i] = get(&format!("adam.second.{name}"), var.as_tensor())?;
-    }
-    adam.steps = number("physskin.adam_steps")?;
-    momenta.updates = metadata
-        .get("physskin.momentum_updates")
-        .and_then(|v| serde_json::from_str(v).ok())
-        .filter(|u: &Vec<usize>| u.len() == momenta.values.len())
-        .ok_or_else(|| bad("no momentum counts in the checkpoint".into()))?;
-    for (i, m) in momenta.values.iter_mut().enumerate() {
-        *m = tensors.get(&format!("momentum.{i}")).cloned();
-    }
-    number("physskin.step")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::skinning::NetworkConfig;
+    use crate::skinning::{load_tensors, NetworkConfig};
 
     #[test]
     fn the_fine_tuning_configs_parse_and_fit_the_shipped_network() {

@@ -1,23 +1,21 @@
 //! A scene running: robots moved by joint states (or their scripted motion), deformable
 //! objects stepped in parallel, static and rigid objects only colliding.
 
-use std::collections::hash_map::DefaultHasher;
+mod objects;
+
 use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use parry3d::math::Vector;
 use parry3d::shape::SharedShape;
 use rayon::prelude::*;
 
-use super::budget::{choose_resolution, Choice};
-use super::file::{
-    Keyframe, ObjectKind, ObjectSpec, Region, Resolution, SceneFile, ShapeSpec, Source,
-};
+use self::objects::{deformable_object, kinematic_object, world_shape};
+use super::budget::Choice;
+use super::file::{Keyframe, ObjectKind, ObjectSpec, Region, SceneFile};
 use super::robot::{to_parry, Robot};
 use super::SceneError;
-use crate::geometry::{self, Shape};
+use crate::geometry::Shape;
 use crate::physics::{Obstacle, SimParams};
 use crate::pipeline::{BodyOptions, SoftBody, Support};
 use crate::skinning::{NeuralModel, SkinningField};
@@ -112,6 +110,23 @@ impl FieldCache {
             .expect("cache lock")
             .insert((key, handles), cut.clone());
         Ok(cut)
+    }
+
+    /// The budget choice stored under `key`, made by `choose` on a miss. The lock is not held
+    /// while choosing, which runs the probe simulations.
+    fn choice(&self, key: u64, choose: impl FnOnce() -> Result<Choice>) -> Result<Choice> {
+        let known = self.choices.lock().expect("cache lock").get(&key).cloned();
+        match known {
+            Some(c) => Ok(c),
+            None => {
+                let c = choose()?;
+                self.choices
+                    .lock()
+                    .expect("cache lock")
+                    .insert(key, c.clone());
+                Ok(c)
+            }
+        }
     }
 }
 
@@ -535,289 +550,4 @@ fn apply_keyframe(robot: &mut Robot, frame: &Keyframe, name: &str) -> Result<()>
             }
             .into()
         })
-}
-
-/// The object's geometry placed in the world and the content hash of its geometry before the
-/// placement (what identical objects at different places share); `None` for an object that
-/// arrives on a topic.
-fn world_shape(spec: &ObjectSpec) -> Result<Option<(Shape, u64)>> {
-    let named = |e: crate::Error| SceneError::Object {
-        object: spec.name.clone(),
-        reason: e.to_string(),
-    };
-    let local = match spec.source() {
-        Source::Topic(_) => return Ok(None),
-        Source::File(path) => geometry::load_geometry(path)
-            .map_err(crate::Error::from)
-            .and_then(Shape::from_raw)
-            .map_err(named)?,
-        Source::Shape(s) => match s {
-            // Faces divided 40 times along the longest side: enough points to show
-            // a dent.
-            ShapeSpec::Box(size) => {
-                let size = Vector3::from(*size);
-                geometry::box_grid_mesh(size, size.max() / 40.0)
-            }
-            ShapeSpec::Sphere(r) => {
-                let r = *r;
-                geometry::sdf_mesh(&move |p: &Vector3<f64>| p.norm() - r, 1.2 * r, 40)
-            }
-            ShapeSpec::Capsule([length, r]) => geometry::capsule_mesh(*length, *r),
-            ShapeSpec::Bundled(name) => {
-                geometry::bundled(name).ok_or_else(|| SceneError::Object {
-                    object: spec.name.clone(),
-                    reason: format!(
-                        "no bundled shape `{name}` (there are {:?})",
-                        geometry::BUNDLED
-                    ),
-                })?
-            }
-        },
-    };
-    let offset = Vector3::from(spec.position);
-    let positions = local.positions.iter().map(|p| p + offset).collect();
-    let placed =
-        Shape::new(positions, local.normals.clone(), local.triangles.clone()).map_err(named)?;
-    let key = geometry::content_hash(&local.positions, &local.triangles);
-    Ok(Some((placed, key)))
-}
-
-fn find_link(
-    robots: &[SceneRobot],
-    robot: &str,
-    link: &str,
-    object: &str,
-) -> std::result::Result<(usize, usize), SceneError> {
-    let r = robots
-        .iter()
-        .position(|r| r.name == robot)
-        .expect("checked when the file was read");
-    let l = robots[r]
-        .robot
-        .link(link)
-        .ok_or_else(|| SceneError::Object {
-            object: object.into(),
-            reason: format!("robot `{robot}` has no link `{link}`"),
-        })?;
-    Ok((r, l))
-}
-
-fn kinematic_object(spec: &ObjectSpec, shape: Shape, robots: &[SceneRobot]) -> Result<SceneObject> {
-    let points: Vec<Vector> = shape
-        .positions
-        .iter()
-        .map(|p| Vector::new(p.x as f32, p.y as f32, p.z as f32))
-        .collect();
-    let hull = SharedShape::convex_hull(&points).ok_or_else(|| SceneError::Object {
-        object: spec.name.clone(),
-        reason: "its points are flat: no convex hull to collide with".into(),
-    })?;
-    let held = match (&spec.attach, spec.kind) {
-        (Some(a), ObjectKind::Rigid) => Some(find_link(robots, &a.robot, &a.link, &spec.name)?),
-        _ => None,
-    };
-    let decision = match (spec.kind, held) {
-        (ObjectKind::Static, _) => "static: not simulated, collides as its convex hull".into(),
-        (_, Some(_)) => {
-            "rigid: carried by its link, not simulated, collides as its convex hull".into()
-        }
-        _ => "rigid and not attached: stays put, not simulated, collides as its convex hull".into(),
-    };
-    Ok(SceneObject {
-        name: spec.name.clone(),
-        kind: spec.kind,
-        body: None,
-        setup: None,
-        held,
-        hull: Some(hull),
-        rest: shape.positions,
-        decision,
-    })
-}
-
-#[allow(clippy::too_many_arguments)]
-fn deformable_object(
-    spec: &ObjectSpec,
-    shape: Shape,
-    key: u64,
-    file: &SceneFile,
-    model: &Arc<NeuralModel>,
-    cache: &FieldCache,
-    options: &SceneOptions,
-    robots: &[SceneRobot],
-    obstacles: Option<&Vec<Obstacle>>,
-) -> Result<SceneObject> {
-    let sim = SimParams {
-        young: spec.material.young,
-        poisson: spec.material.poisson,
-        density: spec.material.density,
-        dt: 1.0 / file.rate_hz,
-        gravity: Vector3::from(file.gravity),
-        damping: file.damping,
-        friction: file.friction,
-        rolling_friction: file.rolling_friction,
-        ..SimParams::default()
-    };
-    let support = spec.support.unwrap_or(if file.floor.is_some() {
-        Support::Floor
-    } else {
-        Support::PinBottom
-    });
-    let floor = match (file.floor, support) {
-        (Some(z), _) => Some(z),
-        (None, Support::Floor) => Some(shape.bounds().0.z),
-        _ => None,
-    };
-    let mut body_options = BodyOptions {
-        sim: sim.clone(),
-        // The floor is added below at the scene's height, not at the object's lowest point.
-        support: if support == Support::Floor {
-            Support::Free
-        } else {
-            support
-        },
-        sleep: if options.decisions { file.sleep } else { None },
-        ..BodyOptions::default()
-    };
-    let (field, cached) = cache.field(key, model, &shape, &body_options)?;
-    let full = field.handle_count();
-    let (handles, cubature, why) = match (spec.handles, spec.cubature, options.decisions) {
-        (Resolution::Fixed(h), Resolution::Fixed(c), _) => {
-            (h.min(full), c, "fixed in the scene file".to_string())
-        }
-        (h, c, false) => (
-            match h {
-                Resolution::Fixed(h) => h.min(full),
-                Resolution::Auto => full,
-            },
-            match c {
-                Resolution::Fixed(c) => c,
-                Resolution::Auto => 256,
-            },
-            "no budget: all handles, 256 cubature points".to_string(),
-        ),
-        (h, c, true) => {
-            let mut choice_key = DefaultHasher::new();
-            key.hash(&mut choice_key);
-            for v in [
-                sim.young,
-                sim.poisson,
-                sim.density,
-                sim.dt,
-                sim.damping,
-                sim.friction,
-                sim.rolling_friction,
-                file.error_budget_pct,
-            ] {
-                v.to_bits().hash(&mut choice_key);
-            }
-            sim.gravity
-                .iter()
-                .for_each(|g| g.to_bits().hash(&mut choice_key));
-            format!("{h:?}{c:?}").hash(&mut choice_key);
-            let choice_key = choice_key.finish();
-            let known = cache
-                .choices
-                .lock()
-                .expect("cache lock")
-                .get(&choice_key)
-                .cloned();
-            let choice = match known {
-                Some(c) => c,
-                None => {
-                    let c = choose_resolution(
-                        &field,
-                        &shape,
-                        &body_options,
-                        h,
-                        c,
-                        file.error_budget_pct,
-                    )?;
-                    cache
-                        .choices
-                        .lock()
-                        .expect("cache lock")
-                        .insert(choice_key, c.clone());
-                    c
-                }
-            };
-            (
-                choice.handles,
-                choice.cubature,
-                choice.describe(file.error_budget_pct),
-            )
-        }
-    };
-    body_options.cubature = cubature;
-    let field = cache.truncated(key, field, &shape, &body_options, handles)?;
-    let mut body = SoftBody::with_field(field, &shape, &shape.positions, &body_options)?;
-    if let Some(z) = floor {
-        body.add_floor(z);
-    }
-    if let Some(obstacles) = obstacles {
-        body.enable_contacts();
-        for o in obstacles {
-            body.add_obstacle(o.clone());
-        }
-    }
-    for pin in &spec.pins {
-        if body.pin(&Vector3::from(pin.center), pin.radius) == 0 {
-            return Err(SceneError::Object {
-                object: spec.name.clone(),
-                reason: format!(
-                    "no material within {} m of pin {:?}",
-                    pin.radius, pin.center
-                ),
-            }
-            .into());
-        }
-    }
-    let mut held = None;
-    let mut attach = None;
-    if let Some(a) = &spec.attach {
-        held = Some(find_link(robots, &a.robot, &a.link, &spec.name)?);
-        let region = a.region.expect("checked when the file was read");
-        if body.attach(
-            &Vector3::from(region.center),
-            region.radius,
-            ATTACHMENT_GROUP,
-        ) == 0
-        {
-            return Err(SceneError::Object {
-                object: spec.name.clone(),
-                reason: format!(
-                    "no material within {} m of the attachment at {:?}",
-                    region.radius, region.center
-                ),
-            }
-            .into());
-        }
-        attach = Some(region);
-    }
-    let inference = if cached {
-        "inference reused (same geometry)"
-    } else {
-        "inferred"
-    };
-    let decision =
-        format!("{handles} of {full} handles, {cubature} cubature points: {why}; {inference}");
-    body.set_decision(decision.clone());
-    Ok(SceneObject {
-        name: spec.name.clone(),
-        kind: spec.kind,
-        body: Some(body),
-        setup: Some(Setup {
-            shape,
-            sim,
-            support: body_options.support,
-            floor,
-            pins: spec.pins.clone(),
-            attach,
-            obstacles: obstacles.cloned().unwrap_or_default(),
-        }),
-        held,
-        hull: None,
-        rest: Vec::new(),
-        decision,
-    })
 }
