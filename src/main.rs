@@ -336,9 +336,16 @@ fn run_bench_contact(json: bool) -> physskin::Result<()> {
             row.decision
         );
     }
-    println!(
-        "stacked blocks, ball on a soft slab, grasp: not built yet (soft-soft contact, gripper)"
-    );
+    println!();
+    println!("| grasp friction | lifted m | moved in the grip in 10 s, mm | step median ms | step p99 ms |");
+    println!("|---:|---:|---:|---:|---:|");
+    for g in &r.grasp {
+        println!(
+            "| {} | {:.4} | {:.3} | {:.3} | {:.3} |",
+            g.friction, g.lifted_m, g.drift_mm, g.step_ms_median, g.step_ms_p99
+        );
+    }
+    println!("stacked blocks, ball on a soft slab: not built yet (soft-soft contact)");
     Ok(())
 }
 

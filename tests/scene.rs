@@ -506,3 +506,49 @@ fn a_link_lifting_off_a_sleeping_body_wakes_it() {
         "after the press lifted: {released:.4} m, at rest {rest:.4} m"
     );
 }
+
+/// The bundled grasp (config/scenes/grasp.yaml): two fingers close on a soft block, squeeze it
+/// and lift it 0.2 m; with friction 0.5 it rises with them and stays in the grip for 10 s;
+/// without friction it stays on the floor.
+#[test]
+fn a_gripper_lifts_a_soft_block_and_holds_it() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/config/scenes/grasp.yaml");
+    let run = |friction: f64| {
+        let mut file = SceneFile::load(std::path::Path::new(path)).unwrap();
+        file.friction = friction;
+        let mut scene = build(&file, &FieldCache::default());
+        let dt = scene.dt();
+        let steps = |seconds: f64| (seconds / dt).round() as usize;
+        for _ in 0..steps(2.5) {
+            scene.step();
+        }
+        let lifted = centroid(&scene, "block");
+        let mut drift: f64 = 0.0;
+        for _ in 0..steps(10.0) {
+            scene.step();
+            drift = drift.max((centroid(&scene, "block") - lifted).norm());
+        }
+        println!(
+            "friction {friction}: block at {lifted:?} after the lift, drift {:.4} mm",
+            drift * 1e3
+        );
+        (lifted, drift)
+    };
+    let (held, drift) = run(0.5);
+    assert!(
+        held.z > 0.05 + 0.19,
+        "block centre at {:.4} m after the lift",
+        held.z
+    );
+    assert!(
+        drift < 1e-3,
+        "block drifted {:.4} mm in the grip",
+        drift * 1e3
+    );
+    let (slipped, _) = run(0.0);
+    assert!(
+        slipped.z < 0.06,
+        "frictionless block lifted to {:.4} m",
+        slipped.z
+    );
+}

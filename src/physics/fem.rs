@@ -9,7 +9,7 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 use rayon::prelude::*;
 
 use super::material::Material;
-use super::obstacle::{Anchors, Obstacle, Penetration, Stick};
+use super::obstacle::{carried_by, Anchors, Obstacle, Penetration, Stick};
 use super::reduced::{is_descent, StepReport};
 use super::scene::{Poke, SimParams};
 use crate::error::Result;
@@ -37,6 +37,8 @@ pub struct FemSim {
     obstacles: Vec<Obstacle>,
     /// Moving obstacles (robot links), replaced before each step.
     colliders: Vec<Obstacle>,
+    /// The moving obstacles at the last step (friction carries what a link touches).
+    colliders_before: Vec<Obstacle>,
     /// This step's friction: boundary vertices touching at its start.
     sticks: Vec<Stick>,
     /// Friction anchors of vertices resting on static obstacles.
@@ -102,6 +104,7 @@ impl FemSim {
             time: 0.0,
             obstacles: Vec::new(),
             colliders: Vec::new(),
+            colliders_before: Vec::new(),
             sticks: Vec::new(),
             anchors: Anchors::default(),
             pokes: Vec::new(),
@@ -229,6 +232,7 @@ impl FemSim {
             current = next;
         }
         self.x_prev = std::mem::replace(&mut self.x, x);
+        self.colliders_before = self.colliders.clone();
         self.time += self.params.dt;
         let h = self.params.dt;
         report.elastic_energy = current.elastic;
@@ -332,7 +336,7 @@ impl FemSim {
     }
 
     /// Friction for this step, as the reduced simulator does it: anchors kept on static
-    /// obstacles while a vertex touches, fresh on moving ones.
+    /// obstacles while a vertex touches, carried by the move of moving ones.
     fn find_sticks(&mut self) {
         self.sticks.clear();
         let (kc, mu) = (self.params.contact_stiffness, self.params.friction);
@@ -353,7 +357,13 @@ impl FemSim {
                 let Some(p) = obstacle.penetration(&x) else {
                     continue;
                 };
-                let anchor = self.anchors.tie((v, o), o < statics, &x, &p.normal);
+                let (before, now) = (&self.colliders_before, &self.colliders);
+                let anchor =
+                    self.anchors
+                        .tie((v, o), &x, &p.normal, |a| match o.checked_sub(statics) {
+                            Some(link) => carried_by(before, now, link, a),
+                            None => *a,
+                        });
                 sticks.extend(Stick::new(v, anchor, &p, area, kc, mu));
             }
         }

@@ -45,6 +45,29 @@ impl Obstacle {
         }
     }
 
+    /// Where a point at `p` fixed to this obstacle is when the obstacle has moved to `to`: how
+    /// a link carries what it grips. `p` itself when `to` is not this obstacle moved (another
+    /// kind of obstacle, or a plane turned).
+    pub fn carry(&self, to: &Obstacle, p: &Vector3<f64>) -> Vector3<f64> {
+        match (self, to) {
+            (Obstacle::Shape { pose: from, .. }, Obstacle::Shape { pose: now, .. }) => {
+                let at = Vector::new(p.x as f32, p.y as f32, p.z as f32);
+                // The move in f32, added to the f64 point: the pose's round-off stays in the
+                // move instead of in the point's position.
+                let moved = now.transform_point(from.inverse_transform_point(at)) - at;
+                p + Vector3::new(moved.x as f64, moved.y as f64, moved.z as f64)
+            }
+            (
+                Obstacle::Plane { normal, offset },
+                Obstacle::Plane {
+                    normal: now,
+                    offset: now_offset,
+                },
+            ) if normal == now => p + normal * (now_offset - offset),
+            _ => *p,
+        }
+    }
+
     /// Penetration of `p`, or `None` when `p` is outside.
     pub fn penetration(&self, p: &Vector3<f64>) -> Option<Penetration> {
         match self {
@@ -75,6 +98,20 @@ impl Obstacle {
     }
 }
 
+/// Where moving obstacle `index` has carried a point at `x` since the last step (`before`: the
+/// moving obstacles then, `now`: now); `x` when it did not exist then.
+pub(crate) fn carried_by(
+    before: &[Obstacle],
+    now: &[Obstacle],
+    index: usize,
+    x: &Vector3<f64>,
+) -> Vector3<f64> {
+    match (before.get(index), now.get(index)) {
+        (Some(from), Some(to)) if before.len() == now.len() => from.carry(to, x),
+        _ => *x,
+    }
+}
+
 /// Two unit tangents orthogonal to `normal` and to each other.
 pub(crate) fn tangents(normal: &Vector3<f64>) -> [Vector3<f64>; 2] {
     let helper = if normal.x.abs() < 0.9 {
@@ -87,8 +124,8 @@ pub(crate) fn tangents(normal: &Vector3<f64>) -> [Vector3<f64>; 2] {
     [t1, t2]
 }
 
-/// Friction anchors of points resting on static obstacles, kept from step to step while the
-/// point touches (on moving obstacles a point is tied where it is at the step's start).
+/// Friction anchors of touching points, kept from step to step while the point touches (on
+/// moving obstacles, carried with them).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Anchors {
     kept: std::collections::HashMap<(usize, usize), Vector3<f64>>,
@@ -97,21 +134,23 @@ pub(crate) struct Anchors {
 
 impl Anchors {
     /// Where the (point, obstacle) pair touching at `x` with contact normal `normal` is tied
-    /// this step.
+    /// this step. `carry` moves a point fixed to the obstacle by the obstacle's move since the
+    /// last step (the identity for a static one): a link holds what it grips from step to
+    /// step, as a static obstacle holds what rests on it, instead of letting it creep by a
+    /// fresh spring's give every step.
     pub fn tie(
         &mut self,
         pair: (usize, usize),
-        on_static: bool,
         x: &Vector3<f64>,
         normal: &Vector3<f64>,
+        carry: impl Fn(&Vector3<f64>) -> Vector3<f64>,
     ) -> Vector3<f64> {
         let anchor = match self.kept.get(&pair) {
-            Some(previous) if on_static => Stick::carried_anchor(previous, x, normal),
-            _ => *x,
+            // The slip is measured where the obstacle was, then carried with it.
+            Some(previous) => carry(&Stick::carried_anchor(previous, x, normal)),
+            None => carry(x),
         };
-        if on_static {
-            self.touching.insert(pair, anchor);
-        }
+        self.touching.insert(pair, anchor);
         anchor
     }
 
@@ -192,5 +231,38 @@ impl Stick {
             g += t * (self.stiffness * s);
         }
         (e, g)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_moving_shape_carries_a_point_as_a_rigid_motion() {
+        let shape = SharedShape::cuboid(0.1, 0.1, 0.1);
+        let from = Obstacle::Shape {
+            shape: shape.clone(),
+            pose: Pose::new(Vector::new(0.0, 0.0, 0.5), Vector::ZERO),
+        };
+        // Lifted 0.2 m and turned a quarter about z.
+        let to = Obstacle::Shape {
+            shape,
+            pose: Pose::new(
+                Vector::new(0.0, 0.0, 0.7),
+                Vector::new(0.0, 0.0, std::f32::consts::FRAC_PI_2),
+            ),
+        };
+        let carried = from.carry(&to, &Vector3::new(0.1, 0.0, 0.5));
+        assert!(
+            (carried - Vector3::new(0.0, 0.1, 0.7)).norm() < 1e-6,
+            "{carried}"
+        );
+        // A floor stays; a point is not carried by a different obstacle.
+        let floor = Obstacle::floor(0.0);
+        let p = Vector3::new(1.0, 2.0, 3.0);
+        assert_eq!(floor.carry(&Obstacle::floor(0.0), &p), p);
+        assert_eq!(floor.carry(&to, &p), p);
+        assert_eq!(carried_by(&[], &[floor], 0, &p), p);
     }
 }

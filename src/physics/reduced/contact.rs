@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::ReducedSim;
-use crate::physics::obstacle::{Obstacle, Stick};
+use crate::physics::obstacle::{carried_by, Obstacle, Stick};
 use crate::physics::rolling::{RollingStick, ROLL_SLIP};
 
 impl ReducedSim {
@@ -73,8 +73,14 @@ impl ReducedSim {
             }
             if mu > 0.0 {
                 // Kept anchors hold a resting object instead of letting it creep a little
-                // every step.
-                let anchor = self.anchors.tie((c, o), o < statics, &x, &p.normal);
+                // every step; a moving link carries what it touches along.
+                let (before, now) = (&self.colliders_before, &self.colliders);
+                let anchor =
+                    self.anchors
+                        .tie((c, o), &x, &p.normal, |a| match o.checked_sub(statics) {
+                            Some(link) => carried_by(before, now, link, a),
+                            None => *a,
+                        });
                 self.sticks
                     .extend(Stick::new(c, anchor, &p, contact.weight, kc, mu));
             }

@@ -119,6 +119,9 @@ pub struct ReducedSim {
     obstacles: Vec<Obstacle>,
     /// Obstacles that move (robot links), replaced before each step.
     colliders: Vec<Obstacle>,
+    /// The moving obstacles as they were at the last step: friction carries what a link
+    /// touches by the link's move since.
+    colliders_before: Vec<Obstacle>,
     /// This step's broad phase: (contact, obstacle) pairs close enough to touch, obstacles
     /// indexed over `obstacles` then `colliders`.
     candidates: Vec<(usize, usize)>,
@@ -171,6 +174,7 @@ impl ReducedSim {
             contacts: Vec::new(),
             obstacles: Vec::new(),
             colliders: Vec::new(),
+            colliders_before: Vec::new(),
             candidates: Vec::new(),
             sticks: Vec::new(),
             anchors: Anchors::default(),
@@ -474,6 +478,7 @@ impl ReducedSim {
             self.history.clear();
         }
         self.z_prev = std::mem::replace(&mut self.z, z);
+        self.colliders_before = self.colliders.clone();
         self.time += self.params.dt;
         report.elastic_energy = current.elastic;
         report.constraint_energy = current.nonquadratic - current.elastic + self.pin_energy();
