@@ -1,5 +1,5 @@
 //! `physskin demo`: the main job. The bundled recording through the whole pipeline, a summary,
-//! an output MCAP and a picture.
+//! an output MCAP, a picture and a plot of the displacement against the FEM's.
 
 use std::path::PathBuf;
 
@@ -14,7 +14,7 @@ pub struct DemoArgs {
     /// Output recording: the inputs and every output topic.
     #[arg(long, default_value = "target/demo/demo_out.mcap")]
     out: PathBuf,
-    /// Strip of frames (PNG).
+    /// Strip of frames (PNG). The displacement plot goes beside it, `<name>_displacement.svg`.
     #[arg(long, default_value = "target/demo/demo.png")]
     picture: PathBuf,
     /// Skip the full-space FEM reference (no error figure).
@@ -112,5 +112,8 @@ pub fn run(args: DemoArgs) -> physskin::Result<()> {
         );
     }
     println!("picture     {}", summary.picture.display());
+    if let Some(plot) = &summary.displacement_plot {
+        println!("plot        {}", plot.display());
+    }
     Ok(())
 }

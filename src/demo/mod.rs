@@ -1,21 +1,21 @@
 //! The demo: the bundled recording `bags/demo.mcap` (three shapes arriving as a cloud, a
 //! stamped mesh and a mesh, then pokes) replayed through the node's pipeline, recorded to MCAP,
-//! checked against the full-space FEM, and drawn as a strip of frames.
+//! checked against the full-space FEM, and drawn as a strip of frames beside a plot of each
+//! shape's displacement against the FEM's.
 
+mod pictures;
 pub(crate) mod reference;
 mod script;
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use serde::Serialize;
 
-pub use reference::ReferenceError;
+pub use reference::{DisplacementSeries, ReferenceError};
 pub use script::{write_demo_bag, Delivery, DemoPoke, DemoScript, DemoShape, DEMO_START_NS};
 
 use crate::bag::{replay, RecordOptions, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
-use crate::io::{render_strip_png, weight_colors, StripObject};
 use crate::ros::NodeParams;
 use crate::skinning::NeuralModel;
 use crate::{Error, Result};
@@ -73,6 +73,9 @@ pub struct DemoSummary {
     pub replay: ReplaySummary,
     pub output: PathBuf,
     pub picture: PathBuf,
+    /// Each shape's displacement over time against the FEM's (SVG beside the picture, named
+    /// from it); None without the FEM reference.
+    pub displacement_plot: Option<PathBuf>,
 }
 
 /// Runs the demo.
@@ -116,28 +119,22 @@ pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoS
         .fold(0.0, f64::max);
     let span_ns = ((last_input + replay_options.tail_s) * 1e9) as i64;
     let frames = options.frames.max(1);
-    let mut due: Vec<i64> = (0..frames)
+    let due: Vec<i64> = (0..frames)
         .map(|i| DEMO_START_NS + span_ns * (2 * i as i64 + 1) / (2 * frames as i64))
         .collect();
-    let mut colors: BTreeMap<u32, Vec<[f64; 3]>> = BTreeMap::new();
-    let mut captured: Vec<Vec<(u32, Vec<f32>)>> = Vec::new();
+    let names = script
+        .shapes
+        .iter()
+        .map(|s| (s.frame.to_string(), s.name.to_string()))
+        .collect();
+    let mut capture = pictures::Capture::new(due, names);
     let mut observe = |tick: &Tick| {
         for t in &mut trajectories {
             if let Some(b) = tick.stage.bodies().iter().find(|b| b.frame == t.frame) {
                 t.record(tick.time_ns, &b.body);
             }
         }
-        if due.first().is_some_and(|&d| tick.time_ns >= d - 1) {
-            due.remove(0);
-            let mut frame = Vec::new();
-            for b in tick.stage.bodies() {
-                colors
-                    .entry(b.id)
-                    .or_insert_with(|| weight_colors(b.body.weights(), b.body.handles()));
-                frame.push((b.id, b.body.deformed().to_vec()));
-            }
-            captured.push(frame);
-        }
+        capture.observe(tick);
     };
     let summary = replay(&bytes, &name, model, &replay_options, &mut observe)?;
 
@@ -161,38 +158,20 @@ pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoS
         })
         .collect();
 
-    let strip: Vec<Vec<StripObject>> = captured
-        .iter()
-        .map(|frame| {
-            frame
-                .iter()
-                .map(|(id, positions)| StripObject {
-                    positions,
-                    colors: &colors[id],
-                })
-                .collect()
-        })
-        .collect();
-    if let Some(dir) = options
-        .picture
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-    {
-        std::fs::create_dir_all(dir).map_err(|e| Error::Io {
-            path: dir.into(),
-            source: e,
-        })?;
-    }
-    let mut file = std::fs::File::create(&options.picture).map_err(|e| Error::Io {
-        path: options.picture.clone(),
-        source: e,
-    })?;
-    render_strip_png(&strip, 240, &mut file)
-        .map_err(|e| Error::Geometry(format!("demo picture: {e}")))?;
+    capture.write_strip(&options.picture)?;
+    // Only the FEM reference has the displacement series the plot draws.
+    let displacement_plot = if options.reference {
+        let path = pictures::displacement_path(&options.picture);
+        pictures::write_displacement_plot(&errors, &path)?;
+        Some(path)
+    } else {
+        None
+    };
     Ok(DemoSummary {
         shapes,
         replay: summary,
         output: options.out.clone(),
         picture: options.picture.clone(),
+        displacement_plot,
     })
 }

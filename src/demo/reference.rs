@@ -5,7 +5,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::script::{DemoScript, DemoShape};
+use super::script::{DemoScript, DemoShape, DEMO_START_NS};
 use crate::bench::sim::{shape_on_grid, BenchShape};
 use crate::geometry::{TetMesh, VoxelGrid};
 use crate::physics::{FemSim, Lifter, Poke, SimParams};
@@ -21,6 +21,8 @@ pub struct Trajectory {
     lifter: Option<Lifter>,
     /// Per step of the replayed body: x, y, z per mesh vertex.
     steps: Vec<Vec<f32>>,
+    /// Per step: the tick's log time, ns.
+    times_ns: Vec<i64>,
     /// Log time of the body's first step, ns.
     first_step_ns: Option<i64>,
 }
@@ -32,6 +34,7 @@ impl Trajectory {
             bench: reference_mesh(&shape.shape)?,
             lifter: None,
             steps: Vec::new(),
+            times_ns: Vec::new(),
             first_step_ns: None,
         })
     }
@@ -44,6 +47,7 @@ impl Trajectory {
         let mut x = vec![0.0f32; 3 * lifter.len()];
         lifter.lift(body.state(), &mut x);
         self.steps.push(x);
+        self.times_ns.push(time_ns);
         self.first_step_ns.get_or_insert(time_ns);
     }
 }
@@ -64,12 +68,28 @@ pub(crate) fn reference_mesh(shape: &crate::geometry::Shape) -> Result<BenchShap
 }
 
 /// Per shape: the RMS distance between the replay and the FEM over all vertices and steps, in
-/// percent of the shape's bounding diagonal; and the FEM's median step time, ms.
+/// percent of the shape's bounding diagonal; the FEM's median step time, ms; and how far each
+/// side moved at every step, for the demo's plot.
 pub struct ReferenceError {
     pub frame: String,
     pub vertices: usize,
     pub error_pct: f64,
     pub fem_step_ms: f64,
+    pub displacement: DisplacementSeries,
+}
+
+/// One shape's motion over the replay, the replay's beside the FEM's: per step, the RMS
+/// distance of the reference mesh's vertices from their rest positions. RMS rather than the
+/// maximum: a poke moves a few FEM vertices far, which the largest would show as spikes that
+/// say little about the shape's motion.
+#[derive(Clone, Debug, Default)]
+pub struct DisplacementSeries {
+    /// Seconds since the recording's start ([`DEMO_START_NS`]), per step.
+    pub times_s: Vec<f64>,
+    /// The replayed body lifted to the mesh, m.
+    pub reduced_m: Vec<f64>,
+    /// The FEM, m.
+    pub fem_m: Vec<f64>,
 }
 
 /// Runs the FEM of every recorded shape (in parallel) and compares.
@@ -118,7 +138,8 @@ fn fem_error(
     let mut squared = 0.0;
     let mut samples = 0usize;
     let mut times = Vec::with_capacity(t.steps.len());
-    for reduced in &t.steps {
+    let mut displacement = DisplacementSeries::default();
+    for (reduced, &time_ns) in t.steps.iter().zip(&t.times_ns) {
         let report = fem.step()?;
         times.push(report.seconds * 1e3);
         for (r, f) in reduced.chunks(3).zip(fem.positions().chunks(3)) {
@@ -126,6 +147,15 @@ fn fem_error(
             squared += d.norm_squared();
             samples += 1;
         }
+        displacement
+            .times_s
+            .push((time_ns - DEMO_START_NS) as f64 * 1e-9);
+        displacement
+            .reduced_m
+            .push(rms_displacement(reduced.as_slice(), &mesh.vertices));
+        displacement
+            .fem_m
+            .push(rms_displacement(fem.positions(), &mesh.vertices));
     }
     times.sort_by(f64::total_cmp);
     Ok(ReferenceError {
@@ -133,7 +163,20 @@ fn fem_error(
         vertices: mesh.vertices.len(),
         error_pct: (squared / samples.max(1) as f64).sqrt() / t.bench.diagonal * 100.0,
         fem_step_ms: times[times.len() / 2],
+        displacement,
     })
+}
+
+/// RMS distance of points (x, y, z per point) from their rest positions, m.
+fn rms_displacement<T: Copy + Into<f64>>(points: &[T], rest: &[Vector3<f64>]) -> f64 {
+    let squared: f64 = points
+        .chunks_exact(3)
+        .zip(rest)
+        .map(|(p, r)| {
+            (Vector3::<f64>::new(p[0].into(), p[1].into(), p[2].into()) - r).norm_squared()
+        })
+        .sum();
+    (squared / rest.len().max(1) as f64).sqrt()
 }
 
 /// The vertices in the lowest 10% along gravity: the FEM's counterpart of `pin_bottom`.

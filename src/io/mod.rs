@@ -1,10 +1,15 @@
-//! Files out: NumPy arrays, pictures of skinning fields, strips of simulated frames.
+//! Files out: NumPy arrays, pictures of skinning fields, strips of simulated frames with their
+//! words (a small bitmap font), and SVG line plots.
 
 mod field_image;
+mod font;
 mod npy;
+mod plot;
 mod strip;
 
 pub(crate) use field_image::weight_colors;
 pub use field_image::{render_field_png, RenderError};
+pub use font::{draw_text, text_width, GLYPH_HEIGHT, GLYPH_WIDTH};
 pub use npy::write_npy_f32;
-pub use strip::{render_strip_png, StripObject};
+pub use plot::{line_plot_svg, LineSeries, Panel};
+pub use strip::{render_strip_png, StripFrame, StripObject};
