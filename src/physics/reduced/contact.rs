@@ -1,7 +1,7 @@
 //! Contact of a reduced body: the broad phase, this step's friction (point sticks and
 //! rolling), and the contact and friction curvature the solvers add to their Hessians.
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::ReducedSim;
 use crate::physics::obstacle::{carried_by, Obstacle, Stick};
@@ -119,26 +119,37 @@ impl ReducedSim {
     }
 
     /// The curvature of the contact and friction springs at `z` (None: nothing touches):
-    /// sum s (phi phi^T) (x) (n n^T) over touching points, n their normal (or friction
-    /// tangent) and s its stiffness.
+    /// sum (phi phi^T) (x) S over touching points, S = sum s n n^T over the point's springs (its
+    /// normal, its friction tangents), n their direction and s their stiffness. A point's
+    /// springs share its phi, so they are summed into one 3 x 3 block first: a gripped or
+    /// resting body has thousands of them, and the products below cost per point.
     pub(super) fn contact_curvature(&self, z: &DMatrix<f64>) -> Option<DMatrix<f64>> {
         let kc = self.params.contact_stiffness;
-        let mut springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = Vec::new();
+        let mut blocks: Vec<Option<Matrix3<f64>>> = vec![None; self.contacts.len()];
+        let mut add = |c: usize, s: f64, n: &Vector3<f64>| {
+            *blocks[c].get_or_insert_with(Matrix3::zeros) += n * n.transpose() * s;
+        };
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
             let x = contact.rest + z * &contact.phi;
             if let Some(p) = self.obstacle(o).penetration(&x) {
-                springs.push((&contact.phi, kc * contact.weight, p.normal));
+                add(c, kc * contact.weight, &p.normal);
             }
         }
         for stick in &self.sticks {
-            let phi = &self.contacts[stick.point].phi;
-            springs.extend(stick.tangents.iter().map(|t| (phi, stick.stiffness, *t)));
+            for t in &stick.tangents {
+                add(stick.point, stick.stiffness, t);
+            }
         }
-        if springs.is_empty() && self.rolls.is_empty() {
+        let points: Vec<(&DVector<f64>, Matrix3<f64>)> = blocks
+            .iter()
+            .zip(&self.contacts)
+            .filter_map(|(block, contact)| block.map(|b| (&contact.phi, b)))
+            .collect();
+        if points.is_empty() && self.rolls.is_empty() {
             return None;
         }
-        let mut curvature = kronecker_springs(&springs, 4 * self.subspace.handles());
+        let mut curvature = kronecker_blocks(&points, 4 * self.subspace.handles());
         for roll in &self.rolls {
             roll.add_curvature(&mut curvature);
         }
@@ -146,19 +157,19 @@ impl ReducedSim {
     }
 }
 
-/// sum_i s_i (phi_i phi_i^T) (x) (n_i n_i^T) in flat z order, as six (4K x 4K) products over
-/// the springs, one per pair of axes, instead of a (12K)^2 rank-one update per spring.
-pub(super) fn kronecker_springs(
-    springs: &[(&DVector<f64>, f64, Vector3<f64>)],
+/// sum_i (phi_i phi_i^T) (x) S_i in flat z order (S_i symmetric 3 x 3), as six (4K x 4K)
+/// products over the points, one per pair of axes, instead of a (12K)^2 update per point.
+pub(super) fn kronecker_blocks(
+    points: &[(&DVector<f64>, Matrix3<f64>)],
     n4: usize,
 ) -> DMatrix<f64> {
-    let phis = DMatrix::from_fn(n4, springs.len(), |a, i| springs[i].0[a]);
+    let phis = DMatrix::from_fn(n4, points.len(), |a, i| points[i].0[a]);
     let mut out = DMatrix::zeros(3 * n4, 3 * n4);
     for d in 0..3 {
         for e in d..3 {
             let mut weighted = phis.clone();
-            for (i, (_, s, n)) in springs.iter().enumerate() {
-                weighted.column_mut(i).scale_mut(s * n[d] * n[e]);
+            for (i, (_, block)) in points.iter().enumerate() {
+                weighted.column_mut(i).scale_mut(block[(d, e)]);
             }
             let block = &phis * weighted.transpose();
             for b in 0..n4 {

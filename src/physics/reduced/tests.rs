@@ -2,7 +2,7 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::contact::kronecker_springs;
+use super::contact::kronecker_blocks;
 use super::held::turn_blocks;
 use crate::linalg::DenseCholesky;
 use rand::{Rng, SeedableRng};
@@ -32,11 +32,31 @@ fn contact_curvature_by_blocks_matches_rank_one_terms() {
         })
         .collect();
     let mut expected = DMatrix::zeros(3 * n4, 3 * n4);
+    let mut expected_extra: Vec<(&DVector<f64>, f64, Vector3<f64>)> = Vec::new();
     for (phi, s, n) in &springs {
         let a = point_jacobian(phi, n);
         expected.ger(*s, &a, &a, 1.0);
     }
-    let blocks = kronecker_springs(&springs, n4);
+    // Each point carries its spring and, for half of them, a second one on the same phi (a
+    // friction tangent), summed into its 3 x 3 block.
+    let points: Vec<(&DVector<f64>, nalgebra::Matrix3<f64>)> = springs
+        .iter()
+        .enumerate()
+        .map(|(i, (phi, s, n))| {
+            let mut block = n * n.transpose() * *s;
+            if i % 2 == 0 {
+                let t = Vector3::new(-n.y, n.x, 0.0).normalize();
+                block += t * t.transpose() * (0.5 * s);
+                expected_extra.push((*phi, 0.5 * s, t));
+            }
+            (*phi, block)
+        })
+        .collect();
+    for (phi, s, t) in &expected_extra {
+        let a = point_jacobian(phi, t);
+        expected.ger(*s, &a, &a, 1.0);
+    }
+    let blocks = kronecker_blocks(&points, n4);
     assert!((&blocks - &expected).amax() <= 1e-9 * expected.amax());
     let base = DMatrix::from_diagonal_element(3 * n4, 3 * n4, 1e3);
     let whole = &base + &expected;
