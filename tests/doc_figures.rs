@@ -1,7 +1,8 @@
 //! Figures in the README and docs/ cannot silently go stale: every paragraph, list item or table
 //! that names a result file (`benches/results/NAME.json`, written by `benches/record.sh`) may
 //! quote only figures that file holds (a table: those of the file its introducing paragraph
-//! names). A figure with d decimals matches a number of the file
+//! names). Tables between `<!-- table -->` markers are rendered from their file by
+//! benches/render.py, and must be current. A figure with d decimals matches a number of the file
 //! truncated or rounded to d decimals. Figures in code spans are commands, not results.
 
 use std::path::{Path, PathBuf};
@@ -180,4 +181,21 @@ fn present(figure: &str, numbers: &[f64]) -> bool {
         let v = v.abs();
         close((v * scale + 1e-9).floor() / scale) || close((v * scale).round() / scale)
     })
+}
+
+/// Rendered tables (between `<!-- table ... -->` markers) are what `benches/render.py` makes
+/// from the result files now: a re-recorded file without a re-render fails here.
+#[test]
+fn rendered_tables_match_their_result_files() {
+    let out = std::process::Command::new("python3")
+        .arg(Path::new(ROOT).join("benches/render.py"))
+        .arg("--check")
+        .output()
+        .expect("python3 runs benches/render.py");
+    assert!(
+        out.status.success(),
+        "stale tables, run benches/render.py:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+"""Renders the tables of README.md and docs/*.md from benches/results/*.json.
+
+A table to render sits between two markers:
+
+    <!-- table contact result.resting_ball radius_m:ball radius m | drift_mm:moved in 2 s, mm:.3f -->
+    ...rendered table...
+    <!-- end table -->
+
+After `table`: the results file (benches/results/NAME.json), the path to a list of rows in it
+(dot-separated keys, then optional `?key=value` filters on the rows), then the columns separated by ` | `, each `key:header` or
+`key:header:format` (a Python format spec; no colon in the header). Everything between the
+markers is replaced; a line under the table names the file, its command, commit and date, so
+every rendered figure says where it came from.
+
+Usage: benches/render.py [--check]   (--check: exit 1 if any page would change)
+"""
+import json
+import pathlib
+import re
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+MARKER = re.compile(r"<!-- table (\S+) (\S+) (.*?) -->\n.*?<!-- end table -->", re.S)
+
+
+def lookup(record, path):
+    """The rows at `path` (dot-separated keys), kept only where each `?key=value` filter holds."""
+    path, *filters = path.split("?")
+    value = record
+    for key in path.split("."):
+        value = value[int(key)] if isinstance(value, list) else value[key]
+    for condition in filters:
+        key, wanted = condition.split("=")
+        value = [row for row in value if str(row.get(key)) == wanted]
+    return value
+
+
+def cell(value, fmt):
+    if value is None:
+        return "-"
+    if fmt and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return format(value, fmt)
+    return str(value)
+
+
+def render(match):
+    name, path, spec = match.group(1), match.group(2), match.group(3)
+    record = json.loads((ROOT / "benches" / "results" / f"{name}.json").read_text())
+    columns = []
+    for column in spec.split(" | "):
+        key, header, *fmt = column.split(":")
+        columns.append((key, header, fmt[0] if fmt else ""))
+    rows = lookup(record, path)
+    lines = [
+        "| " + " | ".join(header for _, header, _ in columns) + " |",
+        "|" + "|".join("---:" if fmt else "---" for _, _, fmt in columns) + "|",
+    ]
+    for row in rows:
+        lines.append("| " + " | ".join(cell(row.get(key), fmt) for key, _, fmt in columns) + " |")
+    source = (
+        f"\n`benches/results/{name}.json`: `{record.get('command', '?')}`, "
+        f"commit {record.get('commit', '?')}, {record.get('date', '?')}."
+    )
+    return match.group(0).split("\n", 1)[0] + "\n" + "\n".join(lines) + "\n" + source + "\n<!-- end table -->"
+
+
+def main():
+    check = "--check" in sys.argv
+    stale = []
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        text = page.read_text()
+        new = MARKER.sub(render, text)
+        if new != text:
+            stale.append(page.relative_to(ROOT))
+            if not check:
+                page.write_text(new)
+    for page in stale:
+        print(f"{'stale' if check else 'rendered'}: {page}")
+    return 1 if check and stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Regenerates the result files the README and docs quote, then renders their tables
+# (benches/render.py) and checks every quoted figure against its file (tests/doc_figures.rs).
+# Prose that quotes a figure which changed must then be edited by hand: the check names it.
+#
+# What runs (2 cores; the latency bench needs root for `unshare -n` and pip for rclpy):
+#   contact            bench contact                          (resting balls, the grasp)
+#   stress             bench stress                           (numerical stress table)
+#   real               bench real                             (camera scans against the FEM)
+#   sim-solver-quick   bench sim --quick, 16 handles, 1024 cubature points
+#   latency            benches/latency.sh                     (node latency and jitter)
+# Not rerun: sim.json (the full `bench sim`, about 55 minutes):
+#   benches/record.sh sim target/release/physskin bench sim --json --plot benches/results/sim.svg
+# Usage: benches/report.sh [NAME...]   (default: all of the above)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --locked
+bin=target/release/physskin
+names=("$@")
+[ ${#names[@]} -eq 0 ] && names=(contact stress real sim-solver-quick latency)
+for name in "${names[@]}"; do
+    started=$(date +%s)
+    case $name in
+        contact) benches/record.sh contact $bin bench contact --json ;;
+        stress) benches/record.sh stress $bin bench stress --json ;;
+        real) benches/record.sh real $bin bench real --json ;;
+        sim-solver-quick)
+            benches/record.sh sim-solver-quick $bin bench sim --quick --json \
+                --scenario hanging,drop,poke --handles 16 --cubature 1024 \
+                --plot target/bench/sim-solver.svg ;;
+        latency) bash benches/latency.sh ;;
+        *) echo "unknown result: $name" >&2; exit 2 ;;
+    esac
+    echo "$name: $(( $(date +%s) - started )) s" >&2
+done
+python3 benches/render.py
+cargo test --release --locked --test doc_figures
