@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs a bench that prints JSON and keeps what it printed as benches/results/NAME.json, with the
-# command, the commit (`-dirty` when the tree had changes), the date and the machine, so every
+# command, the commit (`-dirty` when the tree had changes outside benches/results), the date and the machine, so every
 # figure quoted in the README and docs names where it came from.
 # Usage: benches/record.sh NAME COMMAND...
 set -euo pipefail
@@ -14,7 +14,12 @@ trap 'rm -f "$printed"' EXIT
 python3 - "$out" "$printed" "$*" <<'PY'
 import json, os, platform, subprocess, sys, datetime
 out, printed, command = sys.argv[1:4]
-commit = subprocess.run(["git", "describe", "--always", "--dirty"], capture_output=True, text=True).stdout.strip()
+commit = subprocess.run(["git", "describe", "--always"], capture_output=True, text=True).stdout.strip()
+# Dirty only for changes outside benches/results: benches/report.sh records one file after another.
+changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":!benches/results"],
+                         capture_output=True, text=True).stdout.strip()
+if changed:
+    commit += "-dirty"
 record = {
     "command": command,
     "commit": commit,
