@@ -21,7 +21,8 @@ import re
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-MARKER = re.compile(r"<!-- table (\S+) (\S+) (.*?) -->\n.*?<!-- end table -->", re.S)
+# A marker is a line of its own; the text may mention `<!-- table -->` in passing.
+MARKER = re.compile(r"^<!-- table (\S+) (\S+) ([^\n]*?) -->\n.*?^<!-- end table -->$", re.S | re.M)
 
 
 def lookup(record, path):
@@ -34,6 +35,13 @@ def lookup(record, path):
         key, wanted = condition.split("=")
         value = [row for row in value if str(row.get(key)) == wanted]
     return value
+
+
+def field(row, key):
+    """row[key], following dots into nested objects (case.name)."""
+    for part in key.split("."):
+        row = row.get(part) if isinstance(row, dict) else None
+    return row
 
 
 def cell(value, fmt):
@@ -57,7 +65,7 @@ def render(match):
         "|" + "|".join("---:" if fmt else "---" for _, _, fmt in columns) + "|",
     ]
     for row in rows:
-        lines.append("| " + " | ".join(cell(row.get(key), fmt) for key, _, fmt in columns) + " |")
+        lines.append("| " + " | ".join(cell(field(row, key), fmt) for key, _, fmt in columns) + " |")
     source = (
         f"\n`benches/results/{name}.json`: `{record.get('command', '?')}`, "
         f"commit {record.get('commit', '?')}, {record.get('date', '?')}."

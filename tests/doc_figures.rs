@@ -1,7 +1,7 @@
 //! Figures in the README and docs/ cannot silently go stale: every paragraph, list item or table
 //! that names a result file (`benches/results/NAME.json`, written by `benches/record.sh`) may
-//! quote only figures that file holds (a table: those of the file its introducing paragraph
-//! names). Tables between `<!-- table -->` markers are rendered from their file by
+//! quote only figures that file holds (a table, or a list after a paragraph ending in a colon:
+//! those of the file that paragraph names). Tables between `<!-- table -->` markers are rendered from their file by
 //! benches/render.py, and must be current. A figure with d decimals matches a number of the file
 //! truncated or rounded to d decimals. Figures in code spans are commands, not results.
 
@@ -23,14 +23,21 @@ fn every_quoted_figure_is_in_the_result_file_it_names() {
     let mut checked = 0;
     for page in &pages {
         let text = std::fs::read_to_string(page).unwrap();
-        let mut above = Vec::new();
+        // The files named by the paragraph above the current table or list, and whether it
+        // introduces a list (ends with a colon).
+        let (mut above, mut introduces_list) = (Vec::new(), false);
         for block in blocks(&text) {
             let mut names = result_files(block);
-            // A table quotes the file its introducing paragraph names.
-            if names.is_empty() && block.trim_start().starts_with('|') {
+            let start = block.trim_start();
+            let (table, item) = (start.starts_with('|'), start.starts_with("- "));
+            // A table, or the items of a list, quote the file their introducing paragraph names.
+            if names.is_empty() && (table || item && introduces_list) {
                 names = above.clone();
             }
-            above = names.clone();
+            if !table && !item {
+                above = names.clone();
+                introduces_list = block.trim_end().ends_with(':');
+            }
             if names.is_empty() {
                 continue;
             }
