@@ -5,57 +5,108 @@ use std::path::PathBuf;
 /// Everything that can go wrong in physskin, each variant naming what was wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// A geometry file could not be read or parsed.
     #[error(transparent)]
     Load(#[from] crate::geometry::LoadError),
+    /// The geometry cannot be simulated (no points, not finite, degenerate); the text says why.
     #[error("geometry: {0}")]
     Geometry(String),
+    /// A parameter was out of its range.
     #[error("invalid parameter `{name}`: {reason}")]
-    InvalidParameter { name: &'static str, reason: String },
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// What its value should have been.
+        reason: String,
+    },
+    /// A factorization failed (a matrix not positive definite, a singular block).
     #[error("linear algebra: {0}")]
     LinearAlgebra(String),
+    /// The skinning eigenmodes' iterative solve ran out of iterations before its tolerance.
     #[error("eigen-solve did not converge: {converged} of {wanted} modes after {iterations} iterations (largest residual {residual:e})")]
     EigenNotConverged {
+        /// Modes that met the tolerance.
         converged: usize,
+        /// Modes asked for.
         wanted: usize,
+        /// Iterations run.
         iterations: usize,
+        /// The largest relative residual of the wanted modes at the end.
         residual: f64,
     },
+    /// A network model file or its weights could not be used.
     #[error("model {what}: {reason}")]
-    Model { what: String, reason: String },
+    Model {
+        /// Which model or part: a path, "bundled", "weights".
+        what: String,
+        /// Why it was refused.
+        reason: String,
+    },
     /// Candle fails only on shape bugs or allocation failure; its message is kept.
     #[error("network computation: {0}")]
     Network(#[from] candle_core::Error),
+    /// The ROS 2 node failed.
     #[error(transparent)]
     Node(#[from] crate::ros::NodeError),
+    /// An MCAP recording could not be written or read.
     #[error(transparent)]
     Bag(#[from] crate::bag::BagError),
+    /// The iceoryx2 shared-memory hand-off failed.
     #[error(transparent)]
     Shm(#[from] crate::shm::ShmError),
+    /// A scene file or a robot in it could not be used.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
+    /// Node parameters were refused.
     #[error(transparent)]
     Params(#[from] ParamError),
+    /// A file could not be read or written.
     #[error("i/o on {path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
 }
 
+/// The crate's result type, with [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
 
 /// Why parameters were refused.
 #[derive(Debug, thiserror::Error)]
 pub enum ParamError {
+    /// The parameter file could not be read.
     #[error("cannot read parameter file {path}: {reason}")]
-    File { path: String, reason: String },
+    File {
+        /// The file.
+        path: String,
+        /// The operating system's error, in words.
+        reason: String,
+    },
+    /// The file is not a ROS 2 parameter file (bad YAML, or not `node: ros__parameters:`).
     #[error("parameter file {path}: {reason}")]
-    Format { path: String, reason: String },
+    Format {
+        /// The file, or `<text>` for YAML given as text.
+        path: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A known parameter was given a value of the wrong type or out of its range.
     #[error("parameter `{name}`: {reason}")]
-    Invalid { name: String, reason: String },
+    Invalid {
+        /// The parameter's dotted name (`material.young`).
+        name: String,
+        /// Why the value was refused.
+        reason: String,
+    },
+    /// No parameter has this name.
     #[error("parameter `{name}`: no such parameter")]
-    Unknown { name: String },
+    Unknown {
+        /// The name given.
+        name: String,
+    },
 }
 
 /// Shorthand for a parameter check that fails with a message naming the parameter.

@@ -22,6 +22,9 @@ pub struct ElementPattern {
 }
 
 impl ElementPattern {
+    /// The pattern of `elements` (each a list of node indices, all as long as the first) over
+    /// `node_count` nodes with `block` unknowns each. Panics when an element names a node past
+    /// `node_count`.
     pub fn new(node_count: usize, block: usize, elements: &[impl AsRef<[u32]>]) -> Self {
         let size = node_count * block;
         let nodes_per_element = elements.first().map_or(0, |e| e.as_ref().len());
@@ -75,6 +78,7 @@ impl ElementPattern {
         }
     }
 
+    /// The number of stored entries (the upper triangle).
     pub fn nonzeros(&self) -> usize {
         self.symbolic.row_idx().len()
     }
@@ -203,6 +207,8 @@ pub struct DenseCholesky {
 }
 
 impl DenseCholesky {
+    /// Factors the n x n column-major `matrix`. An [`Error::LinearAlgebra`] when it is not
+    /// positive definite; panics when `matrix` does not hold n * n values.
     pub fn new(matrix: &[f64], n: usize) -> Result<Self> {
         let factor = nalgebra::DMatrix::from_column_slice(n, n, matrix)
             .cholesky()
@@ -212,6 +218,7 @@ impl DenseCholesky {
         Ok(Self { factor, n })
     }
 
+    /// Solves in place for the columns of `rhs` (column-major, n rows).
     pub fn solve(&self, rhs: &mut [f64]) {
         let cols = rhs.len() / self.n;
         let mut view = nalgebra::DMatrixViewMut::from_slice(rhs, self.n, cols);

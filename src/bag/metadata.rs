@@ -14,15 +14,18 @@ use crate::ros::messages::RosMessage;
 /// A recorded topic: its name, type and the QoS it was offered with.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TopicInfo {
+    /// The topic's resolved name.
     pub name: String,
     /// "pkg/msg/Type".
     pub type_name: String,
     /// The `ros2msg` schema text.
     pub schema: String,
+    /// The QoS it was offered with, kept for `ros2 bag play`.
     pub qos: QosProfile,
 }
 
 impl TopicInfo {
+    /// The topic `name` carrying messages of type `M`, offered with `qos`.
     pub fn of<M: RosMessage>(name: &str, qos: QosProfile) -> Self {
         Self {
             name: name.into(),
@@ -36,11 +39,15 @@ impl TopicInfo {
 /// What one file holds.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct FileSummary {
+    /// The file.
     pub path: PathBuf,
+    /// Messages written to it.
     pub messages: u64,
     /// Log time of the first and last message, ns (0 when empty).
     pub start_ns: i64,
+    /// Log time of the last message, ns (0 when empty).
     pub end_ns: i64,
+    /// Messages per topic name.
     pub per_topic: BTreeMap<String, u64>,
 }
 

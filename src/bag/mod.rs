@@ -21,25 +21,48 @@ pub use writer::{BagWriter, RecordOptions, RecordSummary};
 /// What went wrong with a recording, naming the file.
 #[derive(Debug, thiserror::Error)]
 pub enum BagError {
+    /// A file could not be created, read or written.
     #[error("i/o on {path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
+    /// The MCAP writer refused (a record could not be written or a file not finished).
     #[error("writing MCAP {path}: {message}")]
-    Write { path: PathBuf, message: String },
+    Write {
+        /// The file being written.
+        path: PathBuf,
+        /// The MCAP library's error, in words.
+        message: String,
+    },
+    /// A recording could not be read: not MCAP at all, or (for a strict read) damaged.
     #[error("reading MCAP {file}: {message}")]
-    Read { file: String, message: String },
+    Read {
+        /// The recording's name as given by the caller.
+        file: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// Refused: an option out of range, a topic declared with two types, a message on an
+    /// undeclared topic.
     #[error("recording options: {0}")]
     Options(String),
+    /// The recording thread could not start or has ended (finished, failed, panicked).
     #[error("recording stopped: {0}")]
     Stopped(String),
+    /// One recorded message could not be used.
     #[error("{file} at log time {log_time} ns, topic {topic}: {message}")]
     Message {
+        /// The recording's name.
         file: String,
+        /// The message's topic.
         topic: String,
+        /// The message's log time, ns.
         log_time: i64,
+        /// What is wrong with it.
         message: String,
     },
 }

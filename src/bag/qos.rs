@@ -6,8 +6,11 @@ use serde::Serialize;
 /// The policies that differ between physskin's topics; the rest are ROS 2 defaults.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct QosProfile {
+    /// Reliable delivery; false: best effort.
     pub reliable: bool,
+    /// Transient-local durability (late joiners get the last `depth` messages); false: volatile.
     pub transient_local: bool,
+    /// History depth (keep last).
     pub depth: u32,
 }
 
@@ -21,6 +24,7 @@ impl QosProfile {
         }
     }
 
+    /// Reliable, keeping the last `depth`; transient local when `transient_local`.
     pub const fn reliable(depth: u32, transient_local: bool) -> Self {
         Self {
             reliable: true,

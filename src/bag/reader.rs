@@ -16,12 +16,17 @@ use super::BagError;
 /// One message of a recording.
 #[derive(Clone, Debug)]
 pub struct BagMessage {
+    /// The topic it was recorded on.
     pub topic: String,
     /// The schema's name ("pkg/msg/Type"); empty when the channel has no schema.
     pub type_name: String,
+    /// The channel's message encoding ("cdr" for ROS 2).
     pub encoding: String,
+    /// When it was recorded, ns.
     pub log_time: i64,
+    /// Publish time as recorded, ns.
     pub publish_time: i64,
+    /// The serialized message (for "cdr": CDR with its 4-byte encapsulation header).
     pub data: Vec<u8>,
 }
 
@@ -269,6 +274,7 @@ impl Tables {
 /// What `recover` found.
 #[derive(Clone, Debug)]
 pub struct Recovered {
+    /// What the rewritten file holds.
     pub summary: RecordSummary,
     /// Why reading stopped (None: the input was complete).
     pub stopped_by: Option<String>,

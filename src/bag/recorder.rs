@@ -46,10 +46,13 @@ struct Counters {
 /// A recording's health: where it goes, what it took, what it lost.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RecorderHealth {
+    /// The recording's first file.
     pub path: String,
+    /// Messages handed to the writing thread.
     pub messages: u64,
     /// Serialized message bytes handed to the writer (before compression).
     pub bytes: u64,
+    /// Messages lost because the recording had stopped.
     pub dropped: u64,
     /// The writer's error, once it has failed.
     pub failure: Option<String>,

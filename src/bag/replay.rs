@@ -66,16 +66,23 @@ impl Default for ReplayOptions {
 /// One object of a replay.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ShapeSummary {
+    /// The id the node gave the object (`shape_id` in its messages).
     pub shape_id: u32,
+    /// The input's frame.
     pub frame: String,
     /// "cloud" or "mesh".
     pub source: String,
+    /// Points deformed and published.
     pub points: usize,
     /// Handles, the rigid one included.
     pub handles: usize,
+    /// Steps taken (and timed).
     pub steps: usize,
+    /// Build time: voxels, inference and subspace, ms.
     pub build_ms: f64,
+    /// Median step time, ms.
     pub step_ms_median: f64,
+    /// 99th percentile step time, ms.
     pub step_ms_p99: f64,
     /// Largest distance of a point from its rest position over the replay, m.
     pub max_displacement_m: f64,
@@ -84,33 +91,43 @@ pub struct ShapeSummary {
 /// One object of the scene a replay ran (`scene` parameter).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct SceneObjectSummary {
+    /// The object's id (`shape_id` in its messages).
     pub shape_id: u32,
+    /// The object's name in the scene file.
     pub name: String,
+    /// Handles, the rigid one included.
     pub handles: usize,
+    /// Cubature points of its subspace.
     pub cubature: usize,
     /// Largest distance of a point from where it was when the scene was built, m.
     pub max_displacement_m: f64,
+    /// What was chosen for it (handles, cubature) and why.
     pub decision: String,
 }
 
 /// What a replay did.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ReplaySummary {
+    /// Recorded messages on the topics the node listens to.
     pub input_messages: usize,
     /// Inputs refused (each reported on the status topic with the reason).
     pub rejected: usize,
     /// The damaged parts of the recording, skipped (each also reported on the status topic).
     pub damage: Vec<String>,
+    /// The objects built from the recording's inputs, by id.
     pub shapes: Vec<ShapeSummary>,
     /// The scene's objects, when the parameters name a scene: its robots follow the recorded
     /// JointState messages.
     pub scene_objects: Vec<SceneObjectSummary>,
+    /// Simulation ticks run (at the `rate_hz` parameter).
     pub ticks: u64,
     /// Log time covered, s.
     pub sim_seconds: f64,
+    /// Wall-clock time of the replay loop, s.
     pub wall_seconds: f64,
     /// Simulated seconds per wall second.
     pub realtime_factor: f64,
+    /// What was recorded, when `record` was set.
     pub recording: Option<RecordSummary>,
 }
 
@@ -118,6 +135,7 @@ pub struct ReplaySummary {
 pub struct Tick<'a> {
     /// Log time, ns.
     pub time_ns: i64,
+    /// The stage after the tick: its bodies and their state.
     pub stage: &'a Stage,
 }
 

@@ -45,8 +45,11 @@ impl Default for RecordOptions {
 /// What a recording holds, over all its files.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct RecordSummary {
+    /// Each file, in the order written.
     pub files: Vec<FileSummary>,
+    /// Messages over all files.
     pub messages: u64,
+    /// Messages per topic name over all files.
     pub per_topic: BTreeMap<String, u64>,
 }
 
@@ -95,6 +98,9 @@ pub struct BagWriter {
 }
 
 impl BagWriter {
+    /// Checks the options and creates the first file (and its directory). An error: an option
+    /// out of range (`BagError::Options`), or a file that cannot be created or started
+    /// (`BagError::Io`, `BagError::Write`).
     pub fn create(options: RecordOptions) -> Result<Self, BagError> {
         let check = |ok: bool, what: &str| {
             if ok {
@@ -200,6 +206,7 @@ impl BagWriter {
         Ok(())
     }
 
+    /// The topics declared so far, in declaration order.
     pub fn topics(&self) -> &[TopicInfo] {
         &self.topics
     }

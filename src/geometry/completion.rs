@@ -30,21 +30,33 @@ pub const METHOD: &str = "reflected_through_centre";
 /// Why a view cannot be completed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum CompletionError {
+    /// The view has fewer than 200 points: too few to complete.
     #[error("the cloud is one camera's view of an object and has {count} points: at least {COMPLETED_FROM} are needed to complete it")]
-    TooFewPoints { count: usize },
+    TooFewPoints {
+        /// The view's points.
+        count: usize,
+    },
+    /// The view is a flat patch (thinner than 8 % of its width): its depth cannot be told.
     #[error("the cloud is one camera's view of a flat patch ({thickness:.3e} m thick over {width:.3e} m): one view cannot tell how deep the object is")]
-    FlatPatch { thickness: f64, width: f64 },
+    FlatPatch {
+        /// The patch's smallest principal extent, m.
+        thickness: f64,
+        /// Its middle principal extent, m.
+        width: f64,
+    },
 }
 
 /// What a completion did, for `shape_ready` and the subspace decision.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Completion {
+    /// The completion method's name: [`METHOD`].
     pub method: &'static str,
     /// Observed points over all points of the completed surface (observed and filled in at the
     /// same density).
     pub observed_fraction: f64,
     /// Fraction of view-ray bins that held two surfaces (low: one side was seen).
     pub two_sided_fraction: f64,
+    /// Points added to the surface (the hidden side and the side walls).
     pub added_points: usize,
     /// Estimated depth of the object along the view, m.
     pub depth: f64,
@@ -59,6 +71,7 @@ pub struct Completed {
     /// The surface and points filling it along the view rays: what the inside test voxelizes,
     /// so that no gap in a sparse hidden side lets the outside in.
     pub solid: Vec<Vector3<f64>>,
+    /// What the completion did.
     pub report: Completion,
 }
 

@@ -22,7 +22,9 @@ use super::voxel::VoxelGrid;
 /// No normals: a penetration's direction comes from the obstacle.
 #[derive(Clone, Debug, Default)]
 pub struct ContactSamples {
+    /// The points, in the shape's frame.
     pub points: Vec<Vector3<f64>>,
+    /// The surface area each point stands for, in the shape's units squared (m^2).
     pub areas: Vec<f64>,
 }
 

@@ -6,19 +6,26 @@ use rand_chacha::ChaCha8Rng;
 
 use super::voxel::VoxelGrid;
 
+/// Points inside a solid, each with the volume it stands for: integrals over the solid
+/// become weighted sums over the points.
 #[derive(Clone, Debug, Default)]
 pub struct Cubature {
+    /// The points, in the frame of the grid they were drawn from.
     pub points: Vec<Vector3<f64>>,
+    /// The volume of each point, in that frame's units cubed.
     pub volumes: Vec<f64>,
 }
 
 impl Cubature {
+    /// The number of points.
     pub fn len(&self) -> usize {
         self.points.len()
     }
+    /// Whether there are no points.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
+    /// The sum of the volumes.
     pub fn total_volume(&self) -> f64 {
         self.volumes.iter().sum()
     }

@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 /// than that is widened, so sparse outliers cannot make the grid huge.
 const CELLS_PER_POINT: usize = 8;
 
+/// A uniform grid over borrowed points for k-nearest-neighbour queries.
 pub struct PointIndex<'a> {
     points: &'a [Vector3<f64>],
     cell: f64,

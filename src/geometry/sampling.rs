@@ -11,7 +11,9 @@ use super::voxel::VoxelGrid;
 /// Points on the surface with unit outward normals.
 #[derive(Clone, Debug, Default)]
 pub struct SurfaceSamples {
+    /// The samples, in the shape's frame.
     pub points: Vec<Vector3<f64>>,
+    /// Each sample's unit outward normal.
     pub normals: Vec<Vector3<f64>>,
     /// Surface area each sample stands for (they add up to the surface area; for clouds, an estimate).
     pub areas: Vec<f64>,

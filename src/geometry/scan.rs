@@ -13,10 +13,13 @@ use crate::{Error, Result};
 /// A pinhole camera.
 #[derive(Clone, Debug)]
 pub struct Camera {
+    /// The camera's centre, in the shape's frame.
     pub position: Vector3<f64>,
     /// The point at the centre of the image.
     pub target: Vector3<f64>,
+    /// Image width, pixels.
     pub width: usize,
+    /// Image height, pixels.
     pub height: usize,
     /// Horizontal field of view.
     pub fov_deg: f64,

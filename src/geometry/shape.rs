@@ -9,17 +9,22 @@ use crate::error::{Error, Result};
 /// `normalized = (world - center) / scale`, where `scale` is half the longest bounding-box side.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Normalization {
+    /// The bounding box's centre, world units.
     pub center: Vector3<f64>,
+    /// Half the bounding box's longest side, world units.
     pub scale: f64,
 }
 
 impl Normalization {
+    /// A world point in the normalized cube.
     pub fn to_normalized(&self, world: &Vector3<f64>) -> Vector3<f64> {
         (world - self.center) / self.scale
     }
+    /// A normalized point in world units.
     pub fn to_world(&self, normalized: &Vector3<f64>) -> Vector3<f64> {
         normalized * self.scale + self.center
     }
+    /// The map that changes nothing (centre 0, scale 1).
     pub fn identity() -> Self {
         Self {
             center: Vector3::zeros(),
@@ -43,8 +48,11 @@ pub fn content_hash(positions: &[Vector3<f64>], triangles: &[[u32; 3]]) -> u64 {
 /// A triangle mesh, or a bare point cloud when `triangles` is empty. Positions are in world units.
 #[derive(Clone, Debug, Default)]
 pub struct Shape {
+    /// Vertex or point positions, world units (m).
     pub positions: Vec<Vector3<f64>>,
+    /// One normal per position when the input had them, as given.
     pub normals: Option<Vec<Vector3<f64>>>,
+    /// Triangles as indices into `positions`; empty for a point cloud.
     pub triangles: Vec<[u32; 3]>,
 }
 
@@ -85,6 +93,9 @@ impl Shape {
         Self::new(positions, normals, raw.triangles)
     }
 
+    /// Checks and builds a shape. An [`Error::Geometry`] when there are no positions, a
+    /// coordinate is not finite, the normals do not match the positions in number, a triangle
+    /// indexes past the positions, or all positions coincide.
     pub fn new(
         positions: Vec<Vector3<f64>>,
         normals: Option<Vec<Vector3<f64>>>,
@@ -187,10 +198,12 @@ impl Shape {
         Ok(())
     }
 
+    /// Whether the shape has no triangles.
     pub fn is_point_cloud(&self) -> bool {
         self.triangles.is_empty()
     }
 
+    /// The axis-aligned bounding box: (lowest, highest) corner.
     pub fn bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
         let mut lo = Vector3::repeat(f64::INFINITY);
         let mut hi = Vector3::repeat(f64::NEG_INFINITY);
@@ -201,6 +214,7 @@ impl Shape {
         (lo, hi)
     }
 
+    /// The length of the bounding box's diagonal, world units (m).
     pub fn bounding_diagonal(&self) -> f64 {
         let (lo, hi) = self.bounds();
         (hi - lo).norm()
@@ -228,6 +242,7 @@ impl Shape {
         }
     }
 
+    /// The corners of triangle `t`. Panics when `t` is out of range.
     pub fn triangle(&self, t: usize) -> [Vector3<f64>; 3] {
         self.triangles[t].map(|v| self.positions[v as usize])
     }

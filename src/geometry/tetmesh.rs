@@ -17,13 +17,17 @@ const KUHN_ORDERS: [[usize; 3]; 6] = [
     [2, 1, 0],
 ];
 
+/// A conforming tetrahedral mesh of a voxel grid's solid cells (six tetrahedra per cell),
+/// in the grid's frame.
 #[derive(Clone, Debug)]
 pub struct TetMesh {
+    /// The cell corners that solid cells use.
     pub vertices: Vec<Vector3<f64>>,
     /// Positively oriented tetrahedra.
     pub tets: Vec<[u32; 4]>,
     /// Vertices on the boundary, with the boundary area each stands for.
     pub boundary_vertices: Vec<u32>,
+    /// The boundary area each of `boundary_vertices` stands for.
     pub boundary_areas: Vec<f64>,
     grid: VoxelGrid,
     /// Corner (i, j, k) of the grid to vertex index.
@@ -34,12 +38,16 @@ pub struct TetMesh {
 /// weights (constant over the tetrahedron).
 #[derive(Clone, Copy, Debug)]
 pub struct TetLocation {
+    /// The tetrahedron's vertices.
     pub vertices: [u32; 4],
+    /// The point's barycentric weights of those vertices (they add up to 1).
     pub barycentric: [f64; 4],
+    /// The gradient of each weight with respect to position.
     pub gradients: [Vector3<f64>; 4],
 }
 
 impl TetMesh {
+    /// The mesh of `grid`'s solid cells; it keeps a copy of the grid.
     pub fn from_grid(grid: &VoxelGrid) -> TetMesh {
         let mut corner_vertex = HashMap::new();
         let mut vertices = Vec::new();
@@ -79,10 +87,12 @@ impl TetMesh {
         }
     }
 
+    /// The grid the mesh was made from.
     pub fn grid(&self) -> &VoxelGrid {
         &self.grid
     }
 
+    /// The solid's volume: solid cells times the cell volume.
     pub fn volume(&self) -> f64 {
         self.grid.solid_count() as f64 * self.grid.cell.powi(3)
     }

@@ -15,6 +15,7 @@ pub struct VoxelGrid {
     pub origin: Vector3<f64>,
     /// Edge length of one cell.
     pub cell: f64,
+    /// Cells along x, y and z.
     pub dims: [usize; 3],
     /// Cells the surface passes through (or that hold a cloud point).
     pub surface: Vec<bool>,
@@ -73,18 +74,22 @@ impl VoxelGrid {
         grid
     }
 
+    /// The number of cells.
     pub fn len(&self) -> usize {
         self.dims[0] * self.dims[1] * self.dims[2]
     }
 
+    /// Whether the grid has no cells.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
+    /// The linear index of cell (i, j, k), x fastest (the order of `surface` and `solid`).
     pub fn index(&self, [i, j, k]: [usize; 3]) -> usize {
         i + self.dims[0] * (j + self.dims[1] * k)
     }
 
+    /// The cell (i, j, k) of a linear index: the inverse of [`VoxelGrid::index`].
     pub fn coords(&self, index: usize) -> [usize; 3] {
         let i = index % self.dims[0];
         let j = (index / self.dims[0]) % self.dims[1];
@@ -99,10 +104,12 @@ impl VoxelGrid {
         })
     }
 
+    /// The centre of cell (i, j, k).
     pub fn cell_center(&self, [i, j, k]: [usize; 3]) -> Vector3<f64> {
         self.origin + Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * self.cell
     }
 
+    /// The lowest corner of cell (i, j, k); indices up to `dims` give the far corners.
     pub fn cell_corner(&self, [i, j, k]: [usize; 3]) -> Vector3<f64> {
         self.origin + Vector3::new(i as f64, j as f64, k as f64) * self.cell
     }
@@ -116,6 +123,7 @@ impl VoxelGrid {
         inside_box && self.solid[self.index(self.cell_of(p))]
     }
 
+    /// The number of solid cells.
     pub fn solid_count(&self) -> usize {
         self.solid.iter().filter(|&&s| s).count()
     }

@@ -8,8 +8,11 @@ use nalgebra::Vector3;
 /// What can go wrong drawing a field.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    /// The inputs do not fit together (weight count, fewer than two handles, normals) or a
+    /// weight is not finite.
     #[error("field image: {0}")]
     Input(String),
+    /// The PNG encoder failed.
     #[error("field image: png encoding: {0}")]
     Png(#[from] png::EncodingError),
 }

@@ -18,7 +18,9 @@ pub struct LineSeries<'a> {
 
 /// One panel: a title and its lines, on a y scale of their own.
 pub struct Panel<'a> {
+    /// Written above the panel.
     pub title: &'a str,
+    /// Its lines, drawn in order.
     pub series: Vec<LineSeries<'a>>,
 }
 

@@ -25,6 +25,7 @@ pub struct StripObject<'a> {
 pub struct StripFrame<'a> {
     /// Seconds since the recording's start, written above the frame.
     pub time_s: f64,
+    /// The objects drawn in the frame.
     pub objects: Vec<StripObject<'a>>,
 }
 

@@ -20,6 +20,9 @@ use crate::skinning::linear_gradients;
 /// dP/dF contracted with a tetrahedron's basis gradients: rows d + 3e of vec(F), columns 3a + d.
 type TetJacobian = SMatrix<f64, 9, 12>;
 
+/// The full-space reference simulation: every vertex of a tetrahedral mesh free (3 numbers
+/// each), stepped by implicit Euler with the same physics as [`ReducedSim`](super::ReducedSim),
+/// to measure the reduced simulation's error against.
 pub struct FemSim {
     mesh: Arc<TetMesh>,
     params: SimParams,
@@ -58,6 +61,9 @@ struct Evaluation {
 const TET_CHUNK: usize = 4096;
 
 impl FemSim {
+    /// A simulation of `mesh` (world units, m) at rest. An error when `params` are out of range
+    /// (`Error::InvalidParameter`) or the sparse pattern cannot be analysed
+    /// (`Error::LinearAlgebra`).
     pub fn new(mesh: Arc<TetMesh>, params: SimParams) -> Result<Self> {
         params.validate()?;
         let (jacobians, volumes): (Vec<_>, Vec<_>) = mesh
@@ -115,9 +121,11 @@ impl FemSim {
         })
     }
 
+    /// The tetrahedral mesh simulated.
     pub fn mesh(&self) -> &TetMesh {
         &self.mesh
     }
+    /// Simulated time, s (`dt` per step).
     pub fn time(&self) -> f64 {
         self.time
     }
@@ -125,6 +133,7 @@ impl FemSim {
     pub fn positions(&self) -> &[f64] {
         &self.x
     }
+    /// Lumped mass per vertex, kg.
     pub fn vertex_masses(&self) -> &[f64] {
         &self.masses
     }
@@ -154,6 +163,7 @@ impl FemSim {
         }
     }
 
+    /// Adds a static obstacle.
     pub fn add_obstacle(&mut self, obstacle: Obstacle) {
         self.obstacles.push(obstacle);
     }
@@ -175,6 +185,8 @@ impl FemSim {
         self.pokes.push((nearest, poke));
     }
 
+    /// Advances one implicit Euler step of `dt`. An error when the sparse Cholesky
+    /// factorization of a Newton step fails.
     pub fn step(&mut self) -> Result<StepReport> {
         let started = Instant::now();
         let predicted: Vec<f64> = self

@@ -21,6 +21,8 @@ pub struct Lifter {
 }
 
 impl Lifter {
+    /// Binds `points` (world units, mapped into the field's frame through `normalization`) to
+    /// `field`, evaluating its weights there once.
     pub fn new(
         field: &dyn SkinningField,
         normalization: &Normalization,
@@ -54,10 +56,12 @@ impl Lifter {
         }
     }
 
+    /// The number of points.
     pub fn len(&self) -> usize {
         self.count
     }
 
+    /// Handles, the constant one included.
     pub fn handles(&self) -> usize {
         self.handles
     }
@@ -67,6 +71,7 @@ impl Lifter {
         self.weights[(point / LANES) * self.handles + handle][point % LANES]
     }
 
+    /// Whether there are no points.
     pub fn is_empty(&self) -> bool {
         self.count == 0
     }

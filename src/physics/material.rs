@@ -19,6 +19,7 @@ const MAX_ITERATIONS: usize = 100;
 /// Convergence threshold of nalgebra's own `svd` / `symmetric_eigen`.
 const EPSILON: f64 = 5.0 * f64::EPSILON;
 
+/// The constitutive model: how strain energy depends on the deformation gradient.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MaterialModel {
@@ -30,10 +31,14 @@ pub enum MaterialModel {
     StableNeoHookean,
 }
 
+/// A constitutive model with its Lamé parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
+    /// The constitutive model.
     pub model: MaterialModel,
+    /// The shear modulus mu (Lamé's second parameter), Pa.
     pub mu: f64,
+    /// Lamé's first parameter lambda, Pa.
     pub lambda: f64,
 }
 

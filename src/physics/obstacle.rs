@@ -10,15 +10,27 @@ use parry3d::shape::SharedShape;
 pub enum Obstacle {
     /// Solid on the side opposite `normal`: points with `normal . p < offset` penetrate.
     /// Kept in f64: the floor is the most common contact and its energy feeds a line search.
-    Plane { normal: Vector3<f64>, offset: f64 },
+    Plane {
+        /// The unit normal, pointing out of the solid.
+        normal: Vector3<f64>,
+        /// The plane's distance from the origin along `normal`, m.
+        offset: f64,
+    },
     /// A parry3d shape at a pose (f32 geometry).
-    Shape { shape: SharedShape, pose: Pose },
+    Shape {
+        /// The shape, in its own frame.
+        shape: SharedShape,
+        /// Its pose in the world.
+        pose: Pose,
+    },
 }
 
 /// Penetration of a point into an obstacle: depth (> 0 inside) and the direction that pushes out.
 #[derive(Clone, Copy, Debug)]
 pub struct Penetration {
+    /// How deep the point is inside, m (> 0 inside).
     pub depth: f64,
+    /// The unit direction that pushes the point out.
     pub normal: Vector3<f64>,
 }
 
@@ -227,7 +239,10 @@ pub const STICK_SLIP: f64 = 1e-3;
 pub struct Stick {
     /// The contact point (or vertex) it belongs to.
     pub point: usize,
+    /// Where the point is tied: where it first touched, kept while it touches (dragged along
+    /// once it slips past [`STICK_SLIP`], carried with a moving obstacle).
     pub anchor: Vector3<f64>,
+    /// Two unit directions across the contact normal, along which the spring pulls.
     pub tangents: [Vector3<f64>; 2],
     /// N/m.
     pub stiffness: f64,

@@ -65,6 +65,8 @@ impl Default for SimParams {
 }
 
 impl SimParams {
+    /// Checks every parameter's range. An `Error::InvalidParameter` naming the first out of
+    /// range.
     pub fn validate(&self) -> crate::Result<()> {
         use crate::error::ensure;
         ensure(self.young.is_finite() && self.young > 0.0, "young", || {
@@ -121,6 +123,7 @@ impl SimParams {
         })
     }
 
+    /// The material of `model`, `young` and `poisson`.
     pub fn material(&self) -> super::material::Material {
         super::material::Material::from_young_poisson(self.model, self.young, self.poisson)
     }
@@ -135,5 +138,6 @@ pub struct Poke {
     pub force: Vector3<f64>,
     /// Active for start <= t < end, s.
     pub start: f64,
+    /// End of the window, s.
     pub end: f64,
 }

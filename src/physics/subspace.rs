@@ -88,6 +88,7 @@ impl Subspace {
         }
     }
 
+    /// The skinning field sampled.
     pub fn field(&self) -> &dyn SkinningField {
         self.field.as_ref()
     }
@@ -120,24 +121,31 @@ impl Subspace {
     pub fn dofs(&self) -> usize {
         12 * self.handles
     }
+    /// The number of cubature points.
     pub fn cubature_len(&self) -> usize {
         self.volumes.len()
     }
+    /// The cubature volumes, m^3.
     pub fn volumes(&self) -> &[f64] {
         &self.volumes
     }
+    /// The body's mass, kg: density times the cubature's total volume.
     pub fn total_mass(&self) -> f64 {
         self.total_mass
     }
+    /// Density, kg/m^3.
     pub fn density(&self) -> f64 {
         self.density
     }
+    /// The map from world units to the field's normalized frame.
     pub fn normalization(&self) -> &Normalization {
         &self.normalization
     }
+    /// sum_p rho v_p phi_p phi_p^T (4K x 4K): the reduced mass is this (x) I_3.
     pub fn mass_phi(&self) -> &DMatrix<f64> {
         &self.mass_phi
     }
+    /// sum_p rho v_p phi_p (4K): gravity's reduced force is this (x) g.
     pub fn mass_moment(&self) -> &DVector<f64> {
         &self.mass_moment
     }
@@ -149,6 +157,8 @@ impl Subspace {
         &self.mean_gradient
     }
 
+    /// The rotation of the body as a whole at `z`: the rotation of the polar decomposition of
+    /// its volume-weighted mean deformation gradient (the identity when its SVD fails).
     pub fn mean_rotation(&self, z: &DMatrix<f64>) -> Matrix3<f64> {
         let f = Matrix3::identity() + z * &self.mean_gradient;
         polar_rotation(&f).unwrap_or_else(Matrix3::identity)

@@ -17,10 +17,15 @@ use crate::Result;
 /// Where the build time went, ms.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct BuildTimings {
+    /// The inside test and the network's input samples.
     pub voxelize_ms: f64,
+    /// The network's forward pass.
     pub infer_ms: f64,
+    /// Cubature, subspace and simulator, its support and the solver's factorization.
     pub subspace_ms: f64,
+    /// The skinning weights at the input points.
     pub weights_ms: f64,
+    /// The whole build.
     pub total_ms: f64,
 }
 
@@ -418,10 +423,13 @@ impl SoftBody {
         &self.decision
     }
 
+    /// Replaces what [`SoftBody::decision`] reports (a scene states its own choice of handles
+    /// and cubature).
     pub fn set_decision(&mut self, decision: String) {
         self.decision = decision;
     }
 
+    /// The number of cubature points.
     pub fn cubature_len(&self) -> usize {
         self.cubature.len()
     }
@@ -534,6 +542,7 @@ impl SoftBody {
         &self.deformed
     }
 
+    /// The number of input points deformed.
     pub fn point_count(&self) -> usize {
         self.lifter.len()
     }
@@ -548,6 +557,7 @@ impl SoftBody {
         self.sim.state()
     }
 
+    /// The reduced velocity (3 x 4K): the handle matrix's change over the last step over dt.
     pub fn velocity(&self) -> DMatrix<f64> {
         self.sim.velocity()
     }
@@ -557,14 +567,17 @@ impl SoftBody {
         self.sim.time()
     }
 
+    /// The last step's report; None before the first step.
     pub fn last_step(&self) -> Option<&StepReport> {
         self.last.as_ref()
     }
 
+    /// Where the build time went.
     pub fn timings(&self) -> &BuildTimings {
         &self.timings
     }
 
+    /// The number of pinned points.
     pub fn pin_count(&self) -> usize {
         self.sim.pin_count()
     }

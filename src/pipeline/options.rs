@@ -30,6 +30,7 @@ pub struct BodyOptions {
     pub voxel_resolution: usize,
     /// Cubature points of the elastic energy. Default 256.
     pub cubature: usize,
+    /// Material, time step, gravity, damping, penalties, friction and solver tolerances.
     pub sim: SimParams,
     /// Default quasi-Newton.
     pub solver: Solver,

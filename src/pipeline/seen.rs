@@ -17,6 +17,7 @@ pub const DEFAULT_MAX_BUILD_POINTS: usize = 20_000;
 
 /// A built body and how it was read.
 pub struct SeenBody {
+    /// The body.
     pub body: SoftBody,
     /// What the completion of a view did (None: the input needed none).
     pub completion: Option<Completion>,

@@ -9,14 +9,19 @@ use super::names::{NameError, Remap};
 /// Why the ROS arguments were refused.
 #[derive(Debug, thiserror::Error)]
 pub enum RosArgsError {
+    /// The flag named needs a value and none followed.
     #[error("--ros-args: `{0}` needs a value")]
     MissingValue(String),
+    /// An argument rcl does not know.
     #[error("--ros-args: unknown ROS argument `{0}`")]
     Unknown(String),
+    /// A `-p` value that is not NAME:=VALUE.
     #[error("--ros-args: `-p {0}` is not NAME:=VALUE")]
     Param(String),
+    /// A log level that is none of the five.
     #[error("--ros-args: log level `{0}` is none of debug, info, warn, error, fatal")]
     LogLevel(String),
+    /// A remapping rule or a name in it was refused.
     #[error("--ros-args: {0}")]
     Name(#[from] NameError),
 }
@@ -24,14 +29,20 @@ pub enum RosArgsError {
 /// Severity of a log line, with rcl's numbers (rcl_interfaces/msg/Log).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum LogLevel {
+    /// rcl's DEBUG (10).
     Debug = 10,
+    /// rcl's INFO (20).
     Info = 20,
+    /// rcl's WARN (30).
     Warn = 30,
+    /// rcl's ERROR (40).
     Error = 40,
+    /// rcl's FATAL (50).
     Fatal = 50,
 }
 
 impl LogLevel {
+    /// Parses a level name in any case (`warning` also means warn).
     pub fn parse(text: &str) -> Result<Self, RosArgsError> {
         Ok(match text.to_ascii_lowercase().as_str() {
             "debug" => Self::Debug,
@@ -47,6 +58,7 @@ impl LogLevel {
 /// Everything the `--ros-args` sections of a command line said.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RosArgs {
+    /// `-r [node:]FROM:=TO` rules, in order, `__node` and `__ns` included.
     pub remaps: Vec<Remap>,
     /// `-p NAME:=VALUE`, VALUE as YAML text, in order (a later one wins).
     pub params: Vec<(String, String)>,

@@ -21,12 +21,16 @@ use crate::skinning::NeuralModel;
 /// New geometry for the object in `frame` (with `label`, one of the frame's labelled objects).
 #[derive(Clone, Debug)]
 pub struct BuildRequest {
+    /// The frame_id the geometry arrived in.
     pub frame: String,
     /// The object's instance id in a labelled cloud; None: the frame's one object.
     pub label: Option<i64>,
     /// "cloud" or "mesh", for messages.
     pub source: &'static str,
+    /// The cloud's points or the mesh's vertices, in `frame` (or the fixed frame once
+    /// moved there), m.
     pub points: Vec<Vector3<f64>>,
+    /// The mesh's triangles; empty for a cloud.
     pub triangles: Vec<[u32; 3]>,
     /// Points dropped while decoding (NaN or Inf).
     pub dropped: usize,
@@ -43,6 +47,7 @@ pub struct BuildRequest {
 
 /// A built body on its way to the stepper.
 pub struct ReadyBody {
+    /// The object's id (`shape_id` in its messages).
     pub id: u32,
     /// The input's frame.
     pub frame: String,
@@ -52,6 +57,7 @@ pub struct ReadyBody {
     pub template: Option<CloudTemplate>,
     /// The frame its outputs are in: the fixed frame, or `frame`.
     pub output_frame: String,
+    /// The body.
     pub body: SoftBody,
     /// Its surface for ~/markers (None when markers are off).
     pub surface: Option<MarkerSurface>,
@@ -61,7 +67,9 @@ pub struct ReadyBody {
 /// labelled. Objects are replaced, kept alive and removed by key.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ObjectKey {
+    /// The frame its geometry comes in.
     pub frame: String,
+    /// Its instance id in the frame's labelled clouds; None: the frame's one object.
     pub label: Option<i64>,
 }
 
@@ -267,6 +275,8 @@ pub struct Announcement {
 }
 
 impl Announcement {
+    /// Publishes the body's weights (on the weights topics, and over iceoryx2 when it is on)
+    /// and its `shape_ready` status.
     pub fn publish(self, outputs: &Outputs) {
         outputs.publish_weights(
             self.id,
@@ -281,6 +291,7 @@ impl Announcement {
 
 /// What became of a request.
 pub enum BuildOutcome {
+    /// Built: the body for the stepper, and what to announce once the stepper has it.
     Ready(Box<ReadyBody>, Announcement),
     /// The frame already runs this geometry.
     Unchanged,
@@ -416,11 +427,17 @@ fn build_body(
 
 /// What the build thread shares with the rest of the node.
 pub struct BuildContext {
+    /// The node's parameters, as they are now.
     pub params: Arc<RwLock<NodeParams>>,
+    /// The network that infers skinning fields.
     pub model: Arc<NeuralModel>,
+    /// Where statuses and weights go.
     pub outputs: SharedOutputs,
+    /// The transforms into the fixed frame.
     pub tf: Arc<RwLock<TfBuffer>>,
+    /// Counters for /diagnostics (the queued builds).
     pub health: Arc<super::diagnostics::Health>,
+    /// Which geometry each object runs, shared with the stepper.
     pub registry: BuiltRegistry,
     /// Ids up to this belong to the scene's objects.
     pub reserved_ids: u32,

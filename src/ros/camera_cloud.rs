@@ -21,6 +21,7 @@ pub struct SeenObject<'a> {
     pub shape: &'a Shape,
     /// Its id in the cloud's `instance` field; 0 marks background.
     pub instance: u16,
+    /// Its colour in the cloud's packed `rgb` field.
     pub rgb: [u8; 3],
 }
 

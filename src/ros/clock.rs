@@ -9,12 +9,14 @@ use super::messages::Time;
 /// Where stamps and the step schedule take their time from.
 #[derive(Clone)]
 pub enum NodeClock {
+    /// The system clock (Unix time).
     Wall,
     /// Nanoseconds of the last /clock message; negative until the first arrives.
     Sim(Arc<AtomicI64>),
 }
 
 impl NodeClock {
+    /// A simulated clock that has not started: it starts with the first [`NodeClock::set`].
     pub fn simulated() -> Self {
         NodeClock::Sim(Arc::new(AtomicI64::new(-1)))
     }
@@ -35,6 +37,7 @@ impl NodeClock {
         }
     }
 
+    /// Now as a ROS Time; 0 while a simulated clock has not started.
     pub fn now(&self) -> Time {
         Time::from_nanos(self.now_nanos().unwrap_or(0))
     }
@@ -47,6 +50,7 @@ impl NodeClock {
         }
     }
 
+    /// Whether the clock follows /clock.
     pub fn is_simulated(&self) -> bool {
         matches!(self, NodeClock::Sim(_))
     }

@@ -5,54 +5,94 @@ use nalgebra::Vector3;
 
 use super::messages::{Header, PointCloud2, PointField};
 
+/// PointField datatype FLOAT32.
 pub const FLOAT32: u8 = 7;
+/// PointField datatype FLOAT64.
 pub const FLOAT64: u8 = 8;
 
 /// Why a PointCloud2 could not be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CloudError {
+    /// No field of this name (x, y or z); the second part lists the fields there are.
     #[error("PointCloud2 has no `{0}` field (fields: {1})")]
     MissingField(&'static str, String),
+    /// A coordinate field is neither FLOAT32 nor FLOAT64.
     #[error("PointCloud2 field `{name}` has datatype {datatype}; x, y and z must be FLOAT32 (7) or FLOAT64 (8)")]
-    UnsupportedDatatype { name: &'static str, datatype: u8 },
+    UnsupportedDatatype {
+        /// The field: x, y or z.
+        name: &'static str,
+        /// Its datatype.
+        datatype: u8,
+    },
+    /// A coordinate field does not fit inside the point record.
     #[error(
         "PointCloud2 field `{name}` at offset {offset} does not fit in point_step {point_step}"
     )]
     FieldOutsidePoint {
+        /// The field: x, y or z.
         name: &'static str,
+        /// Its offset in the record, bytes.
         offset: u32,
+        /// The record's size, bytes.
         point_step: u32,
     },
+    /// A row is shorter than its points.
     #[error(
         "PointCloud2 row_step {row_step} is smaller than width {width} x point_step {point_step}"
     )]
     RowTooShort {
+        /// Bytes per row.
         row_step: u32,
+        /// Points per row.
         width: u32,
+        /// Bytes per point.
         point_step: u32,
     },
+    /// `data` does not hold `row_step` x `height` bytes.
     #[error("PointCloud2 data holds {actual} bytes but row_step {row_step} x height {height} = {expected}")]
     DataLength {
+        /// Bytes in `data`.
         actual: usize,
+        /// `row_step` x `height`.
         expected: u64,
+        /// Bytes per row.
         row_step: u32,
+        /// Rows.
         height: u32,
     },
+    /// More points than the limit.
     #[error("PointCloud2 holds {count} points, more than max_points = {cap}")]
-    TooManyPoints { count: u64, cap: usize },
+    TooManyPoints {
+        /// width x height.
+        count: u64,
+        /// The limit, `max_points`.
+        cap: usize,
+    },
+    /// width x height is 0.
     #[error("PointCloud2 holds no points (width {width} x height {height})")]
-    Empty { width: u32, height: u32 },
+    Empty {
+        /// Points per row.
+        width: u32,
+        /// Rows.
+        height: u32,
+    },
+    /// Every point has a NaN or infinite coordinate.
     #[error("PointCloud2 holds no finite point ({dropped} with NaN or Inf coordinates dropped)")]
-    NoFinitePoints { dropped: usize },
+    NoFinitePoints {
+        /// The points dropped: all of them.
+        dropped: usize,
+    },
 }
 
 /// The finite points of a cloud, in order, and how many were dropped for NaN or Inf.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DecodedCloud {
+    /// The finite points, in the cloud's frame.
     pub points: Vec<Vector3<f64>>,
     /// Per point: its index among the cloud's width x height points (row-major), so that
     /// outputs can put it back in its place.
     pub pixels: Vec<u32>,
+    /// Points dropped for a NaN or infinite coordinate.
     pub dropped: usize,
 }
 

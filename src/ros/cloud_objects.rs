@@ -15,18 +15,32 @@ pub const INSTANCE_FIELDS: [&str; 4] = ["instance", "label", "segment", "object_
 /// Why a cloud's instance field could not be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum InstanceError {
+    /// The field's datatype is not a PointField number type.
     #[error("instance field `{name}` has datatype {datatype}, not a number type (1 to 8)")]
-    Datatype { name: String, datatype: u8 },
+    Datatype {
+        /// The field's name.
+        name: String,
+        /// Its datatype.
+        datatype: u8,
+    },
+    /// The field does not fit inside the point record.
     #[error("instance field `{name}` at offset {offset} does not fit in point_step {point_step}")]
     OutsidePoint {
+        /// The field's name.
         name: String,
+        /// Its offset in the record, bytes.
         offset: u32,
+        /// The record's size, bytes.
         point_step: u32,
     },
+    /// A point's id is fractional or infinite (NaN counts as background, 0).
     #[error("instance field `{name}` holds {value} at point {index}: ids are whole numbers")]
     NotWhole {
+        /// The field's name.
         name: String,
+        /// The value read.
         value: f64,
+        /// The point's index among the cloud's width x height points (row-major).
         index: usize,
     },
 }
@@ -180,6 +194,7 @@ impl CloudTemplate {
         self.pixels.len()
     }
 
+    /// Whether the object has no points in the output.
     pub fn is_empty(&self) -> bool {
         self.pixels.is_empty()
     }

@@ -16,20 +16,28 @@ use crate::bag::{QosProfile, TopicInfo};
 /// Why the node could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum NodeError {
+    /// DDS refused: a context, topic, publisher, subscription or server could not be made.
     #[error("DDS: {0}")]
     Dds(String),
+    /// ros2_client refused a node, topic or service name.
     #[error("invalid node name: {0}")]
     Name(String),
+    /// The parameters were refused.
     #[error(transparent)]
     Params(#[from] super::params::ParamError),
+    /// The signal handler could not be installed.
     #[error("signal handler: {0}")]
     Signal(String),
+    /// A name could not be expanded or remapped.
     #[error(transparent)]
     Names(#[from] super::names::NameError),
+    /// The `--ros-args` were refused.
     #[error(transparent)]
     RosArgs(#[from] super::args::RosArgsError),
+    /// The recording could not start.
     #[error(transparent)]
     Record(#[from] crate::bag::BagError),
+    /// The scene file named by the `scene` parameter could not be read.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
 }
@@ -103,6 +111,8 @@ fn topic_of<M: RosMessage>(
         .map_err(|e| NodeError::Dds(format!("topic `{name}`: {e:?}")))
 }
 
+/// A publisher of `M` on the topic `name` with `qos`. An error when the name is refused or
+/// DDS cannot create it.
 pub fn publisher<M: RosMessage>(
     node: &mut Node,
     name: &str,
@@ -113,6 +123,8 @@ pub fn publisher<M: RosMessage>(
         .map_err(|e| NodeError::Dds(format!("publisher `{name}`: {e:?}")))
 }
 
+/// A subscription to `M` on the topic `name` with `qos`. An error when the name is refused or
+/// DDS cannot create it.
 pub fn subscription<M: RosMessage>(
     node: &mut Node,
     name: &str,

@@ -36,6 +36,7 @@ impl Health {
         }
     }
 
+    /// Counts ticks the stepper skipped because it was behind schedule.
     pub fn missed(&self, ticks: u64) {
         self.missed_total.fetch_add(ticks, Ordering::Relaxed);
         if let Ok(mut w) = self.window.lock() {

@@ -4,10 +4,18 @@
 /// Why a name or a rule was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NameError {
+    /// The name is empty or ends with `/`.
     #[error("name `{0}` is empty or ends with `/`")]
     Empty(String),
+    /// The name breaks ROS 2's rules.
     #[error("name `{name}`: {reason}")]
-    Invalid { name: String, reason: String },
+    Invalid {
+        /// The name.
+        name: String,
+        /// The rule it breaks.
+        reason: String,
+    },
+    /// A remapping rule is not `FROM:=TO` with both sides non-empty.
     #[error("remapping rule `{0}` is not FROM:=TO")]
     Rule(String),
 }
@@ -17,7 +25,9 @@ pub enum NameError {
 pub struct Remap {
     /// Only for the node of this (original) name, when given.
     pub node: Option<String>,
+    /// The name remapped (or `__node`, `__name`, `__ns`).
     pub from: String,
+    /// What it becomes.
     pub to: String,
 }
 
@@ -50,6 +60,7 @@ impl Remap {
 pub struct NameResolver {
     /// Absolute, "/" for the root namespace.
     pub namespace: String,
+    /// The node's name, after `__node:=`.
     pub node: String,
     /// The node's name before `__node:=`: rules prefixed with it apply.
     original_node: String,
@@ -63,6 +74,7 @@ impl Default for NameResolver {
 }
 
 impl NameResolver {
+    /// The node `node` in `namespace` (made absolute), without remapping rules.
     pub fn new(namespace: &str, node: &str) -> Self {
         Self {
             namespace: absolute_namespace(namespace),

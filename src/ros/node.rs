@@ -26,6 +26,7 @@ use crate::skinning::NeuralModel;
 /// How to start the node.
 #[derive(Clone, Debug)]
 pub struct NodeConfig {
+    /// The node's parameters.
     pub params: NodeParams,
     /// The node's name and namespace after `__node:=`/`__ns:=`, and the remapping rules.
     /// Default node `physskin` in `/`.
@@ -61,6 +62,7 @@ impl Default for NodeConfig {
 }
 
 impl NodeConfig {
+    /// The node's `/namespace/name`.
     pub fn fully_qualified_name(&self) -> String {
         self.names.fully_qualified_name()
     }

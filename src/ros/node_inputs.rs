@@ -39,6 +39,9 @@ pub struct Inputs {
 }
 
 impl Inputs {
+    /// Subscribes to the input topics (with their QoS and overrides), /clock, /tf,
+    /// /tf_static and the scene robots' joint-state topics, declaring those to the recorder. An
+    /// error when a name is refused or DDS cannot create a subscription.
     pub fn create(
         node: &mut Node,
         t: &Topics,
@@ -88,6 +91,8 @@ pub struct Control {
 }
 
 impl Control {
+    /// Creates both servers under the node's resolved names. An error when a name is
+    /// refused or DDS cannot create a server.
     pub fn create(node: &mut Node, names: &NameResolver) -> Result<Self, NodeError> {
         Ok(Self {
             reset: trigger_server(node, &names.resolve("~/reset")?)?,

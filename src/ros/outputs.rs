@@ -21,11 +21,17 @@ use crate::shm::ShmPublisher;
 
 /// The node's DDS publishers (absent when switched off in `publish.*`).
 pub struct Publishers {
+    /// The deformed points (`publish.deformed_points`).
     pub deformed_points: Option<Publisher<PointCloud2>>,
+    /// The weights as physskin/SkinningWeights (`publish.weights`).
     pub weights: Option<Publisher<SkinningWeights>>,
+    /// The weights as a PointCloud2 (`publish.weights_cloud`).
     pub weights_cloud: Option<Publisher<PointCloud2>>,
+    /// The reduced state after each step (`publish.state`).
     pub state: Option<Publisher<SubspaceState>>,
+    /// What the node did with its inputs; always on.
     pub status: Publisher<Status>,
+    /// The deformed surfaces for RViz (when `markers.rate_hz` > 0).
     pub markers: Option<Publisher<MarkerArray>>,
 }
 
@@ -86,16 +92,22 @@ pub fn topic_table(topics: &Topics) -> Vec<TopicInfo> {
 
 /// tf2's topics: global names, never remapped by the node's namespace.
 pub const TF: &str = "/tf";
+/// tf2's topic of static transforms.
 pub const TF_STATIC: &str = "/tf_static";
 
 /// Where outputs go, shared by the build and step threads.
 pub struct Outputs {
+    /// The DDS publishers; None in a replay.
     pub dds: Option<Publishers>,
+    /// The recording, when one was asked for.
     pub recorder: Option<Recorder>,
     /// Zero-copy hand-off to local programs.
     pub shm: Option<ShmPublisher>,
+    /// The topic names, resolved.
     pub topics: Topics,
+    /// Which outputs are published.
     pub publish: PublishParams,
+    /// Where stamps take their time from.
     pub clock: NodeClock,
     /// Put wall-clock timings (step_time_ms, build times) into messages. Replays leave them
     /// out so that two replays give identical bytes; they print them instead.
@@ -107,6 +119,7 @@ pub struct Outputs {
 }
 
 impl Outputs {
+    /// A header in `frame`, stamped now by `clock`.
     pub fn header(&self, frame: &str) -> Header {
         Header {
             stamp: self.clock.now(),
@@ -306,6 +319,7 @@ impl Outputs {
     }
 }
 
+/// The outputs, shared between the node's threads.
 pub type SharedOutputs = Arc<Outputs>;
 
 /// Whether a step's deformed cloud goes out, and in which layout.
@@ -320,6 +334,7 @@ pub enum DeformedCloud<'a> {
 }
 
 impl<'a> DeformedCloud<'a> {
+    /// The input cloud's layout when there is one, else x, y, z only.
     pub fn of(template: Option<&'a CloudTemplate>) -> Self {
         template.map_or(Self::XyzOnly, Self::Template)
     }

@@ -14,7 +14,9 @@ use super::qos_overrides::QosOverrides;
 /// Parameters built up from their sources, with the QoS overrides and what was ignored.
 #[derive(Clone, Debug, Default)]
 pub struct ParamLoader {
+    /// The parameters: defaults, then each source applied in order.
     pub params: NodeParams,
+    /// The `qos_overrides.*` parameters found.
     pub qos: QosOverrides,
     /// Parameters of shared sections this node does not have, one line each.
     pub warnings: Vec<String>,

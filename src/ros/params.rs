@@ -174,9 +174,13 @@ impl Default for InferenceParams {
 pub struct PublishParams {
     /// Deformed clouds per second, at most the step rate; 0: one per step. Default 0.
     pub rate_hz: f64,
+    /// Publish the deformed points. Default true.
     pub deformed_points: bool,
+    /// Publish each shape's weights as physskin/SkinningWeights. Default true.
     pub weights: bool,
+    /// Publish each shape's weights as a PointCloud2. Default true.
     pub weights_cloud: bool,
+    /// Publish the reduced state after each step. Default true.
     pub state: bool,
 }
 
@@ -298,14 +302,23 @@ pub struct NodeParams {
     /// The field of a cloud that splits it into objects by instance id (0: background). With
     /// the default, "instance", also `label`, `segment` or `object_id`. Default "instance".
     pub instance_field: String,
+    /// The tf2 buffer and wait.
     pub tf: TfParams,
+    /// RViz markers of the deformed surfaces.
     pub markers: MarkerParams,
+    /// Topic names.
     pub topics: Topics,
+    /// Material of new shapes.
     pub material: MaterialParams,
+    /// Simulation of new shapes.
     pub simulation: SimulationParams,
+    /// Inference of new shapes.
     pub inference: InferenceParams,
+    /// Which outputs are published.
     pub publish: PublishParams,
+    /// MCAP recording.
     pub record: RecordParams,
+    /// The iceoryx2 hand-off.
     pub shm: ShmParams,
     /// Scene file (config/scenes/*.yaml): its objects are built and simulated, and its robots
     /// follow their joint-state topics. Read-only after start. Default "" (none).
@@ -395,6 +408,8 @@ impl NodeParams {
         self.with(name, from_ros(value))
     }
 
+    /// Checks every parameter's range, the solver's name and the simulation parameters
+    /// they make. An `Error::InvalidParameter` naming the first out of range.
     pub fn validate(&self) -> crate::Result<()> {
         use crate::error::ensure;
         ensure(
@@ -481,6 +496,7 @@ impl NodeParams {
         self.sim_params().validate()
     }
 
+    /// The solver named by `simulation.solver`; an `Error::InvalidParameter` for another name.
     pub fn solver(&self) -> crate::Result<Solver> {
         match self.simulation.solver.as_str() {
             "newton" => Ok(Solver::Newton),

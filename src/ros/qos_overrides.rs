@@ -11,7 +11,9 @@ use crate::bag::QosProfile;
 /// Which side of a topic an override is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Endpoint {
+    /// The node's publisher on the topic.
     Publisher,
+    /// The node's subscription to the topic.
     Subscription,
 }
 

@@ -16,6 +16,7 @@ use super::stepper::StepperCommand;
 impl ros2_client::Message for TriggerRequest {}
 impl ros2_client::Message for TriggerResponse {}
 
+/// The std_srvs/Trigger service type.
 pub type Trigger = AService<TriggerRequest, TriggerResponse>;
 
 /// ROS 2's default service QoS: reliable, volatile, keep-last 10.
@@ -46,7 +47,9 @@ pub fn trigger_server(node: &mut Node, name: &str) -> Result<Server<Trigger>, No
 /// Which control request a server forwards.
 #[derive(Clone, Copy)]
 pub enum Control {
+    /// `~/reset`: every object back to rest.
     Reset,
+    /// `~/clear`: every object removed.
     Clear,
 }
 

@@ -196,6 +196,7 @@ impl Stage {
         }
     }
 
+    /// The bodies built from inputs, in the order they joined (a scene's are not among them).
     pub fn bodies(&self) -> &[ReadyBody] {
         &self.bodies
     }
@@ -299,6 +300,8 @@ impl Stage {
         outputs.report(Status::INFO, b.id, "shape_removed", message);
     }
 
+    /// Applies an interaction (force, pin, release or REMOVE) to the objects it names, the
+    /// scene's included; one that cannot be applied is reported as `interaction_ignored`.
     pub fn interact(&mut self, i: &Interaction, outputs: &Outputs) {
         if i.kind == Interaction::REMOVE {
             return self.remove_matching(i, outputs);

@@ -12,19 +12,27 @@ use super::outputs::SharedOutputs;
 use super::stage::Stage;
 use crate::scene::Scene;
 
+/// What the stepping thread is asked between ticks.
 pub enum StepperCommand {
+    /// A built body joins the stage (replacing the object of the same key).
     Add(Box<ReadyBody>),
+    /// A force, pin, release or removal for one object.
     Interact(Interaction),
     /// A scene's objects and robots join the stage; its objects get ids from `first_id` and
     /// publish in `frame` (the scene's world frame).
     Scene {
+        /// The scene.
         scene: Box<Scene>,
+        /// The id of its first object; the others follow.
         first_id: u32,
+        /// The frame its objects publish in.
         frame: String,
     },
     /// A joint state for the robots on its topic.
     Joints {
+        /// The names of the robots on the state's topic.
         robots: Vec<String>,
+        /// The joint state.
         state: JointState,
     },
     /// Geometry arrived for this object (it is still wanted).
@@ -38,6 +46,7 @@ pub enum StepperCommand {
 /// Counters the stepper keeps for the node's final report.
 #[derive(Clone, Debug, Default)]
 pub struct StepperStats {
+    /// Ticks run.
     pub ticks: u64,
     /// Ticks skipped because a tick ran past the next one's start.
     pub missed: u64,

@@ -10,20 +10,39 @@ use super::messages::TransformStamped;
 /// Why a transform is not available.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TfError {
+    /// No transform names this frame.
     #[error("frame `{0}` is not known to tf (no transform names it)")]
     UnknownFrame(String),
+    /// Both frames are known but no chain of transforms joins them.
     #[error("frames `{target}` and `{from}` are not connected in the tf tree")]
-    NotConnected { target: String, from: String },
+    NotConnected {
+        /// The frame looked up in.
+        target: String,
+        /// The frame looked up.
+        from: String,
+    },
+    /// A dynamic transform on the way is not known at the stamp asked for.
     #[error("transform `{parent}` -> `{child}` is not known at {at_s:.3} s (known from {from_s:.3} to {to_s:.3} s)")]
     Extrapolation {
+        /// The transform's parent frame.
         parent: String,
+        /// Its child frame.
         child: String,
+        /// The stamp asked for, s.
         at_s: f64,
+        /// The oldest stamp kept, s.
         from_s: f64,
+        /// The newest stamp kept, s.
         to_s: f64,
     },
+    /// A transform received has a non-finite value or a zero quaternion; it was not taken.
     #[error("transform `{parent}` -> `{child}` is not finite")]
-    NotFinite { parent: String, child: String },
+    NotFinite {
+        /// The transform's parent frame.
+        parent: String,
+        /// Its child frame.
+        child: String,
+    },
 }
 
 /// One frame's transforms to its parent: a static one, or stamped ones in time order.
@@ -42,6 +61,7 @@ pub struct TfBuffer {
 }
 
 impl TfBuffer {
+    /// An empty buffer that keeps dynamic transforms for `buffer_s` seconds.
     pub fn new(buffer_s: f64) -> Self {
         Self {
             links: HashMap::new(),

@@ -29,7 +29,9 @@ const CUBATURE_STEPS: [usize; 3] = [64, 128, 256];
 /// The size chosen for one object, and the evidence.
 #[derive(Clone, Debug, Serialize)]
 pub struct Choice {
+    /// Handles, the constant one included.
     pub handles: usize,
+    /// Cubature points.
     pub cubature: usize,
     /// Its probe error against the FEM, % of the object's size.
     pub error_pct: f64,
@@ -37,6 +39,7 @@ pub struct Choice {
     pub met: bool,
     /// The largest size tried and its error.
     pub largest: (usize, usize, f64),
+    /// Sizes (handles, cubature) probed.
     pub tried: usize,
 }
 

@@ -9,6 +9,8 @@ use serde::{Deserialize, Serialize};
 use super::SceneError;
 use crate::pipeline::{SleepRule, Support};
 
+/// A scene file: the objects, the robots, and what every object shares (gravity, floor,
+/// damping, friction, sleeping, the error budget).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
@@ -38,14 +40,18 @@ pub struct SceneFile {
     /// When still objects sleep; absent: `{speed: 1e-3, after: 0.5}`. `sleep: null` never.
     #[serde(default = "default_sleep")]
     pub sleep: Option<SleepRule>,
+    /// The robots, driven by joint states or their `motion`.
     #[serde(default)]
     pub robots: Vec<RobotSpec>,
+    /// The objects; at least one, each with a name of its own.
     pub objects: Vec<ObjectSpec>,
 }
 
+/// A robot of the scene: its URDF, where it stands and how its joints move.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RobotSpec {
+    /// Its name, which attachments refer to.
     pub name: String,
     /// Relative to the scene file.
     pub urdf: PathBuf,
@@ -61,6 +67,7 @@ pub struct RobotSpec {
     pub motion: Vec<Keyframe>,
 }
 
+/// Joint positions at one time of a robot's scripted motion.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Keyframe {
@@ -70,9 +77,11 @@ pub struct Keyframe {
     pub positions: BTreeMap<String, f64>,
 }
 
+/// A pose as URDF writes it: a translation and roll, pitch, yaw.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PoseSpec {
+    /// Translation, m.
     #[serde(default)]
     pub xyz: [f64; 3],
     /// Roll, pitch, yaw (rad) about fixed x, y, z, as URDF writes them.
@@ -80,9 +89,12 @@ pub struct PoseSpec {
     pub rpy: [f64; 3],
 }
 
+/// An object of the scene: where its geometry comes from, what it is, its material, size and
+/// support.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectSpec {
+    /// Its name, unique in the scene.
     pub name: String,
     /// Default deformable.
     #[serde(default)]
@@ -101,6 +113,7 @@ pub struct ObjectSpec {
     /// Where the geometry is placed (a translation). Default the origin.
     #[serde(default)]
     pub position: [f64; 3],
+    /// Its material. Default Young's modulus 2e5 Pa, Poisson ratio 0.45, 1000 kg/m^3.
     #[serde(default)]
     pub material: MaterialSpec,
     /// Handles, the constant one included: a number, or `auto` to take the fewest that meet the
@@ -138,12 +151,17 @@ pub enum ObjectKind {
 /// Where an object's geometry comes from (exactly one of `file`, `shape`, `topic`).
 #[derive(Clone, Debug)]
 pub enum Source<'a> {
+    /// A mesh or cloud file.
     File(&'a Path),
+    /// Geometry made in code.
     Shape(&'a ShapeSpec),
+    /// The frame_id the geometry arrives under on the node's input topics.
     Topic(&'a str),
 }
 
 impl ObjectSpec {
+    /// Where the geometry comes from (`file` first, then `shape`, then `topic`). Panics on a
+    /// spec that holds none (a checked scene file never does).
     pub fn source(&self) -> Source<'_> {
         match (&self.file, &self.shape, &self.topic) {
             (Some(f), _, _) => Source::File(f),
@@ -154,15 +172,21 @@ impl ObjectSpec {
     }
 }
 
+/// Geometry made in code, centred at the origin (then placed at the object's `position`), m.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ShapeSpec {
+    /// A box of these side lengths along x, y, z.
     Box([f64; 3]),
+    /// A ball of this radius.
     Sphere(f64),
+    /// A capsule along x: [length end to end, radius].
     Capsule([f64; 2]),
+    /// A bundled shape by name (`plate`, `rod`, `creature`, `box`, `sphere`).
     Bundled(String),
 }
 
+/// An object's material.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
@@ -190,7 +214,9 @@ impl Default for MaterialSpec {
 /// A number, or `auto`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Resolution {
+    /// This many.
     Fixed(usize),
+    /// The fewest that keep the object within the scene's error budget.
     #[default]
     Auto,
 }
@@ -223,14 +249,19 @@ impl<'de> Deserialize<'de> for Resolution {
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Region {
+    /// Its centre, m.
     pub center: [f64; 3],
+    /// Its radius, m.
     pub radius: f64,
 }
 
+/// A region of an object held by a robot link.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Attachment {
+    /// The robot's name.
     pub robot: String,
+    /// The link's name in the robot's URDF.
     pub link: String,
     /// The material held (world, at rest, with the robot at its first pose). For a rigid
     /// object, ignored: all of it moves with the link.

@@ -22,16 +22,37 @@ pub use world::{FieldCache, ObjectReport, Scene, SceneOptions};
 /// What is wrong with a scene or a robot description.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
+    /// A scene or URDF file could not be read.
     #[error("cannot read {path}: {source}")]
     Read {
+        /// The file.
         path: PathBuf,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
+    /// The scene file is not valid YAML for a scene, or a value in it is out of range.
     #[error("scene {path}: {reason}")]
-    Invalid { path: PathBuf, reason: String },
+    Invalid {
+        /// The scene file.
+        path: PathBuf,
+        /// The key and what is wrong with it.
+        reason: String,
+    },
+    /// A robot's URDF could not be used.
     #[error("URDF {path}: {reason}")]
-    Urdf { path: PathBuf, reason: String },
+    Urdf {
+        /// The URDF file.
+        path: PathBuf,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// One object could not be built (its geometry, its attachment, its simulation).
     #[error("scene object `{object}`: {reason}")]
-    Object { object: String, reason: String },
+    Object {
+        /// The object's name.
+        object: String,
+        /// Why.
+        reason: String,
+    },
 }

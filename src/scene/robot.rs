@@ -165,14 +165,17 @@ impl Robot {
         })
     }
 
+    /// The robot's name as its URDF gives it.
     pub fn name(&self) -> &str {
         &self.name
     }
 
+    /// The index of the link named `name`; None when the robot has none such.
     pub fn link(&self, name: &str) -> Option<usize> {
         self.link_index.get(name).copied()
     }
 
+    /// Whether the robot has a joint named `name` (fixed joints included).
     pub fn has_joint(&self, name: &str) -> bool {
         self.joints.iter().any(|j| j.name == name)
     }

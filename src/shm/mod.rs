@@ -18,6 +18,7 @@ use iceoryx2::service::ipc_threadsafe;
 pub struct FrameHeader {
     /// The shape (as in the ROS messages' shape_id).
     pub shape_id: u32,
+    /// Points in the frame.
     pub point_count: u32,
     /// Handles of the shape, the rigid one included (weights frames carry this many floats per
     /// point; deformed frames carry 3).
@@ -31,15 +32,24 @@ pub struct FrameHeader {
 }
 
 impl FrameHeader {
+    /// `kind` of a frame of deformed points.
     pub const DEFORMED: u32 = 0;
+    /// `kind` of a frame of skinning weights.
     pub const WEIGHTS: u32 = 1;
 }
 
 /// Why the shared-memory transport could not start or send.
 #[derive(Debug, thiserror::Error)]
 pub enum ShmError {
+    /// iceoryx2 refused a service name.
     #[error("iceoryx2 service name `{name}`: {reason}")]
-    Name { name: String, reason: String },
+    Name {
+        /// The name.
+        name: String,
+        /// iceoryx2's error.
+        reason: String,
+    },
+    /// iceoryx2 could not create its node, a service or a publisher, or could not send.
     #[error("iceoryx2: {0}")]
     Transport(String),
 }
@@ -119,6 +129,8 @@ pub(crate) fn open_service(
 }
 
 impl ShmPublisher {
+    /// Opens (or creates) both services and a publisher on each. An error when a service name
+    /// is refused or iceoryx2 cannot start.
     pub fn create(options: &ShmOptions) -> Result<Self, ShmError> {
         let node = new_node()?;
         let publisher = |name: &str, floats: usize| {

@@ -128,10 +128,12 @@ impl EigenmodeField {
         }
     }
 
+    /// The map between world units and the normalized frame the field answers in.
     pub fn normalization(&self) -> &Normalization {
         &self.normalization
     }
 
+    /// The tetrahedral mesh the modes are stored on (world units).
     pub fn mesh(&self) -> &TetMesh {
         &self.mesh
     }

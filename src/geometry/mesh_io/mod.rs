@@ -65,21 +65,33 @@ impl fmt::Display for LocationKind {
 pub enum LoadError {
     /// The file could not be read from disk.
     #[error("cannot read `{}`: {source}", .path.display())]
-    Io { path: PathBuf, source: io::Error },
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error.
+        source: io::Error,
+    },
 
     /// The file name has no extension, or one that is not `.obj`, `.stl` or `.ply`.
     #[error(
         "cannot tell the geometry format of `{}`: the extension must be .obj, .stl or .ply (any case)",
         .path.display()
     )]
-    UnknownFormat { path: PathBuf },
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+    },
 
     /// The content does not follow the format's syntax.
     #[error("{format} parse error at {kind} {line_or_offset}: {message}")]
     Parse {
+        /// "OBJ", "STL" or "PLY".
         format: &'static str,
+        /// What `line_or_offset` counts.
         kind: LocationKind,
+        /// Where the error is: a 1-based line or a 0-based byte offset.
         line_or_offset: usize,
+        /// What is wrong there.
         message: String,
     },
 
@@ -90,10 +102,15 @@ pub enum LoadError {
         "{format}: {location} refers to vertex index {index}, but only {vertex_count} vertices are available"
     )]
     IndexOutOfRange {
+        /// "OBJ" or "PLY".
         format: &'static str,
+        /// The face's 0-based number.
         face: usize,
+        /// The index as written in the file.
         index: i64,
+        /// The vertices available to it.
         vertex_count: usize,
+        /// The face in words, with its line or byte offset ("face 3 (line 12)").
         location: String,
     },
 
@@ -104,9 +121,13 @@ pub enum LoadError {
         .position[0], .position[1], .position[2]
     )]
     NonFinite {
+        /// "OBJ", "STL" or "PLY".
         format: &'static str,
+        /// The vertex's 0-based number.
         index: usize,
+        /// Its coordinates as read.
         position: [f64; 3],
+        /// The vertex in words, with its line or byte offset ("vertex 2 (line 2)").
         location: String,
     },
 
@@ -116,16 +137,24 @@ pub enum LoadError {
         "{format}: file is truncated: {what} needs at least {expected} {unit}, but only {got} are present"
     )]
     Truncated {
+        /// "STL" or "PLY".
         format: &'static str,
+        /// The part that is cut short.
         what: String,
+        /// How many `unit`s it needs at least.
         expected: u64,
+        /// How many are present.
         got: u64,
+        /// "bytes" or "values".
         unit: &'static str,
     },
 
     /// The file is empty or defines no vertex at all.
     #[error("{format}: the file contains no vertices")]
-    Empty { format: &'static str },
+    Empty {
+        /// "OBJ", "STL" or "PLY".
+        format: &'static str,
+    },
 }
 
 fn parse_error(

@@ -35,6 +35,7 @@ pub enum Solver {
 }
 
 impl Solver {
+    /// The solver's name in parameters and reports: "newton" or "quasi_newton".
     pub fn name(&self) -> &'static str {
         match self {
             Solver::Newton => "newton",
@@ -46,7 +47,9 @@ impl Solver {
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct StepReport {
+    /// Solver iterations taken (line-search steps accepted), the Newton fallback's included.
     pub iterations: usize,
+    /// Whether the decrement |dz . g| fell below the convergence threshold.
     pub converged: bool,
     /// The quasi-Newton solver ran out of iterations and full Newton finished the step.
     pub fallback: bool,
@@ -56,7 +59,9 @@ pub struct StepReport {
     pub contacts: usize,
     /// |dz . g| when the solver stopped (J).
     pub decrement: f64,
+    /// Elastic energy at the end of the step, J.
     pub elastic_energy: f64,
+    /// Kinetic energy at the end of the step, J.
     pub kinetic_energy: f64,
     /// Gravity's potential energy relative to the rest pose (J).
     pub gravity_energy: f64,
@@ -64,6 +69,7 @@ pub struct StepReport {
     /// above, what implicit Euler may only lose once nothing drives the body.
     #[serde(default)]
     pub constraint_energy: f64,
+    /// Wall-clock time of the step, s.
     pub seconds: f64,
 }
 
@@ -195,6 +201,7 @@ impl ReducedSim {
         })
     }
 
+    /// The subspace the body is simulated in.
     pub fn subspace(&self) -> &Subspace {
         &self.subspace
     }
@@ -203,9 +210,11 @@ impl ReducedSim {
     pub fn shared_subspace(&self) -> Arc<Subspace> {
         self.subspace.clone()
     }
+    /// The simulation parameters.
     pub fn params(&self) -> &SimParams {
         &self.params
     }
+    /// Simulated time, s (`dt` per step).
     pub fn time(&self) -> f64 {
         self.time
     }
@@ -300,6 +309,7 @@ impl ReducedSim {
         released
     }
 
+    /// The number of pinned points.
     pub fn pin_count(&self) -> usize {
         self.pins.len()
     }
@@ -345,6 +355,7 @@ impl ReducedSim {
         }
     }
 
+    /// Adds a static obstacle; contact points collide with it.
     pub fn add_obstacle(&mut self, obstacle: Obstacle) {
         self.obstacles.push(obstacle);
     }
@@ -365,14 +376,18 @@ impl ReducedSim {
         self.pokes.clear();
     }
 
+    /// Whether a poke acts now or will later (its window has not ended).
     pub fn has_active_pokes(&self) -> bool {
         self.pokes.iter().any(|(_, p)| p.end > self.time)
     }
 
+    /// Whether contact points were added.
     pub fn has_contact_points(&self) -> bool {
         !self.contacts.is_empty()
     }
 
+    /// Adds a force on the material point at `poke.point` (rest position) over the poke's
+    /// window of simulated time; pokes already over are dropped.
     pub fn add_poke(&mut self, poke: Poke) {
         // Finished pokes are dropped here, so a long stream of them costs nothing.
         let now = self.time;

@@ -59,6 +59,7 @@ pub struct FieldCache {
     choices: Mutex<HashMap<u64, Choice>>,
     /// Inferences saved and done.
     pub hits: std::sync::atomic::AtomicUsize,
+    /// Inferences done (geometry not seen before).
     pub misses: std::sync::atomic::AtomicUsize,
 }
 
@@ -178,11 +179,17 @@ pub(crate) struct SceneObject {
 /// One object's state, for tables and the log.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ObjectReport {
+    /// The object's name.
     pub name: String,
+    /// Deformable, static or rigid.
     pub kind: ObjectKind,
+    /// Handles of its body, the constant one included; 0 when it is not simulated.
     pub handles: usize,
+    /// Cubature points of its body; 0 when it is not simulated.
     pub cubature: usize,
+    /// Whether its body sleeps (false when it is not simulated).
     pub sleeping: bool,
+    /// What was chosen for it and why.
     pub decision: String,
 }
 
@@ -280,6 +287,7 @@ impl Scene {
         self.time
     }
 
+    /// The time step, s (1 / `rate_hz`).
     pub fn dt(&self) -> f64 {
         self.dt
     }
@@ -453,6 +461,7 @@ impl Scene {
             .filter_map(|o| Some((o.name.as_str(), o.body.as_ref()?)))
     }
 
+    /// The deformable objects' names and bodies, mutable, in the file's order.
     pub fn bodies_named_mut(&mut self) -> impl Iterator<Item = (&str, &mut SoftBody)> {
         self.objects
             .iter_mut()

@@ -82,6 +82,7 @@ impl NeuralField {
         })
     }
 
+    /// The map between world units and the normalized frame the field answers in.
     pub fn normalization(&self) -> &Normalization {
         &self.normalization
     }

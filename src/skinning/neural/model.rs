@@ -39,6 +39,9 @@ impl NeuralModel {
             })
     }
 
+    /// Loads a model file (safetensors with its config in the metadata). An `Error::Io` when
+    /// the file cannot be read, otherwise the errors of [`NeuralModel::from_bytes`] (a
+    /// `Error::Model` then names the path).
     pub fn load(path: &Path) -> Result<NeuralModel> {
         let bytes = std::fs::read(path).map_err(|source| Error::Io {
             path: path.to_path_buf(),
@@ -53,6 +56,9 @@ impl NeuralModel {
         })
     }
 
+    /// A model from the bytes of a safetensors file. An `Error::Model` when they are not
+    /// safetensors, the config entry is missing or unreadable, or a tensor the config needs is
+    /// missing or misshapen; an `Error::InvalidParameter` when the config's sizes do not fit.
     pub fn from_bytes(bytes: &[u8]) -> Result<NeuralModel> {
         let config = read_config(bytes)?;
         let tensors = candle_core::safetensors::load_buffer(bytes, &Device::Cpu).map_err(|e| {
@@ -75,10 +81,12 @@ impl NeuralModel {
         Ok((NeuralModel { network }, builder.into_vars()))
     }
 
+    /// The network.
     pub fn network(&self) -> &Network {
         &self.network
     }
 
+    /// The network's architecture.
     pub fn config(&self) -> &NetworkConfig {
         self.network.config()
     }

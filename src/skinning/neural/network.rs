@@ -66,6 +66,8 @@ impl Default for NetworkConfig {
 }
 
 impl NetworkConfig {
+    /// Checks that the sizes fit together. An `Error::InvalidParameter` naming the first
+    /// that does not.
     pub fn validate(&self) -> Result<()> {
         ensure(
             self.width > 0 && self.heads > 0 && self.width % self.heads == 0,
@@ -162,6 +164,7 @@ impl Network {
         })
     }
 
+    /// The architecture it was built with.
     pub fn config(&self) -> &NetworkConfig {
         &self.config
     }
