@@ -26,9 +26,11 @@ const MEASURE_S: f64 = 2.0;
 /// One ball resting on the floor.
 #[derive(Clone, Debug, Serialize)]
 pub struct RestingBallRow {
+    /// The ball's radius, m.
     pub radius_m: f64,
     /// "auto" (the scene's error budget picks) or a fixed "handles/cubature".
     pub size: String,
+    /// The ball's Young's modulus, Pa.
     pub young_pa: f64,
     /// Rolling friction, m (the scene file's default unless 0 is named).
     pub rolling_friction_m: f64,
@@ -36,34 +38,47 @@ pub struct RestingBallRow {
     pub decision: String,
     /// Largest sideways move of the ball's centroid over the measured seconds.
     pub drift_mm: f64,
+    /// Median step time of the ball over the measured seconds, ms.
     pub step_ms_median: f64,
+    /// 99th-percentile step time of the ball over the measured seconds, ms.
     pub step_ms_p99: f64,
 }
 
 /// The grasp: the block's centroid after the lift and its largest move in the next 10 s.
 #[derive(Clone, Debug, Serialize)]
 pub struct GraspRow {
+    /// The scene's friction coefficient.
     pub friction: f64,
     /// How far the block rose with the fingers (0.2 m when it is held).
     pub lifted_m: f64,
+    /// The block's largest move from where the lift left it, over the 10 s held, mm.
     pub drift_mm: f64,
+    /// Median step time of the block over the 10 s held, ms.
     pub step_ms_median: f64,
+    /// 99th-percentile step time of the block over the 10 s held, ms.
     pub step_ms_p99: f64,
 }
 
 /// The bundled grasp scene.
 pub const GRASP: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/scenes/grasp.yaml");
 
+/// What `bench contact` reports (serialized for `--json`): balls at rest on the
+/// floor and the bundled grasp.
 #[derive(Clone, Debug, Serialize)]
 pub struct ContactReport {
+    /// One row per ball, in the order [`run_contact_bench`] runs them.
     pub resting_ball: Vec<RestingBallRow>,
     /// With friction 0.5, then without.
     pub grasp: Vec<GraspRow>,
     /// The 0.1 m ball with the sizes a scene picks by itself.
     pub resting_ball_drift_mm: f64,
+    /// The largest step p99 over every ball and grasp row, ms.
     pub step_ms_p99: f64,
+    /// Reserved for the stacked blocks, %; always null: soft-soft contact is not built.
     pub stack_sag_error_pct: Option<f64>,
+    /// Reserved for the ball on a soft slab; always null: soft-soft contact is not built.
     pub slab_error_ratio: Option<f64>,
+    /// The block's largest move in the grip with friction 0.5 (the first grasp row), mm.
     pub grasp_drift_mm: Option<f64>,
 }
 

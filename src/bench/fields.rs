@@ -52,13 +52,18 @@ impl Default for EvalOptions {
 /// One shape's figures.
 #[derive(Clone, Debug, Serialize)]
 pub struct ShapeEval {
+    /// The shape's name.
     pub name: String,
     /// Query points the metrics were measured on.
     pub points: usize,
     /// Handles, the constant one included (the metrics cover all of them).
     pub handles: usize,
+    /// Omega_orth of the network's output on the query points: ||G - I||_F^2 / (K (K - 1));
+    /// lower is better.
     pub omega_orth: f64,
+    /// kappa_log of the network's output: log2(1 + lambda_max / lambda_min) of G; 1 at best.
     pub kappa_log: f64,
+    /// H_spec of the network's output: the spectral entropy of G over log K; 1 at best.
     pub h_spec: f64,
     /// The same metrics of the product's weights, whitened over the reference points (the
     /// network's output above is only centered and scaled).
@@ -71,6 +76,8 @@ pub struct ShapeEval {
     /// Mean over the scenarios of the RMS error against the FEM, % of the diagonal (NaN if not
     /// simulated).
     pub sim_error_pct: f64,
+    /// The same mean for the skinning eigenmodes with as many handles and the same
+    /// cubature, % of the diagonal (NaN if not simulated).
     pub eigen_error_pct: f64,
     /// Per scenario: (name, learned error %, eigenmode error %).
     pub scenarios: Vec<(String, f64, f64)>,
@@ -81,23 +88,38 @@ pub struct ShapeEval {
 /// Means over the shapes.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct EvalMean {
+    /// Mean of the shapes' `omega_orth` (the network's output).
     pub omega_orth: f64,
+    /// Mean of the shapes' `kappa_log` (the network's output).
     pub kappa_log: f64,
+    /// Mean of the shapes' `h_spec` (the network's output).
     pub h_spec: f64,
+    /// Mean of the shapes' whitened Omega_orth.
     pub whitened_omega_orth: f64,
+    /// Mean of the shapes' whitened kappa_log.
     pub whitened_kappa_log: f64,
+    /// Mean of the shapes' whitened H_spec.
     pub whitened_h_spec: f64,
+    /// Mean inference time (encode, normalize, decode the query points), ms.
     pub infer_ms: f64,
+    /// Mean time to decode 100k query points once encoded, ms.
     pub decode_100k_ms: f64,
+    /// Mean of the learned field's error against the FEM, % of the diagonal (NaN if not
+    /// simulated).
     pub sim_error_pct: f64,
+    /// Mean of the eigenmodes' error against the FEM, % of the diagonal (NaN if not
+    /// simulated).
     pub eigen_error_pct: f64,
     /// Mean of the per-shape ratios learned / eigenmode error.
     pub error_ratio: f64,
 }
 
+/// What `eval` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct EvalReport {
+    /// One row per shape, in the order given.
     pub shapes: Vec<ShapeEval>,
+    /// Means over the shapes.
     pub mean: EvalMean,
 }
 

@@ -18,16 +18,23 @@ use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeC
 use crate::skinning::NeuralModel;
 use crate::{Error, Result};
 
+/// What `bench latency` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct LatencyReport {
+    /// From publishing a new 10,000-point cloud to its first deformed cloud at the
+    /// in-process client, ms.
     pub latency_10k_ms: f64,
+    /// The same for a new 100,000-point cloud, ms.
     pub latency_100k_ms: f64,
     /// One depth camera's organized scans of the bundled box, in its optical frame, five
     /// times (180 down to 176 pixels wide): points seen, the latency of each, and their median
     /// and largest. The view is completed before inference.
     pub scan_points: Vec<usize>,
+    /// Each scan's latency to its first deformed cloud, ms.
     pub scan_latencies_ms: Vec<f64>,
+    /// Median of the scans' latencies, ms.
     pub latency_scan_ms: f64,
+    /// Largest of the scans' latencies, ms.
     pub latency_scan_max_ms: f64,
     /// The same 10k-point cloud from rclpy (Fast DDS) to an rclpy subscriber; absent when the
     /// bench was not given a Python with rclpy.
@@ -35,11 +42,16 @@ pub struct LatencyReport {
     /// p99 of |interval - period| between the publish times (header stamps, taken by the step
     /// thread as it publishes) of a running shape's deformed clouds, ms.
     pub jitter_p99_ms: f64,
+    /// Largest |interval - period| between those publish times, ms.
     pub jitter_max_ms: f64,
     /// The same between the times the client received them: DDS delivery included.
     pub receive_jitter_p99_ms: f64,
+    /// Largest |interval - period| between those arrival times, ms.
     pub receive_jitter_max_ms: f64,
+    /// Intervals the jitter figures are taken over: the running shape's deformed clouds
+    /// received in the 4 s jitter phase, less one.
     pub jitter_intervals: usize,
+    /// The node's publish rate, Hz; its period is the one the jitter is measured against.
     pub rate_hz: f64,
 }
 
@@ -50,7 +62,9 @@ pub struct LatencyReport {
 pub struct RclpyLatency {
     /// The first repeat, ms.
     pub first_ms: f64,
+    /// Median of the repeats, ms (the upper middle one for an even count).
     pub median_ms: f64,
+    /// Largest of the repeats, ms.
     pub max_ms: f64,
     /// Every repeat, ms.
     pub latencies_ms: Vec<f64>,
@@ -98,6 +112,9 @@ fn scan_point_count(cloud: &PointCloud2) -> usize {
         .count()
 }
 
+/// `count` points sampled (with `seed`) on the surface of the bundled shape named
+/// `shape`, as an unordered float32 x, y, z cloud in `frame`. Panics on a name
+/// that is not bundled.
 pub fn sample_cloud(shape: &str, count: usize, frame: &str, seed: u64) -> PointCloud2 {
     encode_cloud(
         Header {

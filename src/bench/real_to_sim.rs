@@ -25,10 +25,15 @@ pub struct InputSimOptions {
     pub viewpoint: Option<Vector3<f64>>,
     /// The whole object's closed mesh for the FEM; None: the input when it is a closed mesh.
     pub reference: Option<PathBuf>,
+    /// `hanging`, `drop` or `poke`; another name is refused.
     pub scenario: String,
+    /// Steps of 1/60 s.
     pub steps: usize,
+    /// Young's modulus, Pa.
     pub young: f64,
+    /// Cubature points of the body.
     pub cubature: usize,
+    /// The reduced solver.
     pub solver: Solver,
     /// FEM grid cells across the longest side; 0: the coarsest grid whose mesh has
     /// [`REFERENCE_VERTICES`] vertices.
@@ -42,12 +47,15 @@ pub const REFERENCE_VERTICES: usize = 4000;
 /// What `simulate --input` measured. Lengths in m, volumes in m^3, masses in kg.
 #[derive(Clone, Debug, Serialize)]
 pub struct InputSimSummary {
+    /// The input file's path, as given.
     pub input: String,
+    /// The scenario's name.
     pub scenario: String,
     /// Points (or vertices) read from the input.
     pub points: usize,
     /// The simulated body's volume and mass (after completion, for a view).
     pub volume: f64,
+    /// The body's mass, kg.
     pub mass: f64,
     /// The reference mesh's enclosed volume (null without a reference).
     pub reference_volume: Option<f64>,
@@ -58,9 +66,13 @@ pub struct InputSimSummary {
     pub whole_mesh_error_pct: Option<f64>,
     /// Largest displacement of a lifted vertex at the last step.
     pub max_displacement: f64,
+    /// The same for the FEM at its last step (null without a reference).
     pub fem_max_displacement: Option<f64>,
+    /// Median reduced step, ms.
     pub step_ms: f64,
+    /// 99th-percentile reduced step, ms.
     pub step_p99_ms: f64,
+    /// Largest reduced step, ms.
     pub step_max_ms: f64,
     /// Building the body: completion, inference, subspace, ms.
     pub build_ms: f64,

@@ -15,22 +15,31 @@ use crate::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Out
 use crate::skinning::NeuralModel;
 use crate::Result;
 
+/// What `bench replay` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct ReplayBenchReport {
     /// Simulated seconds of the demo bag per wall second, output recorded (median of 3).
     pub realtime_factor: f64,
+    /// Wall time of the median replay, s.
     pub replay_wall_s: f64,
+    /// Log time the median replay covered, s.
     pub replay_sim_s: f64,
     /// Points of the cloud of the recording-overhead run.
     pub points: usize,
     /// Mean time of a 60 Hz tick (step, lift, messages), without and with recording, ms.
     pub tick_ms_without: f64,
+    /// The same with recording on, ms.
     pub tick_ms_with: f64,
     /// What recording adds to the tick, % (negative: within noise).
     pub record_overhead_pct: f64,
+    /// Ticks timed without recording, and as many with (two blocks of 240 each).
     pub ticks_per_side: usize,
 }
 
+/// Replays `demo_bag` (an MCAP recording's bytes) three times, its output recorded
+/// into `scratch`, then times a 10k-point body's 60 Hz tick without and with
+/// recording; `progress` gets a line per replay and per block. Errs when `scratch`
+/// cannot be created or a replay, the body's build or the recording fails.
 pub fn run_replay_bench(
     demo_bag: &[u8],
     scratch: &std::path::Path,

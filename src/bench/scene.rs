@@ -22,12 +22,14 @@ pub const WORKCELL_ACTIVE: [&str; 2] = ["sponge", "column"];
 /// How a scene is run.
 #[derive(Clone, Debug)]
 pub struct SceneRunOptions {
+    /// How the scene is built: decisions, which objects, scripted robots.
     pub scene: SceneOptions,
     /// Simulated seconds of motion after settling.
     pub seconds: f64,
     /// Before the motion, objects settle under gravity with the robots still: until all sleep
     /// (at most this many steps), or exactly this many when `settle_exactly`.
     pub settle_steps: usize,
+    /// Settle exactly `settle_steps` steps, even once every object sleeps.
     pub settle_exactly: bool,
     /// Objects compared with the FEM (none: no reference run).
     pub compare: Vec<String>,
@@ -36,18 +38,27 @@ pub struct SceneRunOptions {
 /// What a run did.
 #[derive(Clone, Debug, Serialize)]
 pub struct SceneRun {
+    /// Each built object's state at the end of the run.
     pub objects: Vec<ObjectReport>,
+    /// Building the scene, inference included, ms.
     pub build_ms: f64,
+    /// Skinning fields inferred in this run (geometry the cache had not seen).
     pub inferences: usize,
+    /// Fields the cache gave in this run instead of an inference.
     pub inferences_reused: usize,
+    /// Settling steps taken.
     pub settle_steps: usize,
+    /// Steps of motion timed: `seconds` at the scene's rate, rounded.
     pub steps: usize,
     /// Wall time of one scene step (robots, colliders, every awake object), ms.
     pub step_ms: f64,
+    /// 99th percentile of the scene step, ms.
     pub step_ms_p99: f64,
     /// Deformable objects awake, averaged over the steps.
     pub awake_mean: f64,
+    /// Objects with a simulated body (more than 0 handles).
     pub deformable: usize,
+    /// Each compared object's error against its FEM; empty when none was compared.
     pub errors: Vec<ObjectError>,
 }
 
@@ -62,6 +73,10 @@ impl SceneRun {
     }
 }
 
+/// Builds `file`'s scene, settles it, steps it for `options.seconds`, timing each
+/// step, and measures the objects in `options.compare` against their FEM. Errs when
+/// the scene does not build, a compared object is missing or not deformable, or an
+/// FEM run fails.
 pub fn run_scene(
     file: &SceneFile,
     model: &Arc<NeuralModel>,
@@ -122,26 +137,45 @@ pub fn run_scene(
 /// `bench scene`: the bundled scene three ways.
 #[derive(Clone, Debug, Serialize)]
 pub struct SceneBenchReport {
+    /// Mean step with only the active objects built, ms.
     pub active_alone_step_ms: f64,
+    /// Mean step of the full scene with the decisions, ms.
     pub full_scene_step_ms: f64,
+    /// Largest error of the active objects against the FEM when alone, % of
+    /// their bounding diagonal.
     pub active_alone_error_pct: f64,
+    /// The same in the full scene with the decisions, %.
     pub full_scene_error_pct: f64,
     /// full_scene_step_ms / active_alone_step_ms (target 1.3 or less).
     pub step_ratio: f64,
+    /// Mean step of the full scene without the decisions (every deformable object with
+    /// all handles and 256 cubature points unless the file fixes its size, none
+    /// sleeping), ms.
     pub no_decisions_step_ms: f64,
+    /// Largest error of the active objects in that run, %.
     pub no_decisions_error_pct: f64,
     /// The largest error of the objects that sat still, with the decisions (they sleep).
     pub idle_error_pct: f64,
+    /// The same without the decisions, %.
     pub idle_error_pct_no_decisions: f64,
+    /// The objects the robot moves ([`WORKCELL_ACTIVE`]).
     pub active: Vec<String>,
+    /// The run with the active objects alone.
     pub active_alone: SceneRun,
+    /// The run of the full scene with the decisions.
     pub full_scene: SceneRun,
+    /// The run of the full scene without the decisions.
     pub no_decisions: SceneRun,
 }
 
 /// Settling lasts at most 8 s: every object of the bundled scene sleeps well before.
 const SETTLE_STEPS: usize = 480;
 
+/// Runs the bundled scene ([`WORKCELL`]) three ways, `seconds` of motion each: in
+/// full with the decisions, its active objects alone, and in full without the
+/// decisions (these two settle as many steps as the first); each run compares the
+/// deformable objects it built with their FEM. Errs when the scene file does not
+/// load or a run fails.
 pub fn run_scene_bench(seconds: f64, log: impl Fn(&str)) -> Result<SceneBenchReport> {
     let file = SceneFile::load(std::path::Path::new(WORKCELL))?;
     let model = NeuralModel::bundled()?;

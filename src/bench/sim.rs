@@ -26,9 +26,15 @@ pub struct SimBenchOptions {
     /// Only these shapes, scenarios, handle counts, cubature sizes and solvers (each: all of
     /// the run's own when empty), so a subset runs in minutes.
     pub shapes: Vec<String>,
+    /// Only these scenarios (hanging, drop, poke; another name is refused); empty: hanging
+    /// and drop with `quick`, all three otherwise.
     pub scenarios: Vec<String>,
+    /// Only these handle counts, without the constant one (0 is refused); empty: 4 and 16
+    /// with `quick`, 4, 8, 16 and 32 otherwise.
     pub handles: Vec<usize>,
+    /// Only these cubature sizes (0 is refused); empty: 256 and 1024.
     pub cubatures: Vec<usize>,
+    /// Only these solvers; empty: Newton and quasi-Newton.
     pub solvers: Vec<Solver>,
 }
 
@@ -72,16 +78,23 @@ impl SimBenchOptions {
     }
 }
 
+/// One reduced simulation and its FEM reference: a row of `bench sim` (serialized for
+/// `--json`), or the figures of `simulate`.
 #[derive(Clone, Debug, Serialize)]
 pub struct SimRow {
+    /// The bundled shape's name.
     pub shape: String,
     /// Vertices of the FEM mesh.
     pub vertices: usize,
+    /// `hanging`, `drop` or `poke`.
     pub scenario: String,
+    /// The skinning field: `eigen` or `learned`.
     pub field: String,
     /// Handles without the constant one.
     pub handles: usize,
+    /// Cubature points of the reduced simulation.
     pub cubature: usize,
+    /// `newton` or `quasi_newton`.
     pub solver: String,
     /// Median reduced step, ms.
     pub step_ms: f64,
@@ -89,13 +102,16 @@ pub struct SimRow {
     pub step_mean_ms: f64,
     /// 99th percentile and largest reduced step, ms.
     pub step_p99_ms: f64,
+    /// Largest reduced step, ms.
     pub step_max_ms: f64,
     /// Median FEM step, ms.
     pub fem_step_ms: f64,
+    /// Median FEM step over median reduced step.
     pub speedup: f64,
     /// RMS distance of the lifted FEM vertices to the FEM reference over the whole trajectory,
     /// in % of the bounding-box diagonal.
     pub error_pct: f64,
+    /// Solver iterations per step, mean over the run.
     pub mean_iterations: f64,
     /// Steps where the solver hit its iteration limit.
     pub unconverged_steps: usize,
@@ -103,8 +119,11 @@ pub struct SimRow {
     pub fallback_steps: usize,
 }
 
+/// What `bench sim` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct SimBenchReport {
+    /// One row per shape, scenario, handle count, cubature size and solver, in that
+    /// nesting order.
     pub rows: Vec<SimRow>,
     /// Median time to lift 100k points (m = 16 handles plus the constant), ms; with the
     /// creature only.
@@ -567,15 +586,24 @@ fn time_lift(field: &EigenmodeField, shape: &BenchShape) -> Result<f64> {
 /// CLI's `simulate`.
 #[derive(Clone, Debug)]
 pub struct SimulateOptions {
+    /// A bundled shape: plate, rod, creature, box or sphere. Default rod.
     pub shape: String,
+    /// `hanging`, `drop` or `poke`. Default hanging.
     pub scenario: String,
+    /// Handles besides the constant one; with the learned field, the bundled model's
+    /// count. Default 16.
     pub modes: usize,
+    /// Cubature points of the reduced simulation. Default 1024.
     pub cubature: usize,
+    /// The reduced solver. Default quasi-Newton.
     pub solver: Solver,
+    /// Steps of 1/60 s. Default 60.
     pub steps: usize,
     /// FEM grid cells across the longest side.
     pub resolution: usize,
+    /// Young's modulus, Pa. Default 5e6.
     pub young: f64,
+    /// Run the FEM reference and measure the error against it. Default true.
     pub reference: bool,
     /// The skinning field: the learned one (bundled model, one forward pass) or the
     /// eigenmodes (an eigen-solve on the FEM mesh).
@@ -599,10 +627,14 @@ impl Default for SimulateOptions {
     }
 }
 
+/// What `simulate` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct SimulateSummary {
+    /// The run's row, its fields flattened into this object; without the reference,
+    /// `error_pct`, `fem_step_ms` and `speedup` are NaN (null in JSON).
     #[serde(flatten)]
     pub row: SimRow,
+    /// Tetrahedra of the FEM mesh.
     pub tets: usize,
     /// Iterations of the eigen-solve (0 with the learned field, which needs none).
     pub eigen_iterations: usize,
@@ -612,6 +644,9 @@ pub struct SimulateSummary {
     pub fem_max_displacement_m: f64,
 }
 
+/// Runs one bundled shape in its subspace and, unless `reference` is off, in the
+/// FEM. Errs on an unknown shape or scenario, on `modes` other than the bundled
+/// model's handles with the learned field, or when a simulation fails.
 pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
     let scenario = Scenario::named(&options.scenario)?;
     let name: &'static str = crate::geometry::BUNDLED

@@ -24,7 +24,9 @@ use crate::Result;
 /// How long and how hard.
 #[derive(Clone, Debug)]
 pub struct SoakOptions {
+    /// How long the client drives the node, s of wall time.
     pub seconds: f64,
+    /// The DDS domain of the node and the client.
     pub domain_id: u16,
     /// Where the node records (state, status and inputs; split every minute).
     pub record: PathBuf,
@@ -33,34 +35,52 @@ pub struct SoakOptions {
 /// One memory sample.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct MemorySample {
+    /// Seconds since the client started driving the node.
     pub at_s: f64,
+    /// Resident memory of this process (node and client), MiB; NaN when unreadable.
     pub rss_mb: f64,
 }
 
+/// What `bench soak` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct SoakReport {
+    /// The soak's length, s (as asked).
     pub seconds: f64,
+    /// New shapes sent, one every 2 s (counted even when publishing failed).
     pub shapes_sent: usize,
+    /// Interactions published, one every 0.1 s: forces, and on each frame in turn a pin
+    /// and its release.
     pub pokes_sent: usize,
+    /// Bad inputs sent, one every 5 s: alternately a cloud without z and a poke with a
+    /// NaN force.
     pub bad_inputs_sent: usize,
     /// Node ticks and ticks skipped because one ran past the next one's start.
     pub ticks: u64,
+    /// Ticks skipped because a tick ran past the next one's start.
     pub missed_ticks: u64,
     /// SubspaceState messages received, and those with a NaN or Inf in them.
     pub states_received: usize,
+    /// Of those, states with a NaN or Inf in z, its velocity or the energies.
     pub non_finite_states: usize,
     /// Statuses by event (input_rejected, shape_ready, ...), as received.
     pub statuses: BTreeMap<String, usize>,
     /// Resident memory after the first quarter (warm: every kind of input seen), at the end,
     /// and the highest; growth is the least-squares slope over the last three quarters.
     pub rss_warm_mb: f64,
+    /// Resident memory at the last sample, MiB.
     pub rss_end_mb: f64,
+    /// The highest sample, MiB.
     pub rss_max_mb: f64,
+    /// Least-squares slope over the last three quarters, MiB per minute.
     pub rss_growth_mb_per_min: f64,
+    /// Every memory sample, one a second.
     pub memory: Vec<MemorySample>,
     /// The recording's files, read back with the strict reader, and their messages per topic.
     pub recording_files: usize,
+    /// Whether the recording has files, each reads back with the strict reader and every
+    /// recorded state decodes.
     pub recording_complete: bool,
+    /// Messages per topic in the recording's files.
     pub recorded: BTreeMap<String, usize>,
 }
 

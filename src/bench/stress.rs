@@ -19,6 +19,7 @@ use crate::Result;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Start {
+    /// At rest in its own shape.
     Rest,
     /// Mirrored through its centre plane: every element has det F = -1.
     Mirrored,
@@ -29,17 +30,25 @@ pub enum Start {
 /// One stress case.
 #[derive(Clone, Debug, Serialize)]
 pub struct StressCase {
+    /// The case's name, as printed.
     pub name: &'static str,
     /// "box" (bundled) or "sheet" (a 0.4 m x 4 mm x 0.4 m plate standing on its edge).
     pub shape: &'static str,
+    /// Young's modulus, Pa (the baseline case's: 1e5).
     pub young: f64,
+    /// Poisson's ratio (baseline 0.45).
     pub poisson: f64,
+    /// Time step, s (baseline 1/60).
     pub dt: f64,
+    /// How the body is held (baseline: pinned at the bottom).
     pub support: Support,
+    /// Whether gravity (9.81 m/s^2 down z) acts (baseline: yes).
     pub gravity: bool,
+    /// How the case starts (baseline: at rest).
     pub start: Start,
     /// A sideways push on the top, in multiples of the body's weight, held for `push_s`.
     pub push_weights: f64,
+    /// How long the push acts, s (baseline 0.1).
     pub push_s: f64,
     /// Simulated seconds.
     pub seconds: f64,
@@ -48,32 +57,41 @@ pub struct StressCase {
 /// What became of a case.
 #[derive(Clone, Debug, Serialize)]
 pub struct StressRow {
+    /// The case run.
     pub case: StressCase,
+    /// Steps run: `seconds` / `dt`, rounded.
     pub steps: usize,
     /// Steps after which a coordinate or an energy was NaN or infinite.
     pub non_finite_steps: usize,
     /// Total energy (elastic + kinetic + gravity + pin and contact springs, J) at its highest while the push acted or at
     /// the start, and at its highest afterwards.
     pub energy_peak_j: f64,
+    /// Total energy at its highest once nothing drove the body, J (null when no finite
+    /// step came after).
     pub energy_after_j: f64,
     /// Total energy after the last step: where it settled.
     pub energy_end_j: f64,
     /// The energy never rose above its peak once nothing drove the body (implicit Euler with
     /// damping only takes energy out), by more than the solver's summed stopping decrements.
     pub bounded: bool,
+    /// Solver iterations per step, mean over all steps (a non-finite step counts 0).
     pub iterations_mean: f64,
+    /// Most solver iterations in one step.
     pub iterations_max: usize,
     /// Steps the quasi-Newton solver handed to full Newton.
     pub fallback_steps: usize,
+    /// Steps whose decrement |dz . g| stayed above the convergence threshold.
     pub unconverged_steps: usize,
     /// Largest distance of a point from its rest position, m.
     pub max_displacement_m: f64,
+    /// Mean wall time of a step, ms.
     pub step_ms_mean: f64,
 }
 
 /// All of the stress run.
 #[derive(Clone, Debug, Serialize)]
 pub struct StressReport {
+    /// One row per case, in the order given.
     pub rows: Vec<StressRow>,
     /// Rows with any non-finite step, unbounded energy or unconverged step.
     pub failures: usize,

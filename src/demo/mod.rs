@@ -57,21 +57,28 @@ impl Default for DemoOptions {
 /// One shape of the demo: the replay's figures and the FEM's.
 #[derive(Clone, Debug, Serialize)]
 pub struct DemoShapeRow {
+    /// The replay's figures for the shape, flattened into this object.
     #[serde(flatten)]
     pub replay: ShapeSummary,
     /// Vertices of the FEM reference mesh (0 without the reference).
     pub fem_vertices: usize,
+    /// Median step of the FEM reference, ms (NaN without the reference).
     pub fem_step_ms: f64,
     /// RMS distance to the FEM over the reference mesh's vertices and all steps, % of the
     /// shape's bounding diagonal (NaN without the reference).
     pub error_pct: f64,
 }
 
+/// What the demo did (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct DemoSummary {
+    /// One row per object the replay built.
     pub shapes: Vec<DemoShapeRow>,
+    /// The replay's summary.
     pub replay: ReplaySummary,
+    /// The output recording written.
     pub output: PathBuf,
+    /// The strip of frames written.
     pub picture: PathBuf,
     /// Each shape's displacement over time against the FEM's (SVG beside the picture, named
     /// from it); None without the FEM reference.

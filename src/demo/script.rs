@@ -36,9 +36,11 @@ pub enum Delivery {
 /// One object of the demo.
 #[derive(Clone, Debug)]
 pub struct DemoShape {
+    /// The object's name; the picture's labels show it beside a frame of another name.
     pub name: &'static str,
     /// Its frame (the object's identity in the node).
     pub frame: &'static str,
+    /// How it reaches the node.
     pub delivery: Delivery,
     /// Arrival, s after the start.
     pub at_s: f64,
@@ -49,17 +51,23 @@ pub struct DemoShape {
 /// A force on a material point of a shape.
 #[derive(Clone, Debug)]
 pub struct DemoPoke {
+    /// The frame of the shape it pokes.
     pub frame: &'static str,
+    /// When it starts, s after the recording's start ([`DEMO_START_NS`]).
     pub at_s: f64,
     /// Rest position of the material point, world units.
     pub point: Vector3<f64>,
+    /// The force, N.
     pub force: Vector3<f64>,
+    /// How long it acts, s.
     pub duration_s: f64,
 }
 
 /// The demo: three shapes, three ways in, nine pokes.
 pub struct DemoScript {
+    /// The objects, in order of arrival.
     pub shapes: Vec<DemoShape>,
+    /// The pokes, in order of time.
     pub pokes: Vec<DemoPoke>,
 }
 
@@ -81,6 +89,8 @@ fn top(shape: &Shape, side: Vector3<f64>) -> Vector3<f64> {
 }
 
 impl DemoScript {
+    /// The demo: the creature as a 3,000-point cloud at 0 s, a ball as a stamped mesh at
+    /// 0.2 s, a rounded block as a mesh at 0.4 s, then nine 0.2 s pokes from 0.8 s to 6 s.
     pub fn new() -> Self {
         let creature = moved(
             bundled("creature").expect("a bundled shape"),

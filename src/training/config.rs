@@ -25,6 +25,7 @@ pub enum Combine {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TrainingConfig {
+    /// The network's sizes. Default `NetworkConfig::default()`.
     pub network: NetworkConfig,
     /// Seed of the initialization, the dataset and every step's draws. Default 7.
     pub seed: u64,
@@ -46,6 +47,7 @@ pub struct TrainingConfig {
     pub cubature_points: usize,
     /// Young's modulus and Poisson ratio of the training energy (normalized units). Defaults 1, 0.45.
     pub young: f64,
+    /// Poisson ratio of the training energy. Default 0.45.
     pub poisson: f64,
     /// Standard deviation of the random handle translations. Default 0.2.
     pub z_std: f64,
@@ -63,11 +65,16 @@ pub struct TrainingConfig {
     pub combine: Combine,
     /// Weights of the weighted sum (ConFIG only uses the directions). Defaults 1, 1e-3, 1e3.
     pub potential_weight: f64,
+    /// Weight of L_smooth in the weighted sum. Default 1e-3.
     pub smooth_weight: f64,
+    /// Weight of L_orth in the weighted sum; L_orth is also scaled by it before ConFIG
+    /// combines the gradients. Default 1e3.
     pub orth_weight: f64,
     /// Ablation switches, all on by default.
     pub normalize: bool,
+    /// Train with L_smooth, the smoothness of the weight columns. Default true.
     pub smooth_loss: bool,
+    /// Train with L_orth, the orthogonality of the weight columns. Default true.
     pub orth_loss: bool,
     /// Steps between checkpoints (and held-out evaluations). Default 250.
     pub checkpoint_every: usize,
@@ -114,6 +121,7 @@ impl TrainingConfig {
             .expect("the shipped training config parses")
     }
 
+    /// The dataset this config trains on: its `seed`, `shapes` and `held_out_every`.
     pub fn dataset(&self) -> DatasetSpec {
         DatasetSpec {
             seed: self.seed,

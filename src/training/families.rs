@@ -12,17 +12,28 @@ use super::sdf::Sdf;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ShapeFamily {
+    /// One primitive: an ellipsoid, a box, a capsule, a cylinder, a torus or a cone, with
+    /// aspect ratios up to 8:1.
     Primitive,
+    /// Two to four primitives, each placed near one already drawn, smoothly joined.
     Union,
+    /// Three to seven capsules, each growing from the end of one already drawn.
     Limbs,
+    /// An ellipsoid body on two, four or six capsule legs, with a neck, a head and often a tail.
     Animal,
+    /// A thin plate, sometimes bent along a crease.
     Plate,
+    /// The hollow wall of an ellipsoid, a rounded box or a capsule.
     Shell,
+    /// A slab or a disc with one to three round holes through it.
     Holed,
+    /// Unions, intersections and differences of four or eight primitives (a tree two or
+    /// three levels deep).
     Csg,
 }
 
 impl ShapeFamily {
+    /// Every family, in the order the dataset cycles through them.
     pub const ALL: [ShapeFamily; 8] = [
         ShapeFamily::Primitive,
         ShapeFamily::Union,
@@ -34,6 +45,7 @@ impl ShapeFamily {
         ShapeFamily::Csg,
     ];
 
+    /// The family's name, as serialized: `primitive`, `union`, ..., `csg`.
     pub fn name(self) -> &'static str {
         match self {
             ShapeFamily::Primitive => "primitive",

@@ -16,8 +16,11 @@ use crate::geometry::{sample_surface, sdf_mesh, Normalization, Shape, SurfaceSam
 /// across, centered near the origin).
 #[derive(Clone, Debug)]
 pub struct GeneratedShape {
+    /// `<family>-<seed>`, the seed written with at least four digits.
     pub name: String,
+    /// The family it was drawn from.
     pub family: ShapeFamily,
+    /// The seed it was drawn with.
     pub seed: u64,
     sdf: Sdf,
 }
@@ -25,7 +28,9 @@ pub struct GeneratedShape {
 /// What a training step or an evaluation needs of a shape, in its normalized frame.
 #[derive(Clone, Debug)]
 pub struct ShapeSample {
+    /// The shape's name.
     pub name: String,
+    /// Points on the surface.
     pub surface_points: Vec<Vector3<f32>>,
     /// Unit outward normals.
     pub surface_normals: Vec<Vector3<f32>>,
@@ -33,6 +38,7 @@ pub struct ShapeSample {
     pub interior_points: Vec<Vector3<f32>>,
     /// Solid volume, normalized units.
     pub volume: f64,
+    /// The map from world units to the normalized frame.
     pub normalization: Normalization,
 }
 
@@ -71,6 +77,7 @@ impl GeneratedShape {
         }
     }
 
+    /// The signed distance function at `p`, world units (negative inside).
     pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
         self.sdf.at(p)
     }
@@ -80,6 +87,9 @@ impl GeneratedShape {
         sdf_mesh(&|p| self.sdf.at(p), HALF, resolution)
     }
 
+    /// `surface_count` surface points with normals and up to `interior_count` uniform
+    /// interior points (rejection sampling, at most 200 draws per point asked), in the
+    /// normalized frame; the volume is estimated from the same draws.
     pub fn sample(
         &self,
         surface_count: usize,
@@ -129,6 +139,7 @@ impl GeneratedShape {
 /// How the dataset is drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct DatasetSpec {
+    /// Seed of the dataset: shape i is generated with seed `seed * 100000 + i`.
     pub seed: u64,
     /// Shapes in all, cycling through the families.
     pub count: usize,

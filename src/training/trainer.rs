@@ -26,13 +26,19 @@ use crate::{Error, Result};
 /// One line of the training log (log.jsonl).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct LogLine {
+    /// Steps done when the line was written.
     pub step: usize,
+    /// Learning rate of the line's last step.
     pub learning_rate: f64,
+    /// Mean L_pot (the elastic potential loss) over the steps since the last line.
     pub potential: f64,
+    /// Mean L_smooth over the steps since the last line.
     pub smooth: f64,
+    /// Mean L_orth over the steps since the last line (before `orth_weight`).
     pub orth: f64,
     /// Omega_orth of the batch (learned columns).
     pub batch_omega: f64,
+    /// Wall seconds since this call of the trainer started (a resumed run counts anew).
     pub seconds: f64,
     /// Held-out means, at checkpoints only.
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -42,9 +48,13 @@ pub struct LogLine {
 /// What a finished (or stopped) run reports.
 #[derive(Clone, Debug)]
 pub struct TrainingSummary {
+    /// Steps done, those of a resumed checkpoint included.
     pub steps_done: usize,
+    /// Wall time of this call, s.
     pub seconds: f64,
+    /// The last log line written; None when no step was taken.
     pub last: Option<LogLine>,
+    /// The final model file, `model.safetensors` in the run's directory.
     pub model_path: PathBuf,
     /// The checkpoint with the highest held-out H_spec so far, and its step.
     pub best: Option<(usize, PathBuf)>,
