@@ -89,6 +89,8 @@
 //! # }
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod bag;
 pub mod bench;
 pub mod demo;
