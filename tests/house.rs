@@ -9,7 +9,10 @@ const MAX_FUNCTION_LINES: usize = 120;
 #[test]
 fn files_and_functions_fit_on_a_few_screens() {
     let mut files = Vec::new();
-    collect(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &mut files);
+    collect(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
+        &mut files,
+    );
     assert!(files.len() > 50, "found only {} source files", files.len());
     let mut problems = Vec::new();
     for file in &files {

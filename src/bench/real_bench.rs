@@ -29,7 +29,7 @@ const CUBATURE: usize = 1024;
 pub struct ScanRow {
     /// The bundled shape scanned.
     pub shape: String,
-    /// The side the camera looks from (one of [`DIRECTIONS`]).
+    /// The side the camera looks from (one of `DIRECTIONS`).
     pub direction: [f64; 3],
     /// `hanging` or `drop`.
     pub scenario: String,
@@ -70,7 +70,7 @@ pub struct RealBenchReport {
     pub worst_step_ms: f64,
 }
 
-/// Scans each of [`SCANNED`] from each of [`DIRECTIONS`] (160 x 120 pixels), builds
+/// Scans each of `SCANNED` from each of `DIRECTIONS` (160 x 120 pixels), builds
 /// a body from each scan as the node does and runs the hanging and drop scenarios
 /// (60 steps, E = 5 MPa, 1024 cubature points, quasi-Newton) against the FEM of
 /// the whole mesh; `progress` gets a line per row. Errs when a scan, a build or a

@@ -36,7 +36,7 @@ pub struct InputSimOptions {
     /// The reduced solver.
     pub solver: Solver,
     /// FEM grid cells across the longest side; 0: the coarsest grid whose mesh has
-    /// [`REFERENCE_VERTICES`] vertices.
+    /// `REFERENCE_VERTICES` vertices.
     pub resolution: usize,
 }
 

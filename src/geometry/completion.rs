@@ -49,7 +49,7 @@ pub enum CompletionError {
 /// What a completion did, for `shape_ready` and the subspace decision.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Completion {
-    /// The completion method's name: [`METHOD`].
+    /// The completion method's name: `METHOD`.
     pub method: &'static str,
     /// Observed points over all points of the completed surface (observed and filled in at the
     /// same density).
