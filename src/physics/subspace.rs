@@ -150,8 +150,6 @@ impl Subspace {
         &self.mass_moment
     }
 
-    /// The rotation of the body as a whole at `z`: the rotation of the polar decomposition of
-    /// its volume-weighted mean deformation gradient (the identity when its SVD fails).
     /// G (4K x 3) with F = I + Z G the volume-mean deformation gradient.
     pub fn mean_gradient(&self) -> &DMatrix<f64> {
         &self.mean_gradient

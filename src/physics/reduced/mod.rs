@@ -370,7 +370,6 @@ impl ReducedSim {
         self.colliders.iter().map(|c| c.bounds(0.0)).collect()
     }
 
-    /// Whether a poke acts now or later.
     /// Drops every force in progress.
     pub fn clear_pokes(&mut self) {
         self.pokes.clear();
