@@ -8,7 +8,8 @@ A table to render sits between two markers:
     <!-- end table -->
 
 After `table`: the results file (benches/results/NAME.json), the path to a list of rows in it
-(dot-separated keys, then optional `?key=value` filters on the rows), then the columns separated by ` | `, each `key:header` or
+(dot-separated keys; or several objects, comma-separated, one row each; then optional
+`?key=value` filters on the rows), then the columns separated by ` | `, each `key:header` or
 `key:header:format` (a Python format spec; no colon in the header). Everything between the
 markers is replaced; a line under the table names the file, its command, commit and date, so
 every rendered figure says where it came from.
@@ -26,15 +27,22 @@ MARKER = re.compile(r"^<!-- table (\S+) (\S+) ([^\n]*?) -->\n.*?^<!-- end table 
 
 
 def lookup(record, path):
-    """The rows at `path` (dot-separated keys), kept only where each `?key=value` filter holds."""
+    """The rows at `path`: dot-separated keys to a list of rows, or comma-separated paths to
+    objects (one row each, its last key under `_path`), then optional `?key=value` filters."""
     path, *filters = path.split("?")
-    value = record
-    for key in path.split("."):
-        value = value[int(key)] if isinstance(value, list) else value[key]
+    rows = []
+    for part in path.split(","):
+        value = record
+        for key in part.split("."):
+            value = value[int(key)] if isinstance(value, list) else value[key]
+        if isinstance(value, dict):
+            rows.append({**value, "_path": part.split(".")[-1]})
+        else:
+            rows.extend(value)
     for condition in filters:
         key, wanted = condition.split("=")
-        value = [row for row in value if str(row.get(key)) == wanted]
-    return value
+        rows = [row for row in rows if str(row.get(key)) == wanted]
+    return rows
 
 
 def field(row, key):

@@ -9,6 +9,9 @@
 #   real               bench real                             (camera scans against the FEM)
 #   sim-solver-quick   bench sim --quick, 16 handles, 1024 cubature points
 #   latency            benches/latency.sh                     (node latency and jitter)
+#   replay             bench replay                           (replay speed, recording's cost)
+#   transport          bench transport, private namespace     (iceoryx2 against DDS)
+#   scene              bench scene                            (only what a scene needs)
 # Not rerun: sim.json (the full `bench sim`, about 55 minutes):
 #   benches/record.sh sim target/release/physskin bench sim --json --plot benches/results/sim.svg
 # Usage: benches/report.sh [NAME...]   (default: all of the above)
@@ -17,7 +20,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(contact stress real sim-solver-quick latency)
+[ ${#names[@]} -eq 0 ] && names=(contact stress real sim-solver-quick latency replay transport scene)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
@@ -29,6 +32,11 @@ for name in "${names[@]}"; do
                 --scenario hanging,drop,poke --handles 16 --cubature 1024 \
                 --plot target/bench/sim-solver.svg ;;
         latency) bash benches/latency.sh ;;
+        replay) benches/record.sh replay $bin bench replay --json ;;
+        transport)
+            benches/record.sh transport unshare -n tests/peers/private_net.sh \
+                $bin bench transport --json ;;
+        scene) benches/record.sh scene $bin bench scene --json ;;
         *) echo "unknown result: $name" >&2; exit 2 ;;
     esac
     echo "$name: $(( $(date +%s) - started )) s" >&2
