@@ -92,11 +92,8 @@
 #![warn(missing_docs)]
 
 pub mod bag;
-pub mod bench;
-pub mod demo;
 pub mod error;
 pub mod geometry;
-pub mod io;
 mod linalg;
 pub mod physics;
 pub mod pipeline;
@@ -104,6 +101,17 @@ pub mod ros;
 pub mod scene;
 pub mod shm;
 pub mod skinning;
+
+// The command line's benches, demo, picture writers and training loop. They are compiled into
+// the library so that the integration tests can drive them, but they are not the embedding API
+// (nothing above depends on them): hidden from the documentation and free to change.
+#[doc(hidden)]
+pub mod bench;
+#[doc(hidden)]
+pub mod demo;
+#[doc(hidden)]
+pub mod io;
+#[doc(hidden)]
 pub mod training;
 
 pub use error::{Error, Result};

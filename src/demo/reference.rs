@@ -6,18 +6,14 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::script::{DemoScript, DemoShape, DEMO_START_NS};
-use crate::bench::sim::{shape_on_grid, BenchShape};
-use crate::geometry::{TetMesh, VoxelGrid};
+use crate::geometry::{bottom_vertices, reference_mesh, ReferenceMesh};
 use crate::physics::{FemSim, Lifter, Poke, SimParams};
 use crate::Result;
-
-/// FEM mesh size of the reference: at least this many vertices.
-const REFERENCE_VERTICES: usize = 500;
 
 /// One shape's reduced trajectory at its reference mesh's vertices.
 pub struct Trajectory {
     pub frame: String,
-    bench: BenchShape,
+    reference: ReferenceMesh,
     lifter: Option<Lifter>,
     /// Per step of the replayed body: x, y, z per mesh vertex.
     steps: Vec<Vec<f32>>,
@@ -31,7 +27,7 @@ impl Trajectory {
     pub fn new(shape: &DemoShape) -> Result<Self> {
         Ok(Self {
             frame: shape.frame.into(),
-            bench: reference_mesh(&shape.shape)?,
+            reference: reference_mesh(&shape.shape),
             lifter: None,
             steps: Vec::new(),
             times_ns: Vec::new(),
@@ -43,28 +39,13 @@ impl Trajectory {
     pub fn record(&mut self, time_ns: i64, body: &crate::pipeline::SoftBody) {
         let lifter = self
             .lifter
-            .get_or_insert_with(|| body.lifter_for(&self.bench.mesh.vertices));
+            .get_or_insert_with(|| body.lifter_for(&self.reference.mesh.vertices));
         let mut x = vec![0.0f32; 3 * lifter.len()];
         lifter.lift(body.state(), &mut x);
         self.steps.push(x);
         self.times_ns.push(time_ns);
         self.first_step_ns.get_or_insert(time_ns);
     }
-}
-
-/// The coarsest tetrahedral mesh of the shape's interior with REFERENCE_VERTICES vertices: the
-/// FEM's cost grows fast with vertices on compact shapes.
-pub(crate) fn reference_mesh(shape: &crate::geometry::Shape) -> Result<BenchShape> {
-    let fine = VoxelGrid::from_shape(shape, 128, None);
-    let mut resolution = 8;
-    let grid = loop {
-        let grid = fine.resample(resolution);
-        if TetMesh::from_grid(&grid).vertices.len() >= REFERENCE_VERTICES || resolution >= 64 {
-            break grid;
-        }
-        resolution += 2;
-    };
-    shape_on_grid(shape.clone(), grid, 0.0, 0)
 }
 
 /// Per shape: the RMS distance between the replay and the FEM over all vertices and steps, in
@@ -118,7 +99,7 @@ fn fem_error(
     params: &SimParams,
     period_ns: i64,
 ) -> Result<ReferenceError> {
-    let mesh = &t.bench.mesh;
+    let mesh = &t.reference.mesh;
     let mut fem = FemSim::new(mesh.clone(), params.clone())?;
     fem.pin_vertices(&bottom_vertices(&mesh.vertices, &params.gravity));
     let first = t
@@ -167,7 +148,7 @@ fn fem_error(
     Ok(ReferenceError {
         frame: t.frame.clone(),
         vertices: mesh.vertices.len(),
-        error_pct: (squared / samples.max(1) as f64).sqrt() / t.bench.diagonal * 100.0,
+        error_pct: (squared / samples.max(1) as f64).sqrt() / t.reference.diagonal * 100.0,
         fem_step_ms: times[times.len() / 2],
         displacement,
     })
@@ -183,20 +164,4 @@ fn rms_displacement<T: Copy + Into<f64>>(points: &[T], rest: &[Vector3<f64>]) ->
         })
         .sum();
     (squared / rest.len().max(1) as f64).sqrt()
-}
-
-/// The vertices in the lowest 10% along gravity: the FEM's counterpart of `pin_bottom`.
-pub(crate) fn bottom_vertices(vertices: &[Vector3<f64>], gravity: &Vector3<f64>) -> Vec<usize> {
-    let up = if gravity.norm() > 0.0 {
-        -gravity.normalize()
-    } else {
-        Vector3::z()
-    };
-    let heights: Vec<f64> = vertices.iter().map(|v| v.dot(&up)).collect();
-    let lo = heights.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let slab = 0.1 * (hi - lo);
-    (0..vertices.len())
-        .filter(|&i| heights[i] <= lo + slab)
-        .collect()
 }

@@ -8,6 +8,7 @@ mod downsample;
 mod mesh_io;
 mod point_index;
 mod primitives;
+mod reference_mesh;
 mod sampling;
 mod scan;
 mod shape;
@@ -23,6 +24,7 @@ pub use mesh_io::{
 };
 pub use point_index::median_spacing;
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
+pub(crate) use reference_mesh::{bottom_vertices, reference_mesh, ReferenceMesh};
 pub use sampling::{sample_surface, SurfaceSamples, SurfaceSampling};
 pub use scan::{scan, scan_points, Camera};
 pub use shape::{content_hash, Normalization, Shape};

@@ -9,8 +9,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::file::Resolution;
-use crate::demo::reference::{bottom_vertices, reference_mesh};
 use crate::geometry::Shape;
+use crate::geometry::{bottom_vertices, reference_mesh};
 use crate::physics::FemSim;
 use crate::pipeline::{BodyOptions, SoftBody, Support};
 use crate::skinning::SkinningField;
@@ -134,7 +134,7 @@ struct Probe {
 
 impl Probe {
     fn run(shape: &Shape, options: &BodyOptions) -> Result<Self> {
-        let reference = reference_mesh(shape)?;
+        let reference = reference_mesh(shape);
         let mesh = reference.mesh.clone();
         let g = options.sim.gravity;
         let up = if g.norm() > 0.0 {

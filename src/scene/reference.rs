@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use super::world::{Scene, Setup};
 use super::SceneError;
-use crate::demo::reference::{bottom_vertices, reference_mesh};
 use crate::geometry::TetMesh;
+use crate::geometry::{bottom_vertices, reference_mesh};
 use crate::physics::{FemSim, Lifter, Obstacle};
 use crate::pipeline::Support;
 use crate::Result;
@@ -74,7 +74,7 @@ impl Recorder {
                 }
                 .into());
             };
-            let reference = reference_mesh(&setup.shape)?;
+            let reference = reference_mesh(&setup.shape);
             tracks.push(Track {
                 object,
                 name: name.clone(),
