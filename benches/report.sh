@@ -4,6 +4,7 @@
 # Prose that quotes a figure which changed must then be edited by hand: the check names it.
 #
 # What runs (2 cores; the latency bench needs root for `unshare -n` and pip for rclpy):
+#   demo               demo --json                            (the README's main command)
 #   contact            bench contact                          (resting balls, the grasp)
 #   stress             bench stress                           (numerical stress table)
 #   real               bench real                             (camera scans against the FEM)
@@ -20,10 +21,11 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(contact stress real sim-solver-quick latency replay transport scene)
+[ ${#names[@]} -eq 0 ] && names=(demo contact stress real sim-solver-quick latency replay transport scene)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
+        demo) benches/record.sh demo $bin demo --json ;;
         contact) benches/record.sh contact $bin bench contact --json ;;
         stress) benches/record.sh stress $bin bench stress --json ;;
         real) benches/record.sh real $bin bench real --json ;;
