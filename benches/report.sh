@@ -5,6 +5,7 @@
 #
 # What runs (2 cores; the latency bench needs root for `unshare -n` and pip for rclpy):
 #   demo               demo --json                            (the README's main command)
+#   simulate(-eigen)   simulate --json [--field eigen]        (one rod against the FEM)
 #   contact            bench contact                          (resting balls, the grasp)
 #   stress             bench stress                           (numerical stress table)
 #   real               bench real                             (camera scans against the FEM)
@@ -21,11 +22,13 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo contact stress real sim-solver-quick latency replay transport scene)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency replay transport scene)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
         demo) benches/record.sh demo $bin demo --json ;;
+        simulate) benches/record.sh simulate $bin simulate --json ;;
+        simulate-eigen) benches/record.sh simulate-eigen $bin simulate --field eigen --json ;;
         contact) benches/record.sh contact $bin bench contact --json ;;
         stress) benches/record.sh stress $bin bench stress --json ;;
         real) benches/record.sh real $bin bench real --json ;;
