@@ -10,7 +10,8 @@ A table to render sits between two markers:
 After `table`: the results file (benches/results/NAME.json), the path to a list of rows in it
 (dot-separated keys; or several objects, comma-separated, one row each; then optional
 `?key=value` filters on the rows), then the columns separated by ` | `, each `key:header` or
-`key:header:format` (a Python format spec; no colon in the header). Everything between the
+`key:header:format` (a Python format spec; no colon in the header), or
+`key:header:format:scale` (the value times scale, e.g. 100 for a figure quoted x 100). Everything between the
 markers is replaced; a line under the table names the file, its command, commit and date, so
 every rendered figure says where it came from.
 
@@ -65,15 +66,23 @@ def render(match):
     record = json.loads((ROOT / "benches" / "results" / f"{name}.json").read_text())
     columns = []
     for column in spec.split(" | "):
-        key, header, *fmt = column.split(":")
-        columns.append((key, header, fmt[0] if fmt else ""))
+        key, header, *rest = column.split(":")
+        fmt = rest[0] if rest else ""
+        scale = float(rest[1]) if len(rest) > 1 else None
+        columns.append((key, header, fmt, scale))
     rows = lookup(record, path)
     lines = [
-        "| " + " | ".join(header for _, header, _ in columns) + " |",
-        "|" + "|".join("---:" if fmt else "---" for _, _, fmt in columns) + "|",
+        "| " + " | ".join(header for _, header, _, _ in columns) + " |",
+        "|" + "|".join("---:" if fmt else "---" for _, _, fmt, _ in columns) + "|",
     ]
     for row in rows:
-        lines.append("| " + " | ".join(cell(field(row, key), fmt) for key, _, fmt in columns) + " |")
+        cells = []
+        for key, _, fmt, scale in columns:
+            value = field(row, key)
+            if scale is not None and isinstance(value, (int, float)):
+                value = value * scale
+            cells.append(cell(value, fmt))
+        lines.append("| " + " | ".join(cells) + " |")
     source = (
         f"\n`benches/results/{name}.json`: `{record.get('command', '?')}`, "
         f"commit {record.get('commit', '?')}, {record.get('date', '?')}."

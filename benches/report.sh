@@ -14,6 +14,7 @@
 #   replay             bench replay                           (replay speed, recording's cost)
 #   transport          bench transport, private namespace     (iceoryx2 against DDS)
 #   scene              bench scene                            (only what a scene needs)
+#   eval               eval                                   (the learned field on 15 shapes, 4 min)
 # Not rerun: sim.json (the full `bench sim`, about 55 minutes):
 #   benches/record.sh sim target/release/physskin bench sim --json --plot benches/results/sim.svg
 # Usage: benches/report.sh [NAME...]   (default: all of the above)
@@ -22,7 +23,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency replay transport scene)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency replay transport scene eval)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
@@ -42,6 +43,7 @@ for name in "${names[@]}"; do
             benches/record.sh transport unshare -n tests/peers/private_net.sh \
                 $bin bench transport --json ;;
         scene) benches/record.sh scene $bin bench scene --json ;;
+        eval) benches/record.sh eval $bin eval --json ;;
         *) echo "unknown result: $name" >&2; exit 2 ;;
     esac
     echo "$name: $(( $(date +%s) - started )) s" >&2
