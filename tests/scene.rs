@@ -220,8 +220,7 @@ fn friction_holds_a_block_a_frictionless_floor_lets_slide() {
         for _ in 0..30 {
             scene.step();
         }
-        let points = scene.points("block").unwrap();
-        points.chunks(3).map(|p| p[0] as f64).sum::<f64>() / (points.len() / 3) as f64
+        centroid(&scene, "block").x
     };
     let held = slide(0.5);
     let free = slide(0.0);

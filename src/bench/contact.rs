@@ -154,21 +154,9 @@ fn resting_ball(
         reason,
     })?;
     let mut scene = Scene::build(&file, model, cache, &SceneOptions::default())?;
-    let dt = scene.dt();
-    let steps = |seconds: f64| (seconds / dt).round() as usize;
-    for _ in 0..steps(SETTLE_S) {
-        scene.step();
-    }
-    let start = centroid(&scene, "ball");
-    let mut drift: f64 = 0.0;
-    let mut step_ms = Vec::new();
-    for _ in 0..steps(MEASURE_S) {
-        scene.step();
-        drift = drift.max((centroid(&scene, "ball") - start).xy().norm());
-        if let Some(report) = scene.body("ball").and_then(|b| b.last_step()) {
-            step_ms.push(report.seconds * 1e3);
-        }
-    }
+    run_for(&mut scene, SETTLE_S);
+    // A ball rolls along the floor: its move in the floor's plane.
+    let (drift, step_ms) = watch(&mut scene, "ball", MEASURE_S, |moved| moved.xy().norm());
     let decision = scene
         .body("ball")
         .map(|b| b.decision().to_string())
@@ -190,22 +178,10 @@ fn grasp(model: &Arc<NeuralModel>, cache: &FieldCache, friction: f64) -> Result<
     let mut file = SceneFile::load(std::path::Path::new(GRASP))?;
     file.friction = friction;
     let mut scene = Scene::build(&file, model, cache, &SceneOptions::default())?;
-    let dt = scene.dt();
-    let steps = |seconds: f64| (seconds / dt).round() as usize;
     let start = centroid(&scene, "block");
-    for _ in 0..steps(2.5) {
-        scene.step();
-    }
+    run_for(&mut scene, 2.5);
     let lifted = centroid(&scene, "block");
-    let mut drift: f64 = 0.0;
-    let mut step_ms = Vec::new();
-    for _ in 0..steps(10.0) {
-        scene.step();
-        drift = drift.max((centroid(&scene, "block") - lifted).norm());
-        if let Some(report) = scene.body("block").and_then(|b| b.last_step()) {
-            step_ms.push(report.seconds * 1e3);
-        }
-    }
+    let (drift, step_ms) = watch(&mut scene, "block", 10.0, |moved| moved.norm());
     Ok(GraspRow {
         friction,
         lifted_m: lifted.z - start.z,
@@ -213,6 +189,34 @@ fn grasp(model: &Arc<NeuralModel>, cache: &FieldCache, friction: f64) -> Result<
         step_ms_median: quantile(&step_ms, 0.5),
         step_ms_p99: quantile(&step_ms, 0.99),
     })
+}
+
+/// Steps `scene` for `seconds`.
+fn run_for(scene: &mut Scene, seconds: f64) {
+    for _ in 0..(seconds / scene.dt()).round() as usize {
+        scene.step();
+    }
+}
+
+/// Steps `scene` for `seconds`, watching object `name`: the largest `distance` of its centroid
+/// from where it was at the start (m), and each step's time (ms).
+fn watch(
+    scene: &mut Scene,
+    name: &str,
+    seconds: f64,
+    distance: impl Fn(Vector3<f64>) -> f64,
+) -> (f64, Vec<f64>) {
+    let start = centroid(scene, name);
+    let mut largest: f64 = 0.0;
+    let mut step_ms = Vec::new();
+    for _ in 0..(seconds / scene.dt()).round() as usize {
+        scene.step();
+        largest = largest.max(distance(centroid(scene, name) - start));
+        if let Some(report) = scene.body(name).and_then(|b| b.last_step()) {
+            step_ms.push(report.seconds * 1e3);
+        }
+    }
+    (largest, step_ms)
 }
 
 fn centroid(scene: &Scene, name: &str) -> Vector3<f64> {
