@@ -370,12 +370,9 @@ impl FemSim {
                     continue;
                 };
                 let (before, now) = (&self.colliders_before, &self.colliders);
-                let anchor =
-                    self.anchors
-                        .tie((v, o), &x, &p.normal, |a| match o.checked_sub(statics) {
-                            Some(link) => carried_by(before, now, link, a),
-                            None => *a,
-                        });
+                let anchor = self.anchors.tie((v, o), &x, &p.normal, |a| {
+                    carried_by(before, now, statics, o, a)
+                });
                 sticks.extend(Stick::new(v, anchor, &p, area, kc, mu));
             }
         }

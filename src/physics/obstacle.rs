@@ -1,6 +1,9 @@
 //! Rigid obstacles the object is pushed out of by penalty contact: an exact plane, or any
 //! parry3d shape.
 
+use std::collections::HashMap;
+use std::hash::Hash;
+
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use parry3d::math::{Pose, Vector};
 use parry3d::shape::SharedShape;
@@ -165,15 +168,20 @@ fn outward(d: &Vector3<f64>, radius: f64) -> (f64, Vector3<f64>) {
     (radius - length, direction)
 }
 
-/// Where moving obstacle `index` has carried a point at `x` since the last step (`before`: the
-/// moving obstacles then, `now`: now); `x` when it did not exist then.
+/// Where obstacle `index` has carried a point at `x` since the last step. Obstacles are indexed
+/// over the `statics` static ones, which carry nothing, then the moving ones (`before`: as they
+/// were at the last step, `now`: now); a moving one that did not exist then carries nothing.
 pub(crate) fn carried_by(
     before: &[Obstacle],
     now: &[Obstacle],
+    statics: usize,
     index: usize,
     x: &Vector3<f64>,
 ) -> Vector3<f64> {
-    match (before.get(index), now.get(index)) {
+    let Some(link) = index.checked_sub(statics) else {
+        return *x;
+    };
+    match (before.get(link), now.get(link)) {
         (Some(from), Some(to)) if before.len() == now.len() => from.carry(to, x),
         _ => *x,
     }
@@ -191,13 +199,44 @@ pub(crate) fn tangents(normal: &Vector3<f64>) -> [Vector3<f64>; 2] {
     [t1, t2]
 }
 
+/// Friction ties kept from step to step while their contact lasts: `K` names the contact (a
+/// point and an obstacle, a body and an obstacle), `V` is where it is tied.
+#[derive(Clone, Debug)]
+pub(crate) struct Ties<K, V> {
+    kept: HashMap<K, V>,
+    touching: HashMap<K, V>,
+}
+
+impl<K, V> Default for Ties<K, V> {
+    fn default() -> Self {
+        Self {
+            kept: HashMap::new(),
+            touching: HashMap::new(),
+        }
+    }
+}
+
+impl<K: Hash + Eq, V: Copy> Ties<K, V> {
+    /// Ties contact `key` this step where `make` says, given where it was tied at the last step
+    /// (None: the contact is new, or its tie was not kept); with `keep`, the tie is kept for the
+    /// next step.
+    pub fn tie_with(&mut self, key: K, keep: bool, make: impl FnOnce(Option<&V>) -> V) -> V {
+        let anchor = make(self.kept.get(&key));
+        if keep {
+            self.touching.insert(key, anchor);
+        }
+        anchor
+    }
+
+    /// After a step's ties: the contacts not tied again have let go.
+    pub fn end_step(&mut self) {
+        self.kept = std::mem::take(&mut self.touching);
+    }
+}
+
 /// Friction anchors of touching points, kept from step to step while the point touches (on
 /// moving obstacles, carried with them).
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Anchors {
-    kept: std::collections::HashMap<(usize, usize), Vector3<f64>>,
-    touching: std::collections::HashMap<(usize, usize), Vector3<f64>>,
-}
+pub(crate) type Anchors = Ties<(usize, usize), Vector3<f64>>;
 
 impl Anchors {
     /// Where the (point, obstacle) pair touching at `x` with contact normal `normal` is tied
@@ -212,18 +251,11 @@ impl Anchors {
         normal: &Vector3<f64>,
         carry: impl Fn(&Vector3<f64>) -> Vector3<f64>,
     ) -> Vector3<f64> {
-        let anchor = match self.kept.get(&pair) {
+        self.tie_with(pair, true, |previous| match previous {
             // The slip is measured where the obstacle was, then carried with it.
             Some(previous) => carry(&Stick::carried_anchor(previous, x, normal)),
             None => carry(x),
-        };
-        self.touching.insert(pair, anchor);
-        anchor
-    }
-
-    /// After a step's ties: the pairs not tied again have let go.
-    pub fn end_step(&mut self) {
-        self.kept = std::mem::take(&mut self.touching);
+        })
     }
 }
 
@@ -333,7 +365,7 @@ mod tests {
         let p = Vector3::new(1.0, 2.0, 3.0);
         assert_eq!(floor.carry(&Obstacle::floor(0.0), &p), p);
         assert_eq!(floor.carry(&to, &p), p);
-        assert_eq!(carried_by(&[], &[floor], 0, &p), p);
+        assert_eq!(carried_by(&[], &[floor], 0, 0, &p), p);
     }
 
     /// The f64 box, ball and capsule agree with parry's f32 projection wherever it is inside.

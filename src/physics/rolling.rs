@@ -10,11 +10,9 @@
 //! mean rotation is tied to where it was by a spring that reaches the limit after
 //! [`ROLL_SLIP`] of surface travel, and the tie is dragged along past it.
 
-use std::collections::HashMap;
-
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
-use super::obstacle::{tangents, STICK_SLIP};
+use super::obstacle::{tangents, Ties, STICK_SLIP};
 
 /// Surface travel (m) at which rolling friction reaches its limit: the same slip as point
 /// friction, turned into an angle by the body's half diagonal.
@@ -102,11 +100,7 @@ impl RollingStick {
 
 /// Anchor rotations of a body resting on static obstacles, kept from step to step while it
 /// touches them (on moving obstacles the body is tied where it is at the step's start).
-#[derive(Clone, Debug, Default)]
-pub(crate) struct RollAnchors {
-    kept: HashMap<usize, Matrix3<f64>>,
-    touching: HashMap<usize, Matrix3<f64>>,
-}
+pub(crate) type RollAnchors = Ties<usize, Matrix3<f64>>;
 
 impl RollAnchors {
     /// Where the body, now at mean rotation `rotation`, is tied on `obstacle` this step.
@@ -118,19 +112,10 @@ impl RollAnchors {
         normal: &Vector3<f64>,
         slip_angle: f64,
     ) -> Matrix3<f64> {
-        let anchor = match self.kept.get(&obstacle) {
-            Some(previous) if on_static => carried_rotation(previous, rotation, normal, slip_angle),
-            _ => *rotation,
-        };
-        if on_static {
-            self.touching.insert(obstacle, anchor);
-        }
-        anchor
-    }
-
-    /// After a step's ties: the obstacles not tied again have let go.
-    pub fn end_step(&mut self) {
-        self.kept = std::mem::take(&mut self.touching);
+        self.tie_with(obstacle, on_static, |previous| match previous {
+            Some(previous) => carried_rotation(previous, rotation, normal, slip_angle),
+            None => *rotation,
+        })
     }
 }
 

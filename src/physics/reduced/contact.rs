@@ -56,7 +56,8 @@ impl ReducedSim {
         self.sticks.clear();
         self.rolls.clear();
         let (kc, mu) = (self.params.contact_stiffness, self.params.friction);
-        if mu == 0.0 && self.params.rolling_friction == 0.0 {
+        let rolling = self.params.rolling_friction > 0.0;
+        if mu == 0.0 && !rolling {
             return;
         }
         let statics = self.obstacles.len();
@@ -67,20 +68,20 @@ impl ReducedSim {
             let Some(p) = self.obstacle(o).penetration(&x) else {
                 continue;
             };
-            match pushes.iter_mut().find(|(touched, _)| *touched == o) {
-                Some((_, force)) => *force += p.normal * (kc * contact.weight * p.depth),
-                None => pushes.push((o, p.normal * (kc * contact.weight * p.depth))),
+            if rolling {
+                let push = p.normal * (kc * contact.weight * p.depth);
+                match pushes.iter_mut().find(|(touched, _)| *touched == o) {
+                    Some((_, force)) => *force += push,
+                    None => pushes.push((o, push)),
+                }
             }
             if mu > 0.0 {
                 // Kept anchors hold a resting object instead of letting it creep a little
                 // every step; a moving link carries what it touches along.
                 let (before, now) = (&self.colliders_before, &self.colliders);
-                let anchor =
-                    self.anchors
-                        .tie((c, o), &x, &p.normal, |a| match o.checked_sub(statics) {
-                            Some(link) => carried_by(before, now, link, a),
-                            None => *a,
-                        });
+                let anchor = self.anchors.tie((c, o), &x, &p.normal, |a| {
+                    carried_by(before, now, statics, o, a)
+                });
                 self.sticks
                     .extend(Stick::new(c, anchor, &p, contact.weight, kc, mu));
             }
