@@ -47,7 +47,7 @@ pub enum Error {
     Network(#[from] candle_core::Error),
     /// The ROS 2 node failed.
     #[error(transparent)]
-    Node(#[from] crate::ros::NodeError),
+    Node(#[from] NodeError),
     /// An MCAP recording could not be written or read.
     #[error(transparent)]
     Bag(#[from] crate::bag::BagError),
@@ -119,4 +119,33 @@ pub(crate) fn ensure(ok: bool, name: &'static str, reason: impl FnOnce() -> Stri
             reason: reason(),
         })
     }
+}
+
+/// Why the node could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    /// DDS refused: a context, topic, publisher, subscription or server could not be made.
+    #[error("DDS: {0}")]
+    Dds(String),
+    /// ros2_client refused a node, topic or service name.
+    #[error("invalid node name: {0}")]
+    Name(String),
+    /// The parameters were refused.
+    #[error(transparent)]
+    Params(#[from] ParamError),
+    /// The signal handler could not be installed.
+    #[error("signal handler: {0}")]
+    Signal(String),
+    /// A name could not be expanded or remapped.
+    #[error(transparent)]
+    Names(#[from] crate::ros::NameError),
+    /// The `--ros-args` were refused.
+    #[error(transparent)]
+    RosArgs(#[from] crate::ros::RosArgsError),
+    /// The recording could not start.
+    #[error(transparent)]
+    Record(#[from] crate::bag::BagError),
+    /// The scene file named by the `scene` parameter could not be read.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
 }

@@ -102,17 +102,5 @@ pub mod scene;
 pub mod shm;
 pub mod skinning;
 
-// The command line's benches, demo, picture writers and training loop. They are compiled into
-// the library so that the integration tests can drive them, but they are not the embedding API
-// (nothing above depends on them): hidden from the documentation and free to change.
-#[doc(hidden)]
-pub mod bench;
-#[doc(hidden)]
-pub mod demo;
-#[doc(hidden)]
-pub mod io;
-#[doc(hidden)]
-pub mod training;
-
 pub use error::{Error, Result};
 pub use pipeline::{BodyOptions, SoftBody, Support};

@@ -6,8 +6,14 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+// The command line's own modules: benches, the demo, picture writers and the training loop.
+// They use only the library's public API and are not part of it.
+mod bench;
 mod cli;
-use physskin::bench::{run_sim_bench, SimBenchOptions, SimBenchReport};
+mod demo;
+mod io;
+mod training;
+use crate::bench::{run_sim_bench, SimBenchOptions, SimBenchReport};
 
 #[derive(Parser)]
 #[command(
@@ -236,7 +242,7 @@ fn main() -> ExitCode {
 }
 
 fn run_bench_transport(json: bool, domain_id: u16) -> physskin::Result<()> {
-    let r = physskin::bench::run_transport_bench(domain_id, |line| eprintln!("{line}"))?;
+    let r = crate::bench::run_transport_bench(domain_id, |line| eprintln!("{line}"))?;
     if json {
         cli::print_json(&r);
     } else {
@@ -262,12 +268,12 @@ fn run_bench_soak(
     domain_id: u16,
     record: PathBuf,
 ) -> physskin::Result<()> {
-    let options = physskin::bench::SoakOptions {
+    let options = crate::bench::SoakOptions {
         seconds,
         domain_id,
         record,
     };
-    let r = physskin::bench::run_soak(&options, |line| eprintln!("{line}"))?;
+    let r = crate::bench::run_soak(&options, |line| eprintln!("{line}"))?;
     if json {
         cli::print_json(&r);
         return Ok(());
@@ -294,7 +300,7 @@ fn run_bench_soak(
 }
 
 fn run_bench_real(json: bool) -> physskin::Result<()> {
-    let r = physskin::bench::run_real_bench(|line| eprintln!("{line}"))?;
+    let r = crate::bench::run_real_bench(|line| eprintln!("{line}"))?;
     if json {
         cli::print_json(&r);
         return Ok(());
@@ -316,7 +322,7 @@ fn run_bench_real(json: bool) -> physskin::Result<()> {
 }
 
 fn run_bench_contact(json: bool) -> physskin::Result<()> {
-    let r = physskin::bench::run_contact_bench(|line| eprintln!("{line}"))?;
+    let r = crate::bench::run_contact_bench(|line| eprintln!("{line}"))?;
     if json {
         cli::print_json(&r);
         return Ok(());
@@ -350,8 +356,8 @@ fn run_bench_contact(json: bool) -> physskin::Result<()> {
 }
 
 fn run_bench_stress(json: bool) -> physskin::Result<()> {
-    let cases = physskin::bench::stress_cases();
-    let r = physskin::bench::run_stress(&cases, |line| eprintln!("{line}"))?;
+    let cases = crate::bench::stress_cases();
+    let r = crate::bench::run_stress(&cases, |line| eprintln!("{line}"))?;
     if json {
         cli::print_json(&r);
         return Ok(());
@@ -387,8 +393,8 @@ fn run_bench_stress(json: bool) -> physskin::Result<()> {
 }
 
 fn run_bench_replay(json: bool) -> physskin::Result<()> {
-    let r = physskin::bench::run_replay_bench(
-        physskin::demo::DEMO_BAG,
+    let r = crate::bench::run_replay_bench(
+        crate::demo::DEMO_BAG,
         std::path::Path::new("target/bench"),
         |line| eprintln!("{line}"),
     )?;
@@ -412,8 +418,7 @@ fn run_bench_latency(
     domain_id: u16,
     rclpy_python: Option<&std::path::Path>,
 ) -> physskin::Result<()> {
-    let r =
-        physskin::bench::run_latency_bench(domain_id, rclpy_python, |line| eprintln!("{line}"))?;
+    let r = crate::bench::run_latency_bench(domain_id, rclpy_python, |line| eprintln!("{line}"))?;
     if json {
         cli::print_json(&r);
     } else {
@@ -477,7 +482,7 @@ fn write_plot(report: &SimBenchReport, path: &std::path::Path) -> physskin::Resu
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(io)?;
     }
-    let svg = physskin::bench::sim_plot(report);
+    let svg = crate::bench::sim_plot(report);
     std::fs::File::create(path)
         .and_then(|mut f| f.write_all(svg.as_bytes()))
         .map_err(io)

@@ -4,16 +4,18 @@
 //! UPDATE_GOLDEN=1 after retraining).
 
 use nalgebra::Vector3;
-use physskin::bench::prepare_input;
-use physskin::geometry::box_mesh;
+use physskin::geometry::{box_mesh, VoxelGrid};
+use physskin::pipeline::network_input;
 use physskin::skinning::{NeuralField, NeuralModel, SkinningField};
 
 fn box_field() -> NeuralField {
     let shape = box_mesh(Vector3::new(0.4, 0.3, 0.2));
-    let input = prepare_input(&shape, 4096, 4096);
+    let mut grid = VoxelGrid::from_shape(&shape, 128, None);
+    grid.keep_largest_component();
+    let (_, surface, reference) = network_input(&shape, &grid, 4096, 4096);
     NeuralModel::bundled()
         .expect("the bundled model loads")
-        .field(&input.surface, &input.reference, shape.normalization())
+        .field(&surface, &reference, shape.normalization())
         .expect("a box has a field")
 }
 

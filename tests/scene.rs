@@ -5,7 +5,6 @@
 use std::path::PathBuf;
 
 use nalgebra::Vector3;
-use physskin::bench::{run_scene, SceneRunOptions};
 use physskin::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use physskin::skinning::NeuralModel;
 
@@ -61,29 +60,37 @@ fn position_of(scene: &Scene, name: &str, rest: Vector3<f64>) -> Vector3<f64> {
     Vector3::new(x[0] as f64, x[1] as f64, x[2] as f64)
 }
 
-/// The scene run again, after `settle_steps` steps with the robot still, for `seconds` of its
-/// motion; `name`'s error against the full-space FEM, %.
-fn fem_error_pct(
-    file: &SceneFile,
-    cache: &FieldCache,
-    seconds: f64,
-    settle_steps: usize,
-    name: &str,
-) -> f64 {
-    let run = run_scene(
-        file,
-        &NeuralModel::bundled().unwrap(),
-        cache,
-        &SceneRunOptions {
-            scene: SceneOptions::default(),
-            seconds,
-            settle_steps,
-            settle_exactly: true,
-            compare: vec![name.into()],
-        },
-    )
-    .unwrap();
-    run.errors[0].error_pct
+/// Where `scene_file(name, ..)` wrote the scene.
+fn scene_path(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("scene-{name}"))
+        .join("scene.yaml")
+}
+
+/// The scene `name` run again by `physskin scene --reference` (the command a user runs), after
+/// `settle_steps` steps with the robot still, for `seconds` of its motion; `object`'s error
+/// against the full-space FEM, %.
+fn fem_error_pct(name: &str, seconds: f64, settle_steps: usize, object: &str) -> f64 {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_physskin"))
+        .arg("scene")
+        .arg(scene_path(name))
+        .args(["--reference", "--json", "--seconds", &seconds.to_string()])
+        .args(["--settle-steps", &settle_steps.to_string()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "physskin scene failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let run: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let errors = run["errors"].as_array().expect("the run reports errors");
+    let error = errors.iter().find(|e| e["name"] == object);
+    error
+        .and_then(|e| e["error_pct"].as_f64())
+        .unwrap_or_else(|| {
+            panic!("no error reported for {object}: {errors:?}");
+        })
 }
 
 #[test]
@@ -125,7 +132,7 @@ fn a_link_dents_a_soft_block_as_the_fem_does() {
     );
 
     // The same motion in the full-space FEM, compared step by step.
-    let error = fem_error_pct(&file, &cache, 1.6, 120, "block");
+    let error = fem_error_pct("dent", 1.6, 120, "block");
     assert!(error < 2.0, "block against the FEM: {error:.3} %");
 }
 
@@ -189,7 +196,7 @@ fn an_attached_object_follows_its_link_as_the_fem_does() {
         (got - expected).norm() < 0.01,
         "held point at {got:?}, the link holds it at {expected:?}"
     );
-    let error = fem_error_pct(&file, &cache, 1.0, 30, "bar");
+    let error = fem_error_pct("attach", 1.0, 30, "bar");
     assert!(error < 3.0, "bar against the FEM: {error:.3} %");
 }
 

@@ -11,10 +11,10 @@ use serde::Serialize;
 
 use super::input::prepare_input;
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, Scenario};
-use crate::geometry::{Cubature, Shape, VoxelGrid};
-use crate::physics::{Solver, Subspace};
-use crate::skinning::{FieldMetrics, NeuralField, NeuralModel, SkinningField};
-use crate::Result;
+use physskin::geometry::{Cubature, Shape, VoxelGrid};
+use physskin::physics::{Solver, Subspace};
+use physskin::skinning::{FieldMetrics, NeuralField, NeuralModel, SkinningField};
+use physskin::Result;
 
 /// What to measure.
 #[derive(Clone, Debug)]

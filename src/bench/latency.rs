@@ -10,13 +10,13 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
-use crate::ros::cloud::encode_cloud;
-use crate::ros::messages::{Header, PointCloud2};
-use crate::ros::params::Topics;
-use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
-use crate::skinning::NeuralModel;
-use crate::{Error, Result};
+use physskin::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
+use physskin::ros::cloud::encode_cloud;
+use physskin::ros::messages::{Header, PointCloud2};
+use physskin::ros::params::Topics;
+use physskin::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use physskin::skinning::NeuralModel;
+use physskin::{Error, Result};
 
 /// What `bench latency` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -79,9 +79,9 @@ pub struct RclpyLatency {
 /// image (width about 180), as a depth camera driver publishes it (organized, NaN where
 /// nothing is seen, with colours), in `frame`.
 fn box_scan(frame: &str, width: usize) -> PointCloud2 {
-    use crate::ros::camera_cloud::{camera_cloud, SeenObject};
-    let shape = crate::geometry::bundled("box").expect("the bundled box");
-    let camera = crate::geometry::Camera::looking_at(
+    use physskin::ros::camera_cloud::{camera_cloud, SeenObject};
+    let shape = physskin::geometry::bundled("box").expect("the bundled box");
+    let camera = physskin::geometry::Camera::looking_at(
         &shape,
         nalgebra::Vector3::new(1.0, 0.6, 0.8),
         1.5,
@@ -428,7 +428,7 @@ fn rclpy_latency(
 }
 
 pub(crate) fn dds(message: String) -> Error {
-    Error::Node(crate::ros::NodeError::Dds(message))
+    Error::Node(physskin::ros::NodeError::Dds(message))
 }
 
 /// A benchmark's own ROS 2 node (no rosout) named `name`, in `ctx`.

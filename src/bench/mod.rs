@@ -15,22 +15,17 @@ mod stats;
 mod stress;
 mod transport;
 
-pub use contact::{run_contact_bench, ContactReport, RestingBallRow};
-pub use fields::{evaluate_fields, interior_points, EvalMean, EvalOptions, EvalReport, ShapeEval};
-pub use input::{prepare_input, PreparedInput};
-pub use latency::{run_latency_bench, sample_cloud, LatencyReport, RclpyLatency};
-pub use real_bench::{run_real_bench, RealBenchReport, ScanRow};
+pub use contact::run_contact_bench;
+pub use fields::{evaluate_fields, EvalOptions, EvalReport};
+pub use input::prepare_input;
+pub use latency::run_latency_bench;
+pub use real_bench::run_real_bench;
 pub use real_to_sim::{simulate_input, InputSimOptions, InputSimSummary};
-pub use replay::{run_replay_bench, ReplayBenchReport};
-pub use scene::{
-    run_scene, run_scene_bench, SceneBenchReport, SceneRun, SceneRunOptions, WORKCELL,
-    WORKCELL_ACTIVE,
-};
+pub use replay::run_replay_bench;
+pub use scene::{run_scene, run_scene_bench, SceneRun, SceneRunOptions, WORKCELL};
 pub use sim::{
-    run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimRow, SimulateOptions,
-    SimulateSummary,
+    run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimulateOptions,
 };
-pub use soak::{run_soak, MemorySample, SoakOptions, SoakReport};
-pub use stats::median;
-pub use stress::{run_stress, stress_cases, Start, StressCase, StressReport, StressRow};
-pub use transport::{run_transport_bench, TransportReport};
+pub use soak::{run_soak, SoakOptions};
+pub use stress::{run_stress, stress_cases};
+pub use transport::run_transport_bench;

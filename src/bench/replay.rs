@@ -9,11 +9,11 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::latency::sample_cloud;
-use crate::bag::{replay, RecordOptions, Recorder, ReplayOptions};
-use crate::ros::messages::Time;
-use crate::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
-use crate::skinning::NeuralModel;
-use crate::Result;
+use physskin::bag::{replay, RecordOptions, Recorder, ReplayOptions};
+use physskin::ros::messages::Time;
+use physskin::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
+use physskin::skinning::NeuralModel;
+use physskin::Result;
 
 /// What `bench replay` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -46,7 +46,7 @@ pub fn run_replay_bench(
     mut progress: impl FnMut(&str),
 ) -> Result<ReplayBenchReport> {
     let model = NeuralModel::bundled()?;
-    std::fs::create_dir_all(scratch).map_err(|e| crate::Error::Io {
+    std::fs::create_dir_all(scratch).map_err(|e| physskin::Error::Io {
         path: scratch.into(),
         source: e,
     })?;
@@ -98,7 +98,7 @@ fn record_overhead(
     let params = NodeParams::default();
     let cloud = sample_cloud("creature", 10_000, "bench", 5);
     let request = BuildRequest::from_cloud(&cloud, params.max_points, &params.instance_field)
-        .map_err(crate::Error::Geometry)?
+        .map_err(physskin::Error::Geometry)?
         .remove(0);
     let clock = NodeClock::simulated();
     let outputs = |recorder: Option<Recorder>| Outputs {
@@ -107,7 +107,7 @@ fn record_overhead(
         dds: None,
         recorder,
         shm: None,
-        topics: crate::ros::params::Topics::default_resolved(),
+        topics: physskin::ros::params::Topics::default_resolved(),
         publish: params.publish.clone(),
         clock: clock.clone(),
         timings: true,
@@ -115,7 +115,7 @@ fn record_overhead(
     let quiet = outputs(None);
     let BuildOutcome::Ready(body, _) = Builder::default().build(&request, &params, model, &quiet)
     else {
-        return Err(crate::Error::Geometry(
+        return Err(physskin::Error::Geometry(
             "the bench cloud did not build".into(),
         ));
     };
@@ -171,7 +171,7 @@ fn record_overhead(
 }
 
 fn poke(stage: &mut Stage, outputs: &Outputs, i: usize) {
-    use crate::ros::messages::{Header, Interaction, Point, Vector3 as RosVector3};
+    use physskin::ros::messages::{Header, Interaction, Point, Vector3 as RosVector3};
     let side = if (i / 60) % 2 == 0 { 1.0 } else { -1.0 };
     let force = Vector3::new(0.0, 200.0 * side, 0.0);
     stage.interact(

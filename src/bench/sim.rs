@@ -10,13 +10,13 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::stats::{median, quantile};
-use crate::error::{Error, Result};
-use crate::geometry::{
+use physskin::error::{Error, Result};
+use physskin::geometry::{
     bundled, sample_surface, stratified_subset, Cubature, Shape, SurfaceSampling, TetMesh,
     VoxelGrid,
 };
-use crate::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
-use crate::skinning::{EigenmodeField, EigenmodeOptions, SkinningField};
+use physskin::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
+use physskin::skinning::{EigenmodeField, EigenmodeOptions, SkinningField};
 
 /// What to run.
 #[derive(Clone, Debug, Default)]
@@ -281,7 +281,7 @@ pub fn run_sim_bench(
 }
 
 impl BenchShape {
-    pub(crate) fn eigen_normalization(&self) -> crate::geometry::Normalization {
+    pub(crate) fn eigen_normalization(&self) -> physskin::geometry::Normalization {
         self.source.normalization()
     }
 
@@ -649,7 +649,7 @@ pub struct SimulateSummary {
 /// model's handles with the learned field, or when a simulation fails.
 pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
     let scenario = Scenario::named(&options.scenario)?;
-    let name: &'static str = crate::geometry::BUNDLED
+    let name: &'static str = physskin::geometry::BUNDLED
         .iter()
         .find(|n| **n == options.shape)
         .ok_or_else(|| Error::InvalidParameter {
@@ -657,7 +657,7 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
             reason: format!(
                 "unknown shape {:?} (one of {:?})",
                 options.shape,
-                crate::geometry::BUNDLED
+                physskin::geometry::BUNDLED
             ),
         })?;
     let source = bundled(name).expect("a bundled shape");
@@ -671,7 +671,7 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
         (Vec::new(), Vec::new())
     };
     let field: Arc<dyn SkinningField> = if options.learned {
-        let model = crate::skinning::NeuralModel::bundled()?;
+        let model = physskin::skinning::NeuralModel::bundled()?;
         if model.config().handles != options.modes {
             return Err(Error::InvalidParameter {
                 name: "modes",

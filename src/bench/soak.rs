@@ -12,14 +12,14 @@ use ros2_client::{Context, Node, Publisher, Subscription};
 use serde::Serialize;
 
 use super::latency::{client_node, dds, open_interfaces, sample_cloud};
-use crate::bag::read_messages;
-use crate::ros::messages::{
+use physskin::bag::read_messages;
+use physskin::ros::messages::{
     from_cdr, Header, Interaction, Point, PointCloud2, Status, SubspaceState, Vector3,
 };
-use crate::ros::params::Topics;
-use crate::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
-use crate::skinning::NeuralModel;
-use crate::Result;
+use physskin::ros::params::Topics;
+use physskin::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use physskin::skinning::NeuralModel;
+use physskin::Result;
 
 /// How long and how hard.
 #[derive(Clone, Debug)]
@@ -414,7 +414,7 @@ fn check_recording(first: &Path, report: &mut SoakReport) -> Result<()> {
     report.recording_files = files.len();
     report.recording_complete = !files.is_empty();
     for file in &files {
-        let bytes = std::fs::read(file).map_err(|e| crate::Error::Io {
+        let bytes = std::fs::read(file).map_err(|e| physskin::Error::Io {
             path: file.clone(),
             source: e,
         })?;

@@ -9,11 +9,11 @@ use std::time::Instant;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
-use crate::geometry::{box_grid_mesh, bundled, Shape};
-use crate::physics::{SimParams, Solver};
-use crate::pipeline::{BodyOptions, SoftBody, Support};
-use crate::skinning::{NeuralModel, SkinningField};
-use crate::Result;
+use physskin::geometry::{box_grid_mesh, bundled, Shape};
+use physskin::physics::{SimParams, Solver};
+use physskin::pipeline::{BodyOptions, SoftBody, Support};
+use physskin::skinning::{NeuralModel, SkinningField};
+use physskin::Result;
 
 /// How a case starts.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -198,7 +198,7 @@ fn stress_shape(name: &str) -> Result<Shape> {
     match name {
         "sheet" => Ok(box_grid_mesh(Vector3::new(0.4, 0.004, 0.4), 0.02)),
         other => bundled(other)
-            .ok_or_else(|| crate::Error::Geometry(format!("no bundled shape `{other}`"))),
+            .ok_or_else(|| physskin::Error::Geometry(format!("no bundled shape `{other}`"))),
     }
 }
 

@@ -8,11 +8,11 @@ use serde::Serialize;
 
 use super::latency::{client_node, dds, open_interfaces, sample_cloud};
 use super::stats::median;
-use crate::ros::cloud::decode_cloud;
-use crate::ros::messages::{PointCloud2, Time};
-use crate::ros::{context, publisher, reliable_qos, subscription};
-use crate::shm::{ShmOptions, ShmPublisher, ShmSubscriber};
-use crate::Result;
+use physskin::ros::cloud::decode_cloud;
+use physskin::ros::messages::{PointCloud2, Time};
+use physskin::ros::{context, publisher, reliable_qos, subscription};
+use physskin::shm::{ShmOptions, ShmPublisher, ShmSubscriber};
+use physskin::Result;
 
 /// What `bench transport` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]

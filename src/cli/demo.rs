@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use physskin::demo::{run_demo, write_demo_bag, DemoOptions, DemoScript};
+use crate::demo::{run_demo, write_demo_bag, DemoOptions, DemoScript};
 use physskin::skinning::NeuralModel;
 
 #[derive(clap::Args)]

@@ -3,10 +3,10 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use physskin::bench::{evaluate_fields, EvalOptions, EvalReport};
+use crate::bench::{evaluate_fields, EvalOptions, EvalReport};
+use crate::training::{dataset, TrainingConfig};
 use physskin::geometry::{bundled, load_geometry, Shape};
 use physskin::skinning::NeuralModel;
-use physskin::training::{dataset, TrainingConfig};
 use physskin::{Error, Result};
 
 #[derive(clap::Args)]

@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use physskin::bench::prepare_input;
+use crate::bench::prepare_input;
+use crate::io::{render_field_png, write_npy_f32};
 use physskin::geometry::{
     complete_view, load_geometry, write_ply, RawGeometry, Shape, SurfaceSamples,
 };
-use physskin::io::{render_field_png, write_npy_f32};
 use physskin::skinning::{NeuralModel, SkinningField};
 use physskin::{Error, Result};
 

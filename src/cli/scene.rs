@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use physskin::bench::{run_scene, run_scene_bench, SceneRun, SceneRunOptions, WORKCELL};
+use crate::bench::{run_scene, run_scene_bench, SceneRun, SceneRunOptions, WORKCELL};
 use physskin::scene::{FieldCache, SceneFile, SceneOptions};
 use physskin::skinning::NeuralModel;
 
@@ -22,6 +22,10 @@ pub struct SceneArgs {
     /// Compare every deformable object with the full-space FEM (slower).
     #[arg(long)]
     reference: bool,
+    /// Settle exactly this many steps before the motion (default: until every object sleeps,
+    /// at most 8 s; exactly 8 s with --no-decisions).
+    #[arg(long)]
+    settle_steps: Option<usize>,
     #[arg(long)]
     json: bool,
 }
@@ -48,8 +52,8 @@ pub fn run(args: SceneArgs) -> physskin::Result<()> {
                 scripted: true,
             },
             seconds: args.seconds,
-            settle_steps: (8.0 * file.rate_hz) as usize,
-            settle_exactly: args.no_decisions,
+            settle_steps: args.settle_steps.unwrap_or((8.0 * file.rate_hz) as usize),
+            settle_exactly: args.no_decisions || args.settle_steps.is_some(),
             compare,
         },
     )?;

@@ -3,10 +3,8 @@
 
 use std::path::PathBuf;
 
+use crate::bench::{simulate, simulate_input, InputSimOptions, InputSimSummary, SimulateOptions};
 use nalgebra::Vector3;
-use physskin::bench::{
-    simulate, simulate_input, InputSimOptions, InputSimSummary, SimulateOptions,
-};
 use physskin::physics::Solver;
 use physskin::{Error, Result};
 

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use physskin::training::{train_from, Combine, TrainingConfig};
+use crate::training::{train_from, Combine, TrainingConfig};
 use physskin::{Error, Result};
 
 #[derive(clap::Args)]

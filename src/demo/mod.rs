@@ -12,13 +12,12 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-pub use reference::{DisplacementSeries, ReferenceError};
-pub use script::{write_demo_bag, Delivery, DemoPoke, DemoScript, DemoShape, DEMO_START_NS};
+pub use script::{write_demo_bag, DemoScript, DEMO_START_NS};
 
-use crate::bag::{replay, RecordOptions, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
-use crate::ros::NodeParams;
-use crate::skinning::NeuralModel;
-use crate::{Error, Result};
+use physskin::bag::{replay, RecordOptions, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
+use physskin::ros::NodeParams;
+use physskin::skinning::NeuralModel;
+use physskin::{Error, Result};
 
 /// The bundled demo recording (`bags/demo.mcap`), compiled into the binary so that a moved or
 /// installed binary still has its demo.

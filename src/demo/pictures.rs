@@ -10,12 +10,12 @@ use nalgebra::DMatrix;
 
 use super::reference::ReferenceError;
 use super::script::DEMO_START_NS;
-use crate::bag::Tick;
 use crate::io::{
     line_plot_svg, render_strip_png, weight_colors, LineSeries, Panel, StripFrame, StripObject,
 };
-use crate::pipeline::SoftBody;
-use crate::{Error, Result};
+use physskin::bag::Tick;
+use physskin::pipeline::SoftBody;
+use physskin::{Error, Result};
 
 /// Height of each frame's scene in the strip, px.
 const VIEW: u32 = 240;

@@ -10,14 +10,14 @@ use rand::distr::Distribution;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::bag::{BagError, BagWriter, RecordOptions, RecordSummary};
-use crate::geometry::{bundled, sdf_mesh, Shape};
-use crate::ros::cloud::encode_cloud;
-use crate::ros::messages::{
+use physskin::bag::{BagError, BagWriter, RecordOptions, RecordSummary};
+use physskin::geometry::{bundled, sdf_mesh, Shape};
+use physskin::ros::cloud::encode_cloud;
+use physskin::ros::messages::{
     to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
     Vector3 as RosVector3,
 };
-use crate::ros::topic_table;
+use physskin::ros::topic_table;
 
 /// Log time of the demo's first message: 2026-01-01T00:00:00Z, ns.
 pub const DEMO_START_NS: i64 = 1_767_225_600_000_000_000;
@@ -216,7 +216,7 @@ pub fn cloud_points(shape: &Shape, count: usize) -> Vec<Vector3<f64>> {
 
 /// Writes the script's inputs as an MCAP recording, as the node would have recorded them.
 pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary, BagError> {
-    let t = &crate::ros::params::Topics::default_resolved();
+    let t = &physskin::ros::params::Topics::default_resolved();
     let mut writer = BagWriter::create(RecordOptions {
         path: path.into(),
         ..Default::default()
@@ -299,4 +299,26 @@ pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary,
         writer.write(topic, ns, ns, &data)?;
     }
     writer.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use physskin::bag::read_messages;
+
+    #[test]
+    fn the_demo_bag_is_what_its_script_writes() {
+        let path = std::env::temp_dir().join(format!("physskin-demo-{}.mcap", std::process::id()));
+        write_demo_bag(&DemoScript::new(), &path).unwrap();
+        let fresh = read_messages(&std::fs::read(&path).unwrap(), "fresh").unwrap();
+        std::fs::remove_file(&path).unwrap();
+        let bundled = read_messages(super::super::DEMO_BAG, "bags/demo.mcap").unwrap();
+        assert_eq!(fresh.len(), bundled.len());
+        for (a, b) in fresh.iter().zip(&bundled) {
+            assert_eq!(
+                (&a.topic, a.log_time, &a.data),
+                (&b.topic, b.log_time, &b.data)
+            );
+        }
+    }
 }

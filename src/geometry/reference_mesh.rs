@@ -11,14 +11,16 @@ use super::{Shape, TetMesh, VoxelGrid};
 const REFERENCE_VERTICES: usize = 500;
 
 /// A shape's reference mesh and the diagonal of its solid, m (errors are % of it).
-pub(crate) struct ReferenceMesh {
+pub struct ReferenceMesh {
+    /// The tetrahedral mesh the FEM runs on.
     pub mesh: Arc<TetMesh>,
+    /// Diagonal of the voxelized solid's bounds, m.
     pub diagonal: f64,
 }
 
 /// The coarsest tetrahedral mesh of the shape's interior with REFERENCE_VERTICES vertices: the
 /// FEM's cost grows fast with vertices on compact shapes.
-pub(crate) fn reference_mesh(shape: &Shape) -> ReferenceMesh {
+pub fn reference_mesh(shape: &Shape) -> ReferenceMesh {
     let fine = VoxelGrid::from_shape(shape, 128, None);
     let mut resolution = 8;
     let grid = loop {
@@ -36,7 +38,7 @@ pub(crate) fn reference_mesh(shape: &Shape) -> ReferenceMesh {
 }
 
 /// The vertices in the lowest 10% along gravity: the FEM's counterpart of `pin_bottom`.
-pub(crate) fn bottom_vertices(vertices: &[Vector3<f64>], gravity: &Vector3<f64>) -> Vec<usize> {
+pub fn bottom_vertices(vertices: &[Vector3<f64>], gravity: &Vector3<f64>) -> Vec<usize> {
     let up = if gravity.norm() > 0.0 {
         -gravity.normalize()
     } else {

@@ -7,9 +7,8 @@ mod npy;
 mod plot;
 mod strip;
 
+pub use field_image::render_field_png;
 pub(crate) use field_image::weight_colors;
-pub use field_image::{render_field_png, RenderError};
-pub use font::{draw_text, text_width, GLYPH_HEIGHT, GLYPH_WIDTH};
 pub use npy::write_npy_f32;
 pub use plot::{line_plot_svg, LineSeries, Panel};
 pub use strip::{render_strip_png, StripFrame, StripObject};

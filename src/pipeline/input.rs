@@ -66,7 +66,7 @@ impl NetworkInput {
 /// What the network reads from a shape: `surface_points` surface samples (in world units, and
 /// in the normalized frame) and `reference_points` stratified interior points (normalized) that
 /// fix the output normalization. A fixed seed: the same geometry always gives the same input.
-pub(crate) fn network_input(
+pub fn network_input(
     shape: &Shape,
     grid: &VoxelGrid,
     surface_points: usize,

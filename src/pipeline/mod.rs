@@ -7,6 +7,6 @@ mod options;
 mod seen;
 
 pub use body::{BuildTimings, SoftBody};
-pub(crate) use input::network_input;
+pub use input::network_input;
 pub use options::{BodyOptions, SleepRule, Support};
 pub use seen::{build_seen, SeenBody, DEFAULT_MAX_BUILD_POINTS};

@@ -13,34 +13,9 @@ use super::messages::RosMessage;
 use super::qos_overrides::{Endpoint, QosOverrides};
 use crate::bag::{QosProfile, TopicInfo};
 
-/// Why the node could not start.
-#[derive(Debug, thiserror::Error)]
-pub enum NodeError {
-    /// DDS refused: a context, topic, publisher, subscription or server could not be made.
-    #[error("DDS: {0}")]
-    Dds(String),
-    /// ros2_client refused a node, topic or service name.
-    #[error("invalid node name: {0}")]
-    Name(String),
-    /// The parameters were refused.
-    #[error(transparent)]
-    Params(#[from] super::params::ParamError),
-    /// The signal handler could not be installed.
-    #[error("signal handler: {0}")]
-    Signal(String),
-    /// A name could not be expanded or remapped.
-    #[error(transparent)]
-    Names(#[from] super::names::NameError),
-    /// The `--ros-args` were refused.
-    #[error(transparent)]
-    RosArgs(#[from] super::args::RosArgsError),
-    /// The recording could not start.
-    #[error(transparent)]
-    Record(#[from] crate::bag::BagError),
-    /// The scene file named by the `scene` parameter could not be read.
-    #[error(transparent)]
-    Scene(#[from] crate::scene::SceneError),
-}
+// Lives in `crate::error` (the crate error wraps it, and nothing there may depend on the ROS
+// layer); named here too, where it always was.
+pub use crate::error::NodeError;
 
 /// A DDS context, restricted to loopback when asked.
 pub fn context(domain_id: u16, loopback_only: bool) -> Result<Context, NodeError> {

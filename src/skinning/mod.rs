@@ -8,7 +8,7 @@ mod truncated;
 pub(crate) use eigenmodes::linear_gradients;
 pub use eigenmodes::{EigenmodeField, EigenmodeOptions};
 pub use metrics::FieldMetrics;
-pub(crate) use neural::{inverse_sqrt, load_tensors, save_tensors, CONFIG_KEY};
+pub use neural::{inverse_sqrt, load_tensors, save_tensors, CONFIG_KEY};
 pub use neural::{
     ColumnNormalization, Network, NetworkConfig, NeuralField, NeuralModel, ShapeCode,
 };

@@ -10,5 +10,5 @@ mod shapes;
 mod trainer;
 
 pub use config::{Combine, TrainingConfig};
-pub use shapes::{dataset, DatasetSpec, GeneratedShape, ShapeFamily, ShapeSample};
-pub use trainer::{train, train_from, LogLine, TrainingSummary};
+pub use shapes::dataset;
+pub use trainer::train_from;

@@ -10,10 +10,14 @@ use serde::Serialize;
 pub use super::families::ShapeFamily;
 use super::families::{draw, random_rotation};
 use super::sdf::Sdf;
-use crate::geometry::{sample_surface, sdf_mesh, Normalization, Shape, SurfaceSampling, VoxelGrid};
+use physskin::geometry::{
+    sample_surface, sdf_mesh, Normalization, Shape, SurfaceSampling, VoxelGrid,
+};
 
 /// A generated solid: its family, seed and signed distance function (world units, about 2 m
 /// across, centered near the origin).
+// The name, family and seed identify a shape in Debug output and the tests' messages.
+#[allow(dead_code)]
 #[derive(Clone, Debug)]
 pub struct GeneratedShape {
     /// `<family>-<seed>`, the seed written with at least four digits.
@@ -26,6 +30,7 @@ pub struct GeneratedShape {
 }
 
 /// What a training step or an evaluation needs of a shape, in its normalized frame.
+#[allow(dead_code)]
 #[derive(Clone, Debug)]
 pub struct ShapeSample {
     /// The shape's name.
@@ -78,6 +83,7 @@ impl GeneratedShape {
     }
 
     /// The signed distance function at `p`, world units (negative inside).
+    #[cfg(test)]
     pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
         self.sdf.at(p)
     }

@@ -19,9 +19,9 @@ use super::config::{Combine, TrainingConfig};
 use super::losses::{self, Batch, LossOptions, Losses};
 use super::optim::{config_combine, learning_rate, Adam, LossMomenta};
 use super::shapes::{dataset, ShapeSample};
-use crate::geometry::SurfaceSamples;
-use crate::skinning::{FieldMetrics, NeuralModel, SkinningField};
-use crate::{Error, Result};
+use physskin::geometry::SurfaceSamples;
+use physskin::skinning::{FieldMetrics, NeuralModel, SkinningField};
+use physskin::{Error, Result};
 
 /// One line of the training log (log.jsonl).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -68,16 +68,7 @@ const BEST: &str = "best.safetensors";
 const LOG: &str = "log.jsonl";
 
 /// Trains into `dir` (checkpoint, log, final model), resuming from its checkpoint when there is
-/// one with the same config. Stops early, checkpointed, after `max_seconds` if given.
-pub fn train(
-    config: &TrainingConfig,
-    dir: &Path,
-    max_seconds: Option<f64>,
-) -> Result<TrainingSummary> {
-    train_from(config, dir, max_seconds, None)
-}
-
-/// [`train`], starting from the weights of the model file `init` (fine-tuning: a fresh optimizer
+/// one with the same config; stops early, checkpointed, after `max_seconds` if given. Starts from the weights of the model file `init` (fine-tuning: a fresh optimizer
 /// and schedule) unless `dir` holds a checkpoint to resume.
 pub fn train_from(
     config: &TrainingConfig,
@@ -494,7 +485,7 @@ fn held_out_metrics(model: &NeuralModel, shapes: &[ShapeSample]) -> Result<Field
 pub(crate) fn field_of_sample(
     model: &Arc<NeuralModel>,
     shape: &ShapeSample,
-) -> Result<(crate::skinning::NeuralField, Vec<Vector3<f64>>)> {
+) -> Result<(physskin::skinning::NeuralField, Vec<Vector3<f64>>)> {
     let to64 = |p: &Vector3<f32>| p.cast::<f64>();
     let surface = SurfaceSamples {
         points: shape.surface_points.iter().map(to64).collect(),
@@ -511,7 +502,7 @@ pub(crate) fn field_of_sample(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::skinning::{load_tensors, NetworkConfig};
+    use physskin::skinning::{load_tensors, NetworkConfig};
 
     #[test]
     fn the_fine_tuning_configs_parse_and_fit_the_shipped_network() {
@@ -590,17 +581,18 @@ mod tests {
         let before = fixed_losses(&fresh, &held);
 
         // Stopped after the first checkpoint, then resumed to the end.
-        let first = train(
+        let first = train_from(
             &TrainingConfig {
                 steps: 45,
                 ..config.clone()
             },
             &dir,
             None,
+            None,
         )
         .unwrap();
         assert_eq!(first.steps_done, 45);
-        let done = train(&config, &dir, None).unwrap();
+        let done = train_from(&config, &dir, None, None).unwrap();
         assert_eq!(done.steps_done, 90);
         let trained = NeuralModel::load(&done.model_path).unwrap();
         let after = fixed_losses(&trained, &held);

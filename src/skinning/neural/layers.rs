@@ -224,7 +224,7 @@ impl OniLinear {
 
 /// S^{-1/2} of a symmetric positive definite matrix by coupled Newton iterations on
 /// S / ||S||_F (eigenvalues in (0, 1], where the iteration converges), differentiable.
-pub(crate) fn inverse_sqrt(s: &Tensor, iterations: usize) -> CResult<Tensor> {
+pub fn inverse_sqrt(s: &Tensor, iterations: usize) -> CResult<Tensor> {
     let eye = Tensor::eye(s.dim(0)?, DType::F32, s.device())?;
     let norm = s.sqr()?.sum_all()?.sqrt()?;
     let mut y = s.broadcast_div(&norm)?;

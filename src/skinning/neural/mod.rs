@@ -11,5 +11,5 @@ pub use field::NeuralField;
 pub use model::NeuralModel;
 pub use network::{ColumnNormalization, Network, NetworkConfig, ShapeCode};
 
-pub(crate) use layers::inverse_sqrt;
-pub(crate) use model::{load_tensors, save_tensors, CONFIG_KEY};
+pub use layers::inverse_sqrt;
+pub use model::{load_tensors, save_tensors, CONFIG_KEY};

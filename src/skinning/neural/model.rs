@@ -14,7 +14,7 @@ use crate::{Error, Result};
 const BUNDLED_WEIGHTS: &[u8] = include_bytes!("../../../config/model/physskin.safetensors");
 
 /// Key of the safetensors metadata entry holding the [`NetworkConfig`] as JSON.
-pub(crate) const CONFIG_KEY: &str = "physskin.network_config";
+pub const CONFIG_KEY: &str = "physskin.network_config";
 
 /// A network ready to infer skinning fields for new shapes.
 #[derive(Clone, Debug)]
@@ -72,10 +72,7 @@ impl NeuralModel {
     }
 
     /// A freshly initialized model and its trainable variables (named as in the file).
-    pub(crate) fn fresh(
-        config: &NetworkConfig,
-        seed: u64,
-    ) -> Result<(NeuralModel, Vec<(String, Var)>)> {
+    pub fn fresh(config: &NetworkConfig, seed: u64) -> Result<(NeuralModel, Vec<(String, Var)>)> {
         let builder = ParamBuilder::fresh(seed);
         let network = Network::build(config, &builder)?;
         Ok((NeuralModel { network }, builder.into_vars()))
@@ -112,7 +109,7 @@ fn read_config(bytes: &[u8]) -> Result<NetworkConfig> {
 
 /// Writes named tensors and the config into one safetensors file (atomically: a temporary file
 /// renamed over the target, so a killed writer never leaves half a model).
-pub(crate) fn save_tensors(
+pub fn save_tensors(
     path: &Path,
     config: &NetworkConfig,
     tensors: &[(String, Tensor)],
@@ -138,9 +135,7 @@ pub(crate) fn save_tensors(
 }
 
 /// Reads the tensors and the extra metadata of a file written by [`save_tensors`].
-pub(crate) fn load_tensors(
-    path: &Path,
-) -> Result<(HashMap<String, Tensor>, HashMap<String, String>)> {
+pub fn load_tensors(path: &Path) -> Result<(HashMap<String, Tensor>, HashMap<String, String>)> {
     let bytes = std::fs::read(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
