@@ -7,11 +7,12 @@
 use nalgebra::{DMatrix, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 use super::SkinningField;
 use crate::error::{Error, Result};
 use crate::geometry::{Normalization, TetMesh};
-use crate::linalg::ElementPattern;
+use crate::linalg::{ElementPattern, SparseCholesky};
 
 /// How the modes are computed.
 #[derive(Clone, Copy, Debug)]
@@ -46,6 +47,8 @@ pub struct EigenmodeField {
     pub eigenvalues: Vec<f64>,
     /// Subspace iterations the solve took.
     pub iterations: usize,
+    /// The name [`SkinningField::kind`] gives: "eigen", or "refined" for a refined field.
+    kind: &'static str,
 }
 
 impl EigenmodeField {
@@ -65,27 +68,68 @@ impl EigenmodeField {
                 ),
             });
         }
-        let pattern = ElementPattern::new(n, 1, &mesh.tets);
-        let mut laplacian = pattern.zeros();
-        for (e, tet) in mesh.tets.iter().enumerate() {
-            let (gradients, volume) = linear_gradients(&tet.map(|v| mesh.vertices[v as usize]));
-            let mut local = [0.0; 16];
-            for a in 0..4 {
-                for b in 0..4 {
-                    local[a * 4 + b] = volume * gradients[a].dot(&gradients[b]);
-                }
-            }
-            pattern.add_element(&mut laplacian, e, &local);
+        let problem = ModeProblem::assemble(&mesh);
+        let solve = smallest_modes(&problem, options)?;
+        Ok(Self::from_modes(
+            mesh,
+            normalization,
+            &solve.vectors,
+            &solve.values,
+            solve.iterations,
+            "eigen",
+        ))
+    }
+
+    /// The field of given non-constant vertex columns (`columns`: vertices x m, one column per
+    /// mode, any scale), e.g. modes solved elsewhere: the constant is put first and each column
+    /// is scaled as [`EigenmodeField::compute`] scales its modes. `values` are the columns'
+    /// Rayleigh quotients (1/m^2); `iterations` is kept as the solve's count.
+    pub fn from_columns(
+        mesh: TetMesh,
+        normalization: Normalization,
+        columns: &DMatrix<f64>,
+        values: &[f64],
+        iterations: usize,
+    ) -> Result<Self> {
+        let n = mesh.vertices.len();
+        if columns.nrows() != n || values.len() != columns.ncols() {
+            return Err(Error::InvalidParameter {
+                name: "columns",
+                reason: format!(
+                    "{} x {} columns with {} values for a mesh of {n} vertices",
+                    columns.nrows(),
+                    columns.ncols(),
+                    values.len()
+                ),
+            });
         }
-        let mass = mesh.lumped_volumes();
-        let solve = smallest_modes(&pattern, &laplacian, &mass, options)?;
-        let handles = options.modes + 1;
+        Ok(Self::from_modes(
+            mesh,
+            normalization,
+            columns,
+            values,
+            iterations,
+            "eigen",
+        ))
+    }
+
+    /// The field of `vectors` (vertices x modes, checked by the callers), under `kind`.
+    pub(super) fn from_modes(
+        mesh: TetMesh,
+        normalization: Normalization,
+        vectors: &DMatrix<f64>,
+        values: &[f64],
+        iterations: usize,
+        kind: &'static str,
+    ) -> Self {
+        let n = mesh.vertices.len();
+        let handles = vectors.ncols() + 1;
         let mut nodal = vec![0.0; n * handles];
         for v in 0..n {
             nodal[v * handles] = 1.0;
         }
         for h in 1..handles {
-            let column = solve.vectors.column(h - 1);
+            let column = vectors.column(h - 1);
             let largest = column.amax().max(1e-300);
             // Sign convention so that reruns give identical fields: the largest entry is positive.
             let sign = if column[column.iamax()] < 0.0 {
@@ -98,15 +142,16 @@ impl EigenmodeField {
             }
         }
         let mut eigenvalues = vec![0.0];
-        eigenvalues.extend_from_slice(&solve.values[..options.modes]);
-        Ok(Self {
+        eigenvalues.extend_from_slice(values);
+        Self {
             mesh,
             normalization,
             nodal,
             handles,
             eigenvalues,
-            iterations: solve.iterations,
-        })
+            iterations,
+            kind,
+        }
     }
 
     /// The same field with only the first `modes` non-constant modes (eigenmodes are nested:
@@ -125,6 +170,7 @@ impl EigenmodeField {
             handles,
             eigenvalues: self.eigenvalues[..handles].to_vec(),
             iterations: self.iterations,
+            kind: self.kind,
         }
     }
 
@@ -182,7 +228,7 @@ impl SkinningField for EigenmodeField {
     }
 
     fn kind(&self) -> &'static str {
-        "eigen"
+        self.kind
     }
 }
 
@@ -206,60 +252,131 @@ struct ModeSolve {
     iterations: usize,
 }
 
+/// The discrete problem the modes solve, shared with [`super::refine`]: the volume-weighted
+/// Dirichlet Laplacian L of a tetrahedral mesh (upper triangle on `pattern`) and its lumped
+/// mass M (diagonal). L's null space is the constant, removed M-orthogonally by `deflate`.
+pub(crate) struct ModeProblem {
+    pub pattern: ElementPattern,
+    pub laplacian: Vec<f64>,
+    pub mass: Vec<f64>,
+    total_mass: f64,
+}
+
+impl ModeProblem {
+    /// L and M of `mesh` (world units).
+    pub fn assemble(mesh: &TetMesh) -> Self {
+        let n = mesh.vertices.len();
+        let pattern = ElementPattern::new(n, 1, &mesh.tets);
+        let mut laplacian = pattern.zeros();
+        for (e, tet) in mesh.tets.iter().enumerate() {
+            let (gradients, volume) = linear_gradients(&tet.map(|v| mesh.vertices[v as usize]));
+            let mut local = [0.0; 16];
+            for a in 0..4 {
+                for b in 0..4 {
+                    local[a * 4 + b] = volume * gradients[a].dot(&gradients[b]);
+                }
+            }
+            pattern.add_element(&mut laplacian, e, &local);
+        }
+        let mass = mesh.lumped_volumes();
+        let total_mass = mass.iter().sum();
+        Self {
+            pattern,
+            laplacian,
+            mass,
+            total_mass,
+        }
+    }
+
+    /// The number of unknowns (mesh vertices).
+    pub fn size(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// Removes from `x` its M-weighted mean, the part along the constant.
+    pub fn deflate(&self, x: &mut [f64]) {
+        let c: f64 = x.iter().zip(&self.mass).map(|(a, m)| a * m).sum::<f64>() / self.total_mass;
+        x.iter_mut().for_each(|a| *a -= c);
+    }
+
+    /// [`ModeProblem::deflate`] on every column.
+    pub fn deflate_columns(&self, x: &mut DMatrix<f64>) {
+        for mut column in x.column_iter_mut() {
+            self.deflate(column.as_mut_slice());
+        }
+    }
+
+    /// M x.
+    pub fn mass_times(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut y = x.clone();
+        for mut column in y.column_iter_mut() {
+            column.iter_mut().zip(&self.mass).for_each(|(a, m)| *a *= m);
+        }
+        y
+    }
+
+    /// L x, the columns in parallel.
+    pub fn laplacian_times(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
+        let n = self.size();
+        let mut y = DMatrix::<f64>::zeros(n, x.ncols());
+        if n > 0 {
+            y.as_mut_slice()
+                .par_chunks_mut(n)
+                .zip(x.as_slice().par_chunks(n))
+                .for_each(|(out, column)| self.pattern.multiply(&self.laplacian, column, out));
+        }
+        y
+    }
+
+    /// The sparse Cholesky of L + sigma M, with a sigma small enough not to blur the low
+    /// spectrum (1e-8 of mean(L_ii / M_ii), the scale of the largest eigenvalues) that makes
+    /// it positive definite.
+    pub fn shifted_cholesky(&self) -> Result<SparseCholesky> {
+        let diagonal = self.pattern.diagonal(&self.laplacian);
+        let scale = diagonal
+            .iter()
+            .zip(&self.mass)
+            .map(|(l, m)| l / m)
+            .sum::<f64>()
+            / self.size() as f64;
+        let sigma = 1e-8 * scale;
+        let mut shifted = self.laplacian.to_vec();
+        for (i, m) in self.mass.iter().enumerate() {
+            self.pattern.add_diagonal(&mut shifted, i, sigma * m);
+        }
+        let mut cholesky = self.pattern.cholesky()?;
+        cholesky.factor(&self.pattern, &shifted)?;
+        Ok(cholesky)
+    }
+
+    /// Y = (L + sigma M)^-1 M X with `cholesky` from [`ModeProblem::shifted_cholesky`], kept
+    /// orthogonal to the constant.
+    pub fn inverse_iterate(&self, cholesky: &SparseCholesky, x: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut y = self.mass_times(x);
+        cholesky.solve(y.as_mut_slice(), self.size());
+        self.deflate_columns(&mut y);
+        y
+    }
+}
+
 /// The `options.modes` smallest nonzero generalized eigenpairs of L v = lambda M v (M diagonal),
 /// by shift-invert subspace iteration with Rayleigh-Ritz, in the M-orthogonal complement of the
 /// constant (L's null space, deflated exactly so it cannot swamp the block).
-fn smallest_modes(
-    pattern: &ElementPattern,
-    laplacian: &[f64],
-    mass: &[f64],
-    options: &EigenmodeOptions,
-) -> Result<ModeSolve> {
-    let n = mass.len();
+fn smallest_modes(problem: &ModeProblem, options: &EigenmodeOptions) -> Result<ModeSolve> {
+    let n = problem.size();
     let want = options.modes;
     let block = (want + want.max(10)).min(n - 1);
-    let total_mass: f64 = mass.iter().sum();
-    let deflate = |x: &mut [f64]| {
-        let c: f64 = x.iter().zip(mass).map(|(a, m)| a * m).sum::<f64>() / total_mass;
-        x.iter_mut().for_each(|a| *a -= c);
-    };
-    // A small shift keeps L + sigma M positive definite without blurring the low spectrum;
-    // mean(L_ii / M_ii) is the scale of the largest eigenvalues.
-    let diagonal = pattern.diagonal(laplacian);
-    let scale = diagonal.iter().zip(mass).map(|(l, m)| l / m).sum::<f64>() / n as f64;
-    let sigma = 1e-8 * scale;
-    let mut shifted = laplacian.to_vec();
-    for (i, m) in mass.iter().enumerate() {
-        pattern.add_diagonal(&mut shifted, i, sigma * m);
-    }
-    let mut cholesky = pattern.cholesky()?;
-    cholesky.factor(pattern, &shifted)?;
+    let cholesky = problem.shifted_cholesky()?;
 
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut x = DMatrix::<f64>::from_fn(n, block, |_, _| rng.random::<f64>() - 0.5);
     let mut values = vec![0.0; block];
     let mut worst = f64::INFINITY;
-    let mut lx = vec![0.0; n];
     for iteration in 1..=options.max_iterations {
-        // Y = (L + sigma M)^-1 M X, kept orthogonal to the constant.
-        let mut y = x.clone();
-        for mut column in y.column_iter_mut() {
-            column.iter_mut().zip(mass).for_each(|(a, m)| *a *= m);
-        }
-        cholesky.solve(y.as_mut_slice(), n);
-        for mut column in y.column_iter_mut() {
-            deflate(column.as_mut_slice());
-        }
-        // Rayleigh-Ritz on span(Y).
-        let mut ly = DMatrix::<f64>::zeros(n, block);
-        for j in 0..block {
-            pattern.multiply(laplacian, y.column(j).as_slice(), &mut lx);
-            ly.column_mut(j).copy_from_slice(&lx);
-        }
-        let mut my = y.clone();
-        for mut column in my.column_iter_mut() {
-            column.iter_mut().zip(mass).for_each(|(a, m)| *a *= m);
-        }
+        // Y = (L + sigma M)^-1 M X, kept orthogonal to the constant; Rayleigh-Ritz on span(Y).
+        let y = problem.inverse_iterate(&cholesky, &x);
+        let ly = problem.laplacian_times(&y);
+        let my = problem.mass_times(&y);
         let reduced_l = y.transpose() * &ly;
         let reduced_m = y.transpose() * &my;
         let reduced_m = (&reduced_m + reduced_m.transpose()) * 0.5;

@@ -3,6 +3,7 @@
 mod eigenmodes;
 mod metrics;
 mod neural;
+pub mod refine;
 mod truncated;
 
 pub(crate) use eigenmodes::linear_gradients;
@@ -11,6 +12,10 @@ pub use metrics::FieldMetrics;
 pub use neural::{inverse_sqrt, load_tensors, save_tensors, CONFIG_KEY};
 pub use neural::{
     ColumnNormalization, Network, NetworkConfig, NeuralField, NeuralModel, ShapeCode,
+};
+pub use refine::{
+    refine, refine_field, start_block, RefineBudget, RefineOptions, RefineReport, RefineSearch,
+    Refined,
 };
 pub use truncated::TruncatedField;
 
