@@ -110,6 +110,9 @@ enum BenchCommand {
         #[arg(long, default_value = "target/soak/soak.mcap")]
         record: PathBuf,
     },
+    /// Time to an accurate basis: the network's field, refined toward the skinning eigenmodes
+    /// iteration by iteration, and the exact eigenmodes, each against the FEM.
+    Basis(cli::basis::BasisArgs),
     /// Numerical stress: stiff to soft, nu toward 0.5, large steps, inverted starts, a thin
     /// sheet, violent pokes; each case's NaN, energy bound, Newton iterations and fallbacks.
     Stress {
@@ -222,6 +225,7 @@ fn main() -> ExitCode {
             BenchCommand::Scene { json, seconds } => cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
             BenchCommand::Stress { json } => run_bench_stress(json),
+            BenchCommand::Basis(args) => cli::basis::run(args),
             BenchCommand::Contact { json } => run_bench_contact(json),
             BenchCommand::Real { json } => run_bench_real(json),
             BenchCommand::Soak {

@@ -10,10 +10,14 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::input::prepare_input;
-use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, Scenario};
+use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, BenchShape, Scenario};
+use physskin::geometry::TetMesh;
 use physskin::geometry::{Cubature, Shape, VoxelGrid};
-use physskin::physics::{Solver, Subspace};
-use physskin::skinning::{FieldMetrics, NeuralField, NeuralModel, SkinningField};
+use physskin::physics::{SimParams, Solver, Subspace};
+use physskin::skinning::{
+    refine_field, FieldMetrics, NeuralField, NeuralModel, RefineBudget, RefineOptions,
+    SkinningField,
+};
 use physskin::Result;
 
 /// What to measure.
@@ -33,6 +37,10 @@ pub struct EvalOptions {
     pub cubature: usize,
     /// Steps per scenario. Default 40.
     pub steps: usize,
+    /// How the network's field is refined toward the eigenmodes (on the FEM grid's tet mesh).
+    /// Default: within 100 ms, which with the network's ~50 ms keeps a new shape's build
+    /// within 150 ms.
+    pub refine: RefineOptions,
 }
 
 impl Default for EvalOptions {
@@ -45,6 +53,10 @@ impl Default for EvalOptions {
             resolution: 24,
             cubature: 1024,
             steps: 40,
+            refine: RefineOptions {
+                budget: RefineBudget::Millis(100),
+                ..Default::default()
+            },
         }
     }
 }
@@ -79,10 +91,20 @@ pub struct ShapeEval {
     /// The same mean for the skinning eigenmodes with as many handles and the same
     /// cubature, % of the diagonal (NaN if not simulated).
     pub eigen_error_pct: f64,
-    /// Per scenario: (name, learned error %, eigenmode error %).
-    pub scenarios: Vec<(String, f64, f64)>,
+    /// The same mean for the network's field refined toward the eigenmodes within the budget
+    /// (NaN if not simulated).
+    pub refined_error_pct: f64,
+    /// Per scenario: (name, learned error %, eigenmode error %, refined error %).
+    pub scenarios: Vec<(String, f64, f64, f64)>,
     /// Time of the eigen-solve the learned field replaces, ms.
     pub eigen_solve_ms: f64,
+    /// The refinement: the tet mesh, the start block, the factorization and the iterations, ms
+    /// (NaN if not simulated).
+    pub refine_ms: f64,
+    /// Refinement iterations run within the budget.
+    pub refine_iterations: usize,
+    /// A new shape's basis: the network's inference plus the refinement, ms.
+    pub build_ms: f64,
 }
 
 /// Means over the shapes.
@@ -112,6 +134,16 @@ pub struct EvalMean {
     pub eigen_error_pct: f64,
     /// Mean of the per-shape ratios learned / eigenmode error.
     pub error_ratio: f64,
+    /// Mean of the refined field's error against the FEM, % of the diagonal.
+    pub refined_error_pct: f64,
+    /// Mean of the per-shape ratios refined / eigenmode error.
+    pub refined_error_ratio: f64,
+    /// The largest per-shape ratio refined / eigenmode error.
+    pub refined_error_ratio_max: f64,
+    /// Mean refinement time, ms.
+    pub refine_ms: f64,
+    /// Mean build time of a new shape's basis (inference plus refinement), ms.
+    pub build_ms: f64,
 }
 
 /// What `eval` reports (serialized for `--json`).
@@ -134,8 +166,17 @@ pub fn evaluate_fields(
     for (name, shape) in shapes {
         let row = evaluate_shape(model, name, shape, options)?;
         progress(&format!(
-            "{name}: omega {:.3e} kappa {:.4} h {:.5} infer {:.1} ms, error learned {:.3} % eigen {:.3} %",
-            row.omega_orth, row.kappa_log, row.h_spec, row.infer_ms, row.sim_error_pct, row.eigen_error_pct
+            "{name}: omega {:.3e} kappa {:.4} h {:.5} infer {:.1} ms, error learned {:.3} % eigen {:.3} % \
+             refined {:.3} % ({} iterations, {:.1} ms)",
+            row.omega_orth,
+            row.kappa_log,
+            row.h_spec,
+            row.infer_ms,
+            row.sim_error_pct,
+            row.eigen_error_pct,
+            row.refined_error_pct,
+            row.refine_iterations,
+            row.refine_ms
         ));
         rows.push(row);
     }
@@ -153,6 +194,14 @@ pub fn evaluate_fields(
         sim_error_pct: mean_of(&|r| r.sim_error_pct),
         eigen_error_pct: mean_of(&|r| r.eigen_error_pct),
         error_ratio: mean_of(&|r| r.sim_error_pct / r.eigen_error_pct),
+        refined_error_pct: mean_of(&|r| r.refined_error_pct),
+        refined_error_ratio: mean_of(&|r| r.refined_error_pct / r.eigen_error_pct),
+        refined_error_ratio_max: rows
+            .iter()
+            .map(|r| r.refined_error_pct / r.eigen_error_pct)
+            .fold(f64::NAN, f64::max),
+        refine_ms: mean_of(&|r| r.refine_ms),
+        build_ms: mean_of(&|r| r.build_ms),
     };
     Ok(EvalReport { shapes: rows, mean })
 }
@@ -223,8 +272,12 @@ fn evaluate_shape(
         decode_100k_ms,
         sim_error_pct: f64::NAN,
         eigen_error_pct: f64::NAN,
+        refined_error_pct: f64::NAN,
         scenarios: Vec::new(),
         eigen_solve_ms: f64::NAN,
+        refine_ms: f64::NAN,
+        refine_iterations: 0,
+        build_ms: f64::NAN,
     };
     if options.simulate {
         simulate_both(&mut row, shape, Arc::new(field), options)?;
@@ -232,7 +285,8 @@ fn evaluate_shape(
     Ok(row)
 }
 
-/// Each scenario with the FEM, the eigenmodes and the learned field (same m, same cubature).
+/// Each scenario with the FEM, the eigenmodes, the learned field and the learned field refined
+/// on the eigenmodes' own mesh (same m, same cubature).
 fn simulate_both(
     row: &mut ShapeEval,
     shape: &Shape,
@@ -246,37 +300,92 @@ fn simulate_both(
     let started = Instant::now();
     let bench = prepare_shape(shape.clone(), young, options.resolution, 0, modes)?;
     row.eigen_solve_ms = started.elapsed().as_secs_f64() * 1e3;
+    // The product builds the tet mesh for the refinement itself: its time counts.
+    let started = Instant::now();
+    let mesh = TetMesh::from_grid(&bench.grid);
+    let refined = refine_field(
+        learned.as_ref(),
+        mesh,
+        bench.eigen_normalization(),
+        &options.refine,
+    )?;
+    row.refine_ms = started.elapsed().as_secs_f64() * 1e3;
+    row.refine_iterations = refined.report.iterations;
+    row.build_ms = row.infer_ms + row.refine_ms;
     let params = scenario_params(&bench);
     let cubature = Cubature::stratified(&bench.grid, options.cubature, bench.mesh.volume());
-    let eigen: Arc<dyn SkinningField> = Arc::new(bench.eigen().truncated(modes));
-    let learned: Arc<dyn SkinningField> = learned;
-    let (mut sum_learned, mut sum_eigen) = (0.0, 0.0);
-    for scenario in Scenario::ALL {
-        let (reference, _) = run_fem(&bench, scenario, &params, options.steps)?;
-        let mut errors = [0.0; 2];
-        for (i, field) in [&learned, &eigen].into_iter().enumerate() {
-            let subspace = Arc::new(Subspace::build(
-                field.clone(),
-                bench.eigen_normalization(),
-                &cubature,
-                params.density,
-            ));
+    let references = fem_references(&bench, &params, options.steps)?;
+    let fields: [Arc<dyn SkinningField>; 3] = [
+        learned,
+        Arc::new(bench.eigen().truncated(modes)),
+        Arc::new(refined.field),
+    ];
+    let mut errors = Vec::new();
+    for field in fields {
+        errors.push(field_errors(
+            &bench,
+            &references,
+            field,
+            &cubature,
+            &params,
+        )?);
+    }
+    let mut sums = [0.0; 3];
+    for (i, scenario) in Scenario::ALL.iter().enumerate() {
+        for (sum, field) in sums.iter_mut().zip(&errors) {
+            *sum += field[i];
+        }
+        let name = scenario.name().to_string();
+        row.scenarios
+            .push((name, errors[0][i], errors[1][i], errors[2][i]));
+    }
+    let count = Scenario::ALL.len() as f64;
+    row.sim_error_pct = sums[0] / count;
+    row.eigen_error_pct = sums[1] / count;
+    row.refined_error_pct = sums[2] / count;
+    Ok(())
+}
+
+/// The FEM's trajectory of every scenario ([`Scenario::ALL`]), `steps` steps each.
+pub(crate) fn fem_references(
+    bench: &BenchShape,
+    params: &SimParams,
+    steps: usize,
+) -> Result<Vec<Vec<Vec<f64>>>> {
+    Scenario::ALL
+        .iter()
+        .map(|&scenario| Ok(run_fem(bench, scenario, params, steps)?.0))
+        .collect()
+}
+
+/// The error against the FEM, % of the diagonal, of `field`'s reduced simulation of every
+/// scenario (quasi-Newton, on `cubature`), against `references` ([`fem_references`]).
+pub(crate) fn field_errors(
+    bench: &BenchShape,
+    references: &[Vec<Vec<f64>>],
+    field: Arc<dyn SkinningField>,
+    cubature: &Cubature,
+    params: &SimParams,
+) -> Result<Vec<f64>> {
+    let subspace = Arc::new(Subspace::build(
+        field,
+        bench.eigen_normalization(),
+        cubature,
+        params.density,
+    ));
+    Scenario::ALL
+        .iter()
+        .zip(references)
+        .map(|(&scenario, reference)| {
             let (result, _) = run_reduced(
-                &bench,
+                bench,
                 scenario,
-                &params,
+                params,
                 &subspace,
                 Solver::QuasiNewton,
-                &reference,
+                reference,
             )?;
-            errors[i] = result.error_pct;
-        }
-        sum_learned += errors[0];
-        sum_eigen += errors[1];
-        row.scenarios
-            .push((scenario.name().to_string(), errors[0], errors[1]));
-    }
-    row.sim_error_pct = sum_learned / Scenario::ALL.len() as f64;
-    row.eigen_error_pct = sum_eigen / Scenario::ALL.len() as f64;
-    Ok(())
+            Ok(result.error_pct)
+        })
+        .collect()
 }

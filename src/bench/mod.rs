@@ -1,5 +1,6 @@
 //! Benchmarks that print tables (and JSON): speed next to error against the full-space reference.
 
+mod basis;
 mod contact;
 mod fields;
 mod input;
@@ -15,6 +16,7 @@ mod stats;
 mod stress;
 mod transport;
 
+pub use basis::{basis_plot, run_basis_bench, BasisOptions, BasisReport};
 pub use contact::run_contact_bench;
 pub use fields::{evaluate_fields, EvalOptions, EvalReport};
 pub use input::prepare_input;

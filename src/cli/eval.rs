@@ -6,7 +6,7 @@ use std::sync::Arc;
 use crate::bench::{evaluate_fields, EvalOptions, EvalReport};
 use crate::training::{dataset, TrainingConfig};
 use physskin::geometry::{bundled, load_geometry, Shape};
-use physskin::skinning::NeuralModel;
+use physskin::skinning::{NeuralModel, RefineBudget, RefineOptions};
 use physskin::{Error, Result};
 
 #[derive(clap::Args)]
@@ -28,8 +28,23 @@ pub struct EvalArgs {
     resolution: usize,
     #[arg(long, default_value_t = 40)]
     steps: usize,
+    /// How long the network's field is refined toward the eigenmodes: milliseconds, `off` or
+    /// `full` (until the eigenmodes' span).
+    #[arg(long, default_value = "100", value_parser = parse_budget)]
+    refine: RefineBudget,
     #[arg(long)]
     json: bool,
+}
+
+fn parse_budget(text: &str) -> std::result::Result<RefineBudget, String> {
+    match text {
+        "off" => Ok(RefineBudget::Off),
+        "full" => Ok(RefineBudget::Full),
+        ms => ms
+            .parse()
+            .map(RefineBudget::Millis)
+            .map_err(|_| format!("`{ms}`: want milliseconds, `off` or `full`")),
+    }
 }
 
 pub fn run(args: EvalArgs) -> Result<()> {
@@ -56,6 +71,10 @@ pub fn run(args: EvalArgs) -> Result<()> {
         simulate: !args.no_sim,
         resolution: args.resolution,
         steps: args.steps,
+        refine: RefineOptions {
+            budget: args.refine,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let report = evaluate_fields(&model, &shapes, &options, |line| eprintln!("{line}"))?;
@@ -102,7 +121,7 @@ fn shapes_in(dir: &PathBuf) -> Result<Vec<(String, Shape)>> {
 
 fn print_table(report: &EvalReport) {
     println!(
-        "{:<16} {:>6} {:>11} {:>9} {:>8} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8}",
+        "{:<16} {:>6} {:>11} {:>9} {:>8} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9}",
         "shape",
         "points",
         "omega_x100",
@@ -113,11 +132,13 @@ fn print_table(report: &EvalReport) {
         "100k_ms",
         "learn_%",
         "eigen_%",
-        "ratio"
+        "ratio",
+        "refined_%",
+        "refine_ms"
     );
     for r in &report.shapes {
         println!(
-            "{:<16} {:>6} {:>11.5} {:>9.4} {:>8.5} {:>11.5} {:>9.1} {:>8.1} {:>8.3} {:>8.3} {:>8.3}",
+            "{:<16} {:>6} {:>11.5} {:>9.4} {:>8.5} {:>11.5} {:>9.1} {:>8.1} {:>8.3} {:>8.3} {:>8.3} {:>9.3} {:>9.1}",
             r.name,
             r.points,
             r.omega_orth * 100.0,
@@ -128,12 +149,14 @@ fn print_table(report: &EvalReport) {
             r.decode_100k_ms,
             r.sim_error_pct,
             r.eigen_error_pct,
-            r.sim_error_pct / r.eigen_error_pct
+            r.sim_error_pct / r.eigen_error_pct,
+            r.refined_error_pct,
+            r.refine_ms
         );
     }
     let m = &report.mean;
     println!(
-        "{:<16} {:>6} {:>11.5} {:>9.4} {:>8.5} {:>11.5} {:>9.1} {:>8.1} {:>8.3} {:>8.3} {:>8.3}",
+        "{:<16} {:>6} {:>11.5} {:>9.4} {:>8.5} {:>11.5} {:>9.1} {:>8.1} {:>8.3} {:>8.3} {:>8.3} {:>9.3} {:>9.1}",
         "mean",
         "",
         m.omega_orth * 100.0,
@@ -144,7 +167,13 @@ fn print_table(report: &EvalReport) {
         m.decode_100k_ms,
         m.sim_error_pct,
         m.eigen_error_pct,
-        m.error_ratio
+        m.error_ratio,
+        m.refined_error_pct,
+        m.refine_ms
+    );
+    println!(
+        "refined / eigenmodes: mean {:.3}, worst {:.3}; a new shape's basis in {:.1} ms",
+        m.refined_error_ratio, m.refined_error_ratio_max, m.build_ms
     );
     println!(
         "whitened (the product's weights): kappa_log {:.4}, h_spec {:.5}",

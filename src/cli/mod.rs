@@ -1,6 +1,7 @@
 //! The subcommands that are more than a call into the library.
 
 pub mod bag;
+pub mod basis;
 pub mod demo;
 pub mod eval;
 pub mod infer;
