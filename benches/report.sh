@@ -15,6 +15,7 @@
 #   transport          bench transport, private namespace     (iceoryx2 against DDS)
 #   scene              bench scene                            (only what a scene needs)
 #   eval               eval                                   (the learned field on 15 shapes, 4 min)
+#   basis              bench basis                            (error against time to a basis, 4 shapes)
 # Not rerun: sim.json (the full `bench sim`, about 55 minutes):
 #   benches/record.sh sim target/release/physskin bench sim --json --plot benches/results/sim.svg
 # Usage: benches/report.sh [NAME...]   (default: all of the above)
@@ -23,7 +24,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency replay transport scene eval)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency replay transport scene eval basis)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
@@ -44,6 +45,8 @@ for name in "${names[@]}"; do
                 $bin bench transport --json ;;
         scene) benches/record.sh scene $bin bench scene --json ;;
         eval) benches/record.sh eval $bin eval --json ;;
+        basis)
+            benches/record.sh basis $bin bench basis --json --plot docs/images/basis.svg ;;
         *) echo "unknown result: $name" >&2; exit 2 ;;
     esac
     echo "$name: $(( $(date +%s) - started )) s" >&2

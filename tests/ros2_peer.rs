@@ -295,6 +295,28 @@ fn rclpy_labelled_coloured_scan_in_an_optical_frame_becomes_two_objects() {
         .filter(|s| s.event == "shape_ready")
         .collect();
     assert_eq!(ready.len(), 2, "one build per object: {ready:?}\n{log}");
+    // Each object started on the network's field and switched to its refinement while it ran,
+    // no point jumping a millimetre.
+    let refined: Vec<Status> = messages
+        .iter()
+        .filter(|m| m.topic == "/physskin/status")
+        .map(|m| from_cdr::<Status>(&m.data).unwrap())
+        .filter(|s| s.event == "field_refined")
+        .collect();
+    assert_eq!(
+        refined.len(),
+        2,
+        "one switch per object: {refined:?}\n{log}"
+    );
+    for status in &refined {
+        let jump_mm: f64 = status
+            .message
+            .split("largest jump at the switch ")
+            .nth(1)
+            .and_then(|rest| rest.trim_end_matches(" mm").parse().ok())
+            .unwrap_or_else(|| panic!("no jump in {status:?}"));
+        assert!(jump_mm < 1.0, "{status:?}");
+    }
     let ids: std::collections::BTreeSet<u32> = messages
         .iter()
         .filter(|m| m.topic == "/physskin/state")

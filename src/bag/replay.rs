@@ -342,6 +342,7 @@ impl<'a> Run<'a> {
     ) -> crate::Result<Self> {
         let tf = Arc::new(std::sync::RwLock::new(TfBuffer::new(params.tf.buffer_s)));
         let mut builder = Builder::default();
+        builder.refine_in_build();
         let mut stage = Stage::immediate(StageOptions {
             fixed_frame: params.fixed_frame.clone(),
             tf: Some(tf.clone()),

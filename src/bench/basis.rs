@@ -55,6 +55,10 @@ impl Default for BasisOptions {
 /// One basis of a shape: how long it took and how accurate it is.
 #[derive(Clone, Debug, Serialize)]
 pub struct BasisPoint {
+    /// The shape.
+    pub shape: String,
+    /// Tet mesh vertices the refinement and the eigenmodes run on.
+    pub mesh_vertices: usize,
     /// "network", "refined" or "eigenmodes".
     pub basis: String,
     /// Refinement iterations run (null for the network and the eigenmodes).
@@ -65,36 +69,23 @@ pub struct BasisPoint {
     pub error_pct: f64,
 }
 
-/// One shape's bases.
-#[derive(Clone, Debug, Serialize)]
-pub struct ShapeBasis {
-    /// The shape.
-    pub name: String,
-    /// Handles, the constant one included.
-    pub handles: usize,
-    /// Tet mesh vertices the refinement and the eigenmodes run on.
-    pub mesh_vertices: usize,
-    /// The network alone, then after each measured iteration count, then fully refined, then
-    /// the exact eigenmodes.
-    pub points: Vec<BasisPoint>,
-}
-
 /// What `bench basis` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct BasisReport {
-    /// One entry per shape, in the order given.
-    pub shapes: Vec<ShapeBasis>,
+    /// Per shape in the order given: the network alone, then after each measured iteration
+    /// count, then fully refined, then the exact eigenmodes.
+    pub rows: Vec<BasisPoint>,
 }
 
 /// Runs every shape of `options`; `log` gets a line per basis measured.
 pub fn run_basis_bench(options: &BasisOptions, log: impl Fn(&str)) -> Result<BasisReport> {
     let model = NeuralModel::bundled()?;
-    let mut shapes = Vec::new();
+    let mut rows = Vec::new();
     for name in &options.shapes {
         let shape = load_shape(name)?;
-        shapes.push(shape_basis(&model, name, &shape, options, &log)?);
+        rows.extend(shape_basis(&model, name, &shape, options, &log)?);
     }
-    Ok(BasisReport { shapes })
+    Ok(BasisReport { rows })
 }
 
 fn load_shape(name: &str) -> Result<Shape> {
@@ -110,7 +101,7 @@ fn shape_basis(
     shape: &Shape,
     options: &BasisOptions,
     log: &impl Fn(&str),
-) -> Result<ShapeBasis> {
+) -> Result<Vec<BasisPoint>> {
     let (learned, infer_ms) = infer(model, shape)?;
     let handles = learned.handle_count();
     // Stiff enough that gravity bends it visibly but not wildly, as in `eval`.
@@ -119,12 +110,20 @@ fn shape_basis(
     let bench = prepare_shape(shape.clone(), young, options.resolution, 0, handles - 1)?;
     let eigen_ms = started.elapsed().as_secs_f64() * 1e3;
     let runs = Runs::new(&bench, options)?;
-    let mut points = vec![BasisPoint {
-        basis: "network".into(),
-        iterations: None,
-        build_ms: infer_ms,
-        error_pct: runs.error(learned.clone())?,
-    }];
+    let point = |basis: &str, iterations, build_ms, error_pct| BasisPoint {
+        shape: name.to_string(),
+        mesh_vertices: bench.mesh.vertices.len(),
+        basis: basis.into(),
+        iterations,
+        build_ms,
+        error_pct,
+    };
+    let mut points = vec![point(
+        "network",
+        None,
+        infer_ms,
+        runs.error(learned.clone())?,
+    )];
     let budgets = options
         .iterations
         .iter()
@@ -141,19 +140,17 @@ fn shape_basis(
             },
         )?;
         let refine_ms = started.elapsed().as_secs_f64() * 1e3;
-        points.push(BasisPoint {
-            basis: "refined".into(),
-            iterations: Some(refined.report.iterations),
-            build_ms: infer_ms + refine_ms,
-            error_pct: runs.error(Arc::new(refined.field))?,
-        });
+        let error_pct = runs.error(Arc::new(refined.field))?;
+        let iterations = Some(refined.report.iterations);
+        points.push(point(
+            "refined",
+            iterations,
+            infer_ms + refine_ms,
+            error_pct,
+        ));
     }
-    points.push(BasisPoint {
-        basis: "eigenmodes".into(),
-        iterations: None,
-        build_ms: eigen_ms,
-        error_pct: runs.error(Arc::new(bench.eigen().truncated(handles - 1)))?,
-    });
+    let eigen = runs.error(Arc::new(bench.eigen().truncated(handles - 1)))?;
+    points.push(point("eigenmodes", None, eigen_ms, eigen));
     for p in &points {
         let iterations = p
             .iterations
@@ -163,12 +160,7 @@ fn shape_basis(
             p.basis, p.build_ms, p.error_pct
         ));
     }
-    Ok(ShapeBasis {
-        name: name.to_string(),
-        handles,
-        mesh_vertices: bench.mesh.vertices.len(),
-        points,
-    })
+    Ok(points)
 }
 
 /// The network's field of `shape` and its inference time, ms (timed twice, the second run
@@ -221,17 +213,21 @@ pub fn basis_plot(report: &BasisReport) -> String {
     const COLORS: [&str; 6] = [
         "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
     ];
-    let series: Vec<Series> = report
-        .shapes
+    let mut shapes: Vec<&str> = Vec::new();
+    for row in &report.rows {
+        if !shapes.contains(&row.shape.as_str()) {
+            shapes.push(&row.shape);
+        }
+    }
+    let series: Vec<Series> = shapes
         .iter()
         .zip(COLORS.iter().cycle())
-        .map(|(shape, color)| Series {
-            label: &shape.name,
+        .map(|(&shape, color)| Series {
+            label: shape,
             color,
-            points: shape
-                .points
-                .iter()
-                .map(|p| (p.build_ms, p.error_pct))
+            points: (report.rows.iter())
+                .filter(|r| r.shape == shape)
+                .map(|r| (r.build_ms, r.error_pct))
                 .collect(),
         })
         .collect();

@@ -54,13 +54,11 @@ fn write_plot(path: &PathBuf, svg: &str) -> Result<()> {
 fn print_table(report: &BasisReport) {
     println!("| shape | basis | iterations | ms to the basis | error % |");
     println!("|---|---|---:|---:|---:|");
-    for shape in &report.shapes {
-        for p in &shape.points {
-            let iterations = p.iterations.map_or("-".to_string(), |i| i.to_string());
-            println!(
-                "| {} | {} | {iterations} | {:.1} | {:.3} |",
-                shape.name, p.basis, p.build_ms, p.error_pct
-            );
-        }
+    for p in &report.rows {
+        let iterations = p.iterations.map_or("-".to_string(), |i| i.to_string());
+        println!(
+            "| {} | {} | {iterations} | {:.1} | {:.3} |",
+            p.shape, p.basis, p.build_ms, p.error_pct
+        );
     }
 }

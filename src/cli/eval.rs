@@ -30,21 +30,10 @@ pub struct EvalArgs {
     steps: usize,
     /// How long the network's field is refined toward the eigenmodes: milliseconds, `off` or
     /// `full` (until the eigenmodes' span).
-    #[arg(long, default_value = "100", value_parser = parse_budget)]
+    #[arg(long, default_value = "80")]
     refine: RefineBudget,
     #[arg(long)]
     json: bool,
-}
-
-fn parse_budget(text: &str) -> std::result::Result<RefineBudget, String> {
-    match text {
-        "off" => Ok(RefineBudget::Off),
-        "full" => Ok(RefineBudget::Full),
-        ms => ms
-            .parse()
-            .map(RefineBudget::Millis)
-            .map_err(|_| format!("`{ms}`: want milliseconds, `off` or `full`")),
-    }
 }
 
 pub fn run(args: EvalArgs) -> Result<()> {

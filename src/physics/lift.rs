@@ -56,6 +56,17 @@ impl Lifter {
         }
     }
 
+    /// The rest positions of the points, as bound (f32).
+    pub fn rest_points(&self) -> Vec<Vector3<f64>> {
+        (0..self.count)
+            .map(|p| {
+                let block = &self.rest[p / LANES];
+                let lane = p % LANES;
+                Vector3::new(block[0][lane], block[1][lane], block[2][lane]).cast()
+            })
+            .collect()
+    }
+
     /// The number of points.
     pub fn len(&self) -> usize {
         self.count

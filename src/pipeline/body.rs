@@ -9,9 +9,10 @@ use serde::Serialize;
 
 use super::input::{truncate, NetworkInput};
 use super::options::{BodyOptions, SleepRule, Support};
+use super::switch::{BasisPlan, PreparedBasis, SwitchReport};
 use crate::geometry::{Completed, ContactSamples, Cubature, Normalization, Shape, VoxelGrid};
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, StepReport, Subspace};
-use crate::skinning::{NeuralModel, SkinningField};
+use crate::skinning::{NeuralModel, RefineBudget, RefineOptions, SkinningField};
 use crate::Result;
 
 /// Where the build time went, ms.
@@ -25,6 +26,8 @@ pub struct BuildTimings {
     pub subspace_ms: f64,
     /// The skinning weights at the input points.
     pub weights_ms: f64,
+    /// Refining the field toward the eigenmodes and switching to it (0 when off).
+    pub refine_ms: f64,
     /// The whole build.
     pub total_ms: f64,
 }
@@ -117,7 +120,18 @@ impl SoftBody {
         let field: Arc<dyn SkinningField> =
             Arc::new(model.field(&input.surface, &input.reference, input.map)?);
         let infer_ms = t.elapsed().as_secs_f64() * 1e3;
-        Self::assemble(input, field, points, options, started, infer_ms)
+        let mut body = Self::assemble(input, field, points, options, started, infer_ms)?;
+        if options.refine != RefineBudget::Off {
+            let t = Instant::now();
+            let refine = RefineOptions {
+                budget: options.refine,
+                ..Default::default()
+            };
+            body.switch_to(body.basis_plan().refined(&refine)?)?;
+            body.timings.refine_ms = t.elapsed().as_secs_f64() * 1e3;
+            body.timings.total_ms = started.elapsed().as_secs_f64() * 1e3;
+        }
+        Ok(body)
     }
 
     /// Builds the body of `shape` with a field already inferred for the same geometry (up to
@@ -245,6 +259,64 @@ impl SoftBody {
             activity: Activity::default(),
             decision,
             grid,
+        })
+    }
+
+    /// What preparing a switch to another field of this shape needs ([`BasisPlan`]): owned,
+    /// for another thread.
+    pub fn basis_plan(&self) -> BasisPlan {
+        BasisPlan {
+            field: self.field.clone(),
+            map: self.map,
+            cubature: self.cubature.clone(),
+            points: self.lifter.rest_points(),
+            density: self.sim.params().density,
+            grid: self.grid.clone(),
+        }
+    }
+
+    /// Continues in the prepared field's subspace from where the body is now (call it between
+    /// two steps): the state is fitted by least squares on the cubature points and the points
+    /// are lifted anew; reports how far the farthest point moved at the switch. Refused when
+    /// the basis was prepared from another body or an earlier build of this one.
+    pub fn switch_to(&mut self, prepared: PreparedBasis) -> Result<SwitchReport> {
+        if !Arc::ptr_eq(&self.field, &prepared.from) {
+            return Err(crate::Error::InvalidParameter {
+                name: "basis",
+                reason: "prepared from a field this body no longer runs (it was rebuilt)".into(),
+            });
+        }
+        let density = self.sim.params().density;
+        let masses: Vec<f64> = self.cubature.volumes.iter().map(|v| density * v).collect();
+        self.sim
+            .rebase(prepared.subspace, &self.cubature.points, &masses)?;
+        let handles = prepared.field.handle_count();
+        let lifter = Lifter::from_weights(handles, &prepared.weights, &self.lifter.rest_points());
+        let mut deformed = vec![0.0f32; self.deformed.len()];
+        lifter.lift(self.sim.state(), &mut deformed);
+        let max_jump_m = deformed
+            .chunks_exact(3)
+            .zip(self.deformed.chunks_exact(3))
+            .map(|(a, b)| {
+                let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+                d.cast::<f64>().norm()
+            })
+            .fold(0.0, f64::max);
+        if let Some(report) = &prepared.refine {
+            self.decision = format!(
+                "{}; field refined toward the eigenmodes ({} iterations)",
+                self.decision, report.iterations
+            );
+        }
+        self.bounds = bounds_of(&deformed);
+        self.deformed = deformed;
+        self.lifter = lifter;
+        self.handles = handles;
+        self.weights = prepared.weights.iter().map(|&w| w as f32).collect();
+        self.field = prepared.field;
+        Ok(SwitchReport {
+            max_jump_m,
+            handles,
         })
     }
 

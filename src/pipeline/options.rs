@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::physics::{SimParams, Solver};
+use crate::skinning::RefineBudget;
 
 /// What holds an object in place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -38,6 +39,9 @@ pub struct BodyOptions {
     pub support: Support,
     /// Handles kept, the constant one included: the smoothest of the field's. Default all.
     pub handles: Option<usize>,
+    /// How long the network's field is refined toward the skinning eigenmodes before the body
+    /// starts (see [`crate::skinning::refine`]). Default off.
+    pub refine: RefineBudget,
     /// When the body may sleep. Default never.
     pub sleep: Option<SleepRule>,
     /// Height of the floor of `Support::Floor`; None: the object's lowest point. Default None.
@@ -89,6 +93,7 @@ impl Default for BodyOptions {
             solver: Solver::QuasiNewton,
             support: Support::PinBottom,
             handles: None,
+            refine: RefineBudget::Off,
             sleep: None,
             floor_z: None,
         }

@@ -15,8 +15,8 @@ use super::messages::{Mesh, PointCloud2, Status};
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
 use super::tf::{TfBuffer, TfError};
-use crate::pipeline::{build_seen, SeenBody, SoftBody};
-use crate::skinning::NeuralModel;
+use crate::pipeline::{build_seen, PreparedBasis, SeenBody, SoftBody};
+use crate::skinning::{NeuralModel, RefineBudget, RefineOptions};
 
 /// New geometry for the object in `frame` (with `label`, one of the frame's labelled objects).
 #[derive(Clone, Debug)]
@@ -43,6 +43,24 @@ pub struct BuildRequest {
     pub viewpoint: Option<Vector3<f64>>,
     /// The input cloud's layout, which the deformed clouds keep (None for meshes).
     pub template: Option<CloudTemplate>,
+}
+
+/// What the build thread hands the stepper.
+pub enum Built {
+    /// A new body, on the network's field.
+    Body(ReadyBody),
+    /// The refined field of a running object, to switch to.
+    Refined(RefinedField),
+}
+
+/// A running object's field refined toward the skinning eigenmodes (`inference.refine`).
+pub struct RefinedField {
+    /// The object's id.
+    pub id: u32,
+    /// Which object it is.
+    pub key: ObjectKey,
+    /// The field sampled where the body needs it.
+    pub prepared: PreparedBasis,
 }
 
 /// A built body on its way to the stepper.
@@ -250,9 +268,17 @@ impl BuiltRegistry {
 pub struct Builder {
     built: BuiltRegistry,
     next_id: u32,
+    /// Refine within the build (replay) rather than after it (the node).
+    refine_in_build: bool,
 }
 
 impl Builder {
+    /// Refines each field fully within its build, when `inference.refine` is on: a replay is
+    /// offline and must reproduce itself, which a time budget would not.
+    pub fn refine_in_build(&mut self) {
+        self.refine_in_build = true;
+    }
+
     /// Ids up to `reserved` belong to others (a scene's objects): new ids follow them.
     pub fn reserve_ids(&mut self, reserved: u32) {
         self.next_id = self.next_id.max(reserved);
@@ -323,7 +349,7 @@ impl Builder {
             body,
             completion,
             read_from,
-        } = match build_body(request, params, model) {
+        } = match build_body(request, params, model, self.refine_in_build) {
             Ok(built) => built,
             Err(e) => {
                 let message = format!("{} in {key}: {e}", request.source);
@@ -414,14 +440,19 @@ fn build_body(
     request: &BuildRequest,
     params: &NodeParams,
     model: &Arc<NeuralModel>,
+    refine: bool,
 ) -> crate::Result<SeenBody> {
+    let mut options = params.body_options()?;
+    if refine && params.refine_budget() != RefineBudget::Off {
+        options.refine = RefineBudget::Full;
+    }
     build_seen(
         model,
         &request.points,
         &request.triangles,
         request.viewpoint.as_ref(),
         params.inference.max_build_points,
-        &params.body_options()?,
+        &options,
     )
 }
 
@@ -445,7 +476,7 @@ pub struct BuildContext {
 
 /// Runs until `requests` closes. When requests arrive faster than inference, only the newest
 /// per frame is built.
-pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<ReadyBody>, cx: BuildContext) {
+pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: BuildContext) {
     let threads = cx.params.read().map_or(1, |p| p.inference.threads);
     // Inference gets its own thread pool, so it cannot occupy the pool the stepper uses.
     let pool = match rayon::ThreadPoolBuilder::new()
@@ -465,6 +496,7 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<ReadyBody>, c
     let mut builder = Builder {
         next_id: cx.reserved_ids,
         built: cx.registry.clone(),
+        refine_in_build: false,
     };
     while let Ok(first) = requests.recv() {
         let mut newest: Vec<BuildRequest> = vec![first];
@@ -486,12 +518,33 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<ReadyBody>, c
             }
             let built = pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
             if let BuildOutcome::Ready(body, announcement) = built {
+                let budget = snapshot.refine_budget();
+                let plan = (budget != RefineBudget::Off).then(|| body.body.basis_plan());
+                let (id, key) = (body.id, body.key.clone());
                 // The body goes to the stepper first: its first frame must not wait for the
-                // (large) weight messages.
-                if ready.send(*body).is_err() {
+                // (large) weight messages, nor for the refinement.
+                if ready.send(Built::Body(*body)).is_err() {
                     return;
                 }
                 announcement.publish(&cx.outputs);
+                let Some(plan) = plan else { continue };
+                let options = RefineOptions {
+                    budget,
+                    ..Default::default()
+                };
+                match pool.install(|| plan.refined(&options)) {
+                    Ok(prepared) => {
+                        let refined = RefinedField { id, key, prepared };
+                        if ready.send(Built::Refined(refined)).is_err() {
+                            return;
+                        }
+                    }
+                    Err(e) => {
+                        let message = format!("{key}: the field was not refined: {e}");
+                        cx.outputs
+                            .report(Status::WARN, id, "refine_failed", message);
+                    }
+                }
             }
         }
     }

@@ -7,6 +7,7 @@ use std::sync::{Arc, RwLock};
 use ros2_client::{Context, Node, NodeName, NodeOptions, ParameterValue};
 
 use super::args::LogLevel;
+use super::builder::Built;
 use super::clock::NodeClock;
 use super::dds::{context, publisher, reliable_qos, NodeError, QosTable};
 use super::diagnostics::Health;
@@ -375,8 +376,12 @@ impl Threads {
         let forward = {
             let step_tx = step_tx.clone();
             std::thread::spawn(move || {
-                for ready in ready_rx {
-                    if step_tx.send(StepperCommand::Add(Box::new(ready))).is_err() {
+                for built in ready_rx {
+                    let command = match built {
+                        Built::Body(ready) => StepperCommand::Add(Box::new(ready)),
+                        Built::Refined(refined) => StepperCommand::Switch(Box::new(refined)),
+                    };
+                    if step_tx.send(command).is_err() {
                         break;
                     }
                 }

@@ -12,6 +12,7 @@ use serde_json::{Map, Value};
 use super::names::{NameError, NameResolver};
 use crate::physics::{SimParams, Solver};
 use crate::pipeline::{BodyOptions, Support};
+use crate::skinning::RefineBudget;
 
 // Lives in `crate::error` (the crate error wraps it); named here too, where it always was.
 pub use crate::error::ParamError;
@@ -154,6 +155,11 @@ pub struct InferenceParams {
     /// A cloud with more points is read from a voxel-downsampled copy of this many (every point
     /// is still deformed). Default 20,000.
     pub max_build_points: usize,
+    /// How long a new object's network field is refined toward the skinning eigenmodes:
+    /// `off`, `full`, or a budget in milliseconds. The object starts on the network's field
+    /// at once and switches to the refined one when it is ready (replay, which is offline,
+    /// refines fully, so that it stays reproducible). Default "80".
+    pub refine: String,
 }
 
 impl Default for InferenceParams {
@@ -164,6 +170,7 @@ impl Default for InferenceParams {
             voxel_resolution: 64,
             threads: 1,
             max_build_points: crate::pipeline::DEFAULT_MAX_BUILD_POINTS,
+            refine: "80".into(),
         }
     }
 }
@@ -453,6 +460,12 @@ impl NodeParams {
                 )
             },
         )?;
+        if let Err(reason) = self.inference.refine.parse::<RefineBudget>() {
+            return Err(crate::Error::InvalidParameter {
+                name: "inference.refine",
+                reason,
+            });
+        }
         ensure(
             self.publish.rate_hz >= 0.0 && self.publish.rate_hz.is_finite(),
             "publish.rate_hz",
@@ -519,6 +532,11 @@ impl NodeParams {
             damping: self.simulation.damping,
             ..SimParams::default()
         }
+    }
+
+    /// How long a new object's field is refined (`inference.refine`, validated).
+    pub fn refine_budget(&self) -> RefineBudget {
+        self.inference.refine.parse().unwrap_or(RefineBudget::Off)
     }
 
     /// How new shapes are built and simulated.

@@ -7,7 +7,7 @@ use std::sync::{Arc, RwLock};
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
-use super::builder::{BuiltRegistry, ObjectKey, ReadyBody};
+use super::builder::{BuiltRegistry, ObjectKey, ReadyBody, RefinedField};
 use super::messages::{Interaction, JointState, Status};
 use super::outputs::{DeformedCloud, Outputs};
 use super::tf::TfBuffer;
@@ -229,6 +229,37 @@ impl Stage {
             self.unpublished.push(early);
             self.last_seen.push(now);
         }
+    }
+
+    /// The object `refined.key` continues on its refined field, its weights published anew;
+    /// one that was rebuilt or removed since keeps what it runs.
+    pub fn switch(&mut self, refined: RefinedField, outputs: &Outputs) {
+        let RefinedField { id, key, prepared } = refined;
+        let Some(b) = self.bodies.iter_mut().find(|b| b.key == key && b.id == id) else {
+            return;
+        };
+        let refine = prepared.refine.clone().unwrap_or_default();
+        let ms = prepared.prepare_ms;
+        let report = match b.body.switch_to(prepared) {
+            Ok(report) => report,
+            Err(e) => {
+                let message = format!("{key}: the refined field was not used: {e}");
+                outputs.report(Status::INFO, id, "refine_skipped", message);
+                return;
+            }
+        };
+        let rest: Vec<f32> = (b.body.lifter().rest_points().iter())
+            .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+            .collect();
+        outputs.publish_weights(id, &b.output_frame, &rest, b.body.weights(), report.handles);
+        let message = format!(
+            "{key}: field refined toward the eigenmodes ({} iterations{}, {ms:.1} ms); \
+             largest jump at the switch {:.3} mm",
+            refine.iterations,
+            if refine.converged { ", converged" } else { "" },
+            report.max_jump_m * 1e3
+        );
+        outputs.report(Status::INFO, id, "field_refined", message);
     }
 
     /// Geometry arrived for the object `key`: it is still wanted.

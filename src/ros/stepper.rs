@@ -5,7 +5,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::builder::ReadyBody;
+use super::builder::{ReadyBody, RefinedField};
 use super::diagnostics::Health;
 use super::messages::{Interaction, JointState};
 use super::outputs::SharedOutputs;
@@ -16,6 +16,8 @@ use crate::scene::Scene;
 pub enum StepperCommand {
     /// A built body joins the stage (replacing the object of the same key).
     Add(Box<ReadyBody>),
+    /// A running object switches to its refined field.
+    Switch(Box<RefinedField>),
     /// A force, pin, release or removal for one object.
     Interact(Interaction),
     /// A scene's objects and robots join the stage; its objects get ids from `first_id` and
@@ -121,6 +123,7 @@ pub fn run_stepper(
 fn serve(stage: &mut Stage, command: StepperCommand, outputs: &SharedOutputs, step_now: bool) {
     match command {
         StepperCommand::Add(ready) => stage.add(*ready, outputs, step_now),
+        StepperCommand::Switch(refined) => stage.switch(*refined, outputs),
         StepperCommand::Interact(i) => stage.interact(&i, outputs),
         StepperCommand::Scene {
             scene,

@@ -39,6 +39,23 @@ pub enum RefineBudget {
     Full,
 }
 
+impl std::str::FromStr for RefineBudget {
+    type Err = String;
+
+    /// `off`, `full`, or a budget in milliseconds (`80`), as the node's `inference.refine`
+    /// and `eval --refine` take it.
+    fn from_str(text: &str) -> std::result::Result<Self, String> {
+        match text.trim() {
+            "off" => Ok(Self::Off),
+            "full" => Ok(Self::Full),
+            ms => ms
+                .parse()
+                .map(Self::Millis)
+                .map_err(|_| format!("`{ms}`: want `off`, `full` or milliseconds")),
+        }
+    }
+}
+
 /// The space each iteration's Rayleigh-Ritz picks the k lowest Ritz vectors from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum RefineSearch {

@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 mod contact;
 mod held;
+mod rebase;
 
 use super::material::{Material, Matrix9};
 use super::obstacle::{Anchors, Obstacle, Stick};
