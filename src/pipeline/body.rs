@@ -9,10 +9,12 @@ use serde::Serialize;
 
 use super::input::{truncate, NetworkInput};
 use super::options::{BodyOptions, SleepRule, Support};
-use super::switch::{BasisPlan, PreparedBasis, SwitchReport};
-use crate::geometry::{Completed, ContactSamples, Cubature, Normalization, Shape, VoxelGrid};
+use super::switch::{BasisPlan, PreparedBasis, SwitchReport, REFINE_RESOLUTION};
+use crate::geometry::{
+    Completed, ContactSamples, Cubature, Normalization, Shape, TetMesh, VoxelGrid,
+};
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, StepReport, Subspace};
-use crate::skinning::{NeuralModel, RefineBudget, RefineOptions, SkinningField};
+use crate::skinning::{refine_field, NeuralModel, RefineBudget, RefineOptions, SkinningField};
 use crate::Result;
 
 /// Where the build time went, ms.
@@ -162,19 +164,25 @@ impl SoftBody {
         Ok(truncate(field, &input.grid, &input.map, handles))
     }
 
-    /// The field of `shape` in one forward pass, for callers of [`SoftBody::with_field`] that
-    /// keep fields (the same geometry always gives the same network input).
+    /// The field of `shape` in one forward pass, refined as `options.refine` says, for
+    /// callers of [`SoftBody::with_field`] that keep fields (the same geometry always gives
+    /// the same network input).
     pub fn infer(
         model: &Arc<NeuralModel>,
         shape: &Shape,
         options: &BodyOptions,
     ) -> Result<Arc<dyn SkinningField>> {
         let input = NetworkInput::new(shape, None, options)?;
-        Ok(Arc::new(model.field(
-            &input.surface,
-            &input.reference,
-            input.map,
-        )?))
+        let field = model.field(&input.surface, &input.reference, input.map)?;
+        if options.refine == RefineBudget::Off {
+            return Ok(Arc::new(field));
+        }
+        let mesh = TetMesh::from_grid(&input.grid.resample(REFINE_RESOLUTION));
+        let refine = RefineOptions {
+            budget: options.refine,
+            ..Default::default()
+        };
+        Ok(Arc::new(refine_field(&field, mesh, input.map, &refine)?.field))
     }
 
     fn assemble(
