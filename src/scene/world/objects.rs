@@ -13,7 +13,6 @@ use super::{FieldCache, SceneObject, SceneOptions, SceneRobot, Setup, ATTACHMENT
 use crate::geometry::{self, Shape};
 use crate::physics::{Obstacle, SimParams};
 use crate::pipeline::{BodyOptions, SoftBody, Support};
-use crate::skinning::RefineBudget;
 use crate::scene::budget::choose_resolution;
 use crate::scene::file::{
     ObjectKind, ObjectSpec, Region, Resolution, SceneFile, ShapeSpec, Source,
@@ -242,9 +241,6 @@ fn body_setup(
             support
         },
         sleep: if decisions { file.sleep } else { None },
-        // A scene is built once, before it runs: each geometry's field is refined to the
-        // eigenmodes' span (reproducibly: no time budget).
-        refine: RefineBudget::Full,
         ..BodyOptions::default()
     };
     (sim, floor, body_options)
