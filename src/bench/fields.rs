@@ -38,8 +38,8 @@ pub struct EvalOptions {
     /// Steps per scenario. Default 40.
     pub steps: usize,
     /// How the network's field is refined toward the eigenmodes (on the FEM grid's tet mesh).
-    /// Default: within 80 ms, which with the network's ~50 ms and the tet mesh keeps a new
-    /// shape's build within 150 ms.
+    /// Default: within 60 ms, which with the network's ~45 ms, the tet mesh and the last
+    /// iteration's overshoot keeps a new shape's build within 150 ms.
     pub refine: RefineOptions,
 }
 
@@ -54,7 +54,7 @@ impl Default for EvalOptions {
             cubature: 1024,
             steps: 40,
             refine: RefineOptions {
-                budget: RefineBudget::Millis(80),
+                budget: RefineBudget::Millis(60),
                 ..Default::default()
             },
         }

@@ -30,7 +30,7 @@ pub struct EvalArgs {
     steps: usize,
     /// How long the network's field is refined toward the eigenmodes: milliseconds, `off` or
     /// `full` (until the eigenmodes' span).
-    #[arg(long, default_value = "80")]
+    #[arg(long, default_value = "60")]
     refine: RefineBudget,
     #[arg(long)]
     json: bool,

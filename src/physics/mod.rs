@@ -14,6 +14,6 @@ pub use fem::FemSim;
 pub use lift::Lifter;
 pub use material::{Material, MaterialModel, Matrix9};
 pub use obstacle::{Obstacle, Penetration, Stick, STICK_SLIP};
-pub use reduced::{ReducedSim, Solver, StepReport};
+pub use reduced::{state_projection, ReducedSim, Solver, StepReport};
 pub use scene::{Poke, SimParams};
 pub use subspace::{phi_of, sample, Subspace};

@@ -182,7 +182,9 @@ impl SoftBody {
             budget: options.refine,
             ..Default::default()
         };
-        Ok(Arc::new(refine_field(&field, mesh, input.map, &refine)?.field))
+        Ok(Arc::new(
+            refine_field(&field, mesh, input.map, &refine)?.field,
+        ))
     }
 
     fn assemble(
@@ -278,6 +280,7 @@ impl SoftBody {
             map: self.map,
             cubature: self.cubature.clone(),
             points: self.lifter.rest_points(),
+            contacts: self.sim.contact_rests(),
             density: self.sim.params().density,
             grid: self.grid.clone(),
         }
@@ -294,12 +297,13 @@ impl SoftBody {
                 reason: "prepared from a field this body no longer runs (it was rebuilt)".into(),
             });
         }
-        let density = self.sim.params().density;
-        let masses: Vec<f64> = self.cubature.volumes.iter().map(|v| density * v).collect();
-        self.sim
-            .rebase(prepared.subspace, &self.cubature.points, &masses)?;
+        self.sim.rebase(
+            prepared.subspace,
+            &prepared.projection,
+            prepared.contact_phis,
+        )?;
         let handles = prepared.field.handle_count();
-        let lifter = Lifter::from_weights(handles, &prepared.weights, &self.lifter.rest_points());
+        let lifter = prepared.lifter;
         let mut deformed = vec![0.0f32; self.deformed.len()];
         lifter.lift(self.sim.state(), &mut deformed);
         let max_jump_m = deformed

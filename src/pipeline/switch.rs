@@ -6,12 +6,12 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use nalgebra::Vector3;
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::error::Result;
 use crate::geometry::{Cubature, Normalization, TetMesh, VoxelGrid};
-use crate::physics::{sample, Subspace};
-use crate::skinning::{refine_field, RefineOptions, RefineReport, SkinningField};
+use crate::physics::{sample, state_projection, Lifter, Subspace};
+use crate::skinning::{refine_field_until, RefineOptions, RefineReport, SkinningField};
 
 /// Tet mesh cells across the solid's longest side for the refinement: the eigenmodes' own
 /// problem at the resolution `eval` and `bench basis` measure it on.
@@ -24,6 +24,8 @@ pub struct BasisPlan {
     pub(super) map: Normalization,
     pub(super) cubature: Cubature,
     pub(super) points: Vec<Vector3<f64>>,
+    /// The simulation's contact points (rest positions, in its order).
+    pub(super) contacts: Vec<Vector3<f64>>,
     pub(super) density: f64,
     pub(super) grid: VoxelGrid,
 }
@@ -35,8 +37,14 @@ pub struct PreparedBasis {
     pub(super) from: Arc<dyn SkinningField>,
     pub(super) field: Arc<dyn SkinningField>,
     pub(super) subspace: Arc<Subspace>,
+    /// The state's map from the old subspace to the new ([`state_projection`]).
+    pub(super) projection: DMatrix<f64>,
+    /// The contact points in the new subspace.
+    pub(super) contact_phis: Vec<DVector<f64>>,
     /// Weights at the body's points (points x handles, row-major).
     pub(super) weights: Vec<f64>,
+    /// The body's points bound to the new field.
+    pub(super) lifter: Lifter,
     /// How the refinement went (None for a field given as is).
     pub refine: Option<RefineReport>,
     /// Refinement and sampling, ms.
@@ -56,27 +64,54 @@ impl BasisPlan {
     /// The body's field refined toward the skinning eigenmodes on the solid's tet mesh
     /// ([`REFINE_RESOLUTION`]), then sampled.
     pub fn refined(&self, options: &RefineOptions) -> Result<PreparedBasis> {
+        self.refined_until(options, &|| false)
+    }
+
+    /// [`BasisPlan::refined`], stopping early (with what it has) once `stop` says so.
+    pub fn refined_until(
+        &self,
+        options: &RefineOptions,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<PreparedBasis> {
         let started = Instant::now();
         let mesh = TetMesh::from_grid(&self.grid.resample(REFINE_RESOLUTION));
-        let refined = refine_field(self.field.as_ref(), mesh, self.map, options)?;
-        let mut prepared = self.prepare(Arc::new(refined.field));
+        let refined = refine_field_until(self.field.as_ref(), mesh, self.map, options, stop)?;
+        let mut prepared = self.prepare(Arc::new(refined.field))?;
         prepared.refine = Some(refined.report);
         prepared.prepare_ms = started.elapsed().as_secs_f64() * 1e3;
         Ok(prepared)
     }
 
-    /// `field` sampled at the body's cubature and points.
-    pub fn prepare(&self, field: Arc<dyn SkinningField>) -> PreparedBasis {
+    /// `field` sampled where the body needs it: everything a switch needs but the pins (which
+    /// may change meanwhile), so that the switch itself costs little on the stepping thread.
+    /// Fails when the new field is degenerate on the cubature points.
+    pub fn prepare(&self, field: Arc<dyn SkinningField>) -> Result<PreparedBasis> {
         let started = Instant::now();
         let subspace = Subspace::build(field.clone(), self.map, &self.cubature, self.density);
+        let masses: Vec<f64> = self
+            .cubature
+            .volumes
+            .iter()
+            .map(|v| self.density * v)
+            .collect();
+        let projection = state_projection(
+            self.field.as_ref(),
+            field.as_ref(),
+            &self.map,
+            &self.cubature.points,
+            &masses,
+        )?;
         let (weights, _) = sample(field.as_ref(), &self.map, &self.points, false);
-        PreparedBasis {
+        Ok(PreparedBasis {
             from: self.field.clone(),
+            contact_phis: subspace.phis(&self.contacts),
+            lifter: Lifter::from_weights(field.handle_count(), &weights, &self.points),
             field,
             subspace: Arc::new(subspace),
+            projection,
             weights,
             refine: None,
             prepare_ms: started.elapsed().as_secs_f64() * 1e3,
-        }
+        })
     }
 }

@@ -2,7 +2,7 @@
 //! objects never wait for inference.
 
 use std::collections::HashMap;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender};
 use std::sync::{Arc, Mutex, RwLock};
 
@@ -12,11 +12,14 @@ use super::cloud::{decode_cloud, DecodedCloud};
 use super::cloud_objects::{instance_field as instance_field_of, split_by_instance, CloudTemplate};
 use super::markers::MarkerSurface;
 use super::messages::{Mesh, PointCloud2, Status};
+pub use super::object_key::ObjectKey;
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
+use super::refiner::RefineJob;
+pub use super::refiner::RefinedField;
 use super::tf::{TfBuffer, TfError};
-use crate::pipeline::{build_seen, PreparedBasis, SeenBody, SoftBody};
-use crate::skinning::{NeuralModel, RefineBudget, RefineOptions};
+use crate::pipeline::{build_seen, SeenBody, SoftBody};
+use crate::skinning::{NeuralModel, RefineBudget};
 
 /// New geometry for the object in `frame` (with `label`, one of the frame's labelled objects).
 #[derive(Clone, Debug)]
@@ -45,22 +48,17 @@ pub struct BuildRequest {
     pub template: Option<CloudTemplate>,
 }
 
+/// Refinement iterations of a replay's builds: by `bench basis`, 5 to 8 bring the error to the
+/// eigenmodes' own on the bench's shapes; full convergence can take ten times longer on
+/// symmetric shapes (a ball), whose near-equal eigenvalues converge slowly.
+pub const REPLAY_REFINE_ITERATIONS: u32 = 8;
+
 /// What the build thread hands the stepper.
 pub enum Built {
     /// A new body, on the network's field.
     Body(ReadyBody),
     /// The refined field of a running object, to switch to.
     Refined(RefinedField),
-}
-
-/// A running object's field refined toward the skinning eigenmodes (`inference.refine`).
-pub struct RefinedField {
-    /// The object's id.
-    pub id: u32,
-    /// Which object it is.
-    pub key: ObjectKey,
-    /// The field sampled where the body needs it.
-    pub prepared: PreparedBasis,
 }
 
 /// A built body on its way to the stepper.
@@ -79,25 +77,6 @@ pub struct ReadyBody {
     pub body: SoftBody,
     /// Its surface for ~/markers (None when markers are off).
     pub surface: Option<MarkerSurface>,
-}
-
-/// One object: the frame its geometry comes in, and its instance id when the frame's clouds are
-/// labelled. Objects are replaced, kept alive and removed by key.
-#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ObjectKey {
-    /// The frame its geometry comes in.
-    pub frame: String,
-    /// Its instance id in the frame's labelled clouds; None: the frame's one object.
-    pub label: Option<i64>,
-}
-
-impl std::fmt::Display for ObjectKey {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.label {
-            Some(label) => write!(f, "frame `{}`, instance {label}", self.frame),
-            None => write!(f, "frame `{}`", self.frame),
-        }
-    }
 }
 
 impl BuildRequest {
@@ -273,8 +252,9 @@ pub struct Builder {
 }
 
 impl Builder {
-    /// Refines each field fully within its build, when `inference.refine` is on: a replay is
-    /// offline and must reproduce itself, which a time budget would not.
+    /// Refines each field within its build, [`REPLAY_REFINE_ITERATIONS`] iterations, when
+    /// `inference.refine` is on: a replay is offline and must reproduce itself, which a time
+    /// budget would not.
     pub fn refine_in_build(&mut self) {
         self.refine_in_build = true;
     }
@@ -444,7 +424,7 @@ fn build_body(
 ) -> crate::Result<SeenBody> {
     let mut options = params.body_options()?;
     if refine && params.refine_budget() != RefineBudget::Off {
-        options.refine = RefineBudget::Full;
+        options.refine = RefineBudget::Iterations(REPLAY_REFINE_ITERATIONS);
     }
     build_seen(
         model,
@@ -477,6 +457,19 @@ pub struct BuildContext {
 /// Runs until `requests` closes. When requests arrive faster than inference, only the newest
 /// per frame is built.
 pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: BuildContext) {
+    let (refine, jobs) = std::sync::mpsc::channel();
+    let (refined, outputs) = (ready.clone(), cx.outputs.clone());
+    let deliver = move |r| refined.send(Built::Refined(r)).is_ok();
+    // Set while a build runs: the refinement gives way.
+    let building = Arc::new(AtomicBool::new(false));
+    let flag = building.clone();
+    let spawned = std::thread::Builder::new()
+        .name("physskin-refine".into())
+        .spawn(move || super::refiner::run_refiner(jobs, deliver, outputs, flag));
+    if let Err(e) = spawned {
+        let message = format!("no refinement thread: {e}");
+        cx.outputs.report(Status::WARN, 0, "refine_failed", message);
+    }
     let threads = cx.params.read().map_or(1, |p| p.inference.threads);
     // Inference gets its own thread pool, so it cannot occupy the pool the stepper uses.
     let pool = match rayon::ThreadPoolBuilder::new()
@@ -499,6 +492,7 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
         refine_in_build: false,
     };
     while let Ok(first) = requests.recv() {
+        building.store(true, Ordering::Relaxed);
         let mut newest: Vec<BuildRequest> = vec![first];
         for request in requests.try_iter() {
             cx.health.builds_queued.fetch_sub(1, Ordering::Relaxed);
@@ -516,33 +510,29 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
                     .report(Status::ERROR, 0, "input_rejected", problem);
                 continue;
             }
+            building.store(true, Ordering::Relaxed);
             let built = pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
+            // Until the next request (or the next build of this batch), refinement may run.
+            building.store(false, Ordering::Relaxed);
             if let BuildOutcome::Ready(body, announcement) = built {
                 let budget = snapshot.refine_budget();
                 let plan = (budget != RefineBudget::Off).then(|| body.body.basis_plan());
                 let (id, key) = (body.id, body.key.clone());
                 // The body goes to the stepper first: its first frame must not wait for the
-                // (large) weight messages, nor for the refinement.
+                // (large) weight messages; the refinement runs on a thread of its own.
                 if ready.send(Built::Body(*body)).is_err() {
                     return;
                 }
                 announcement.publish(&cx.outputs);
-                let Some(plan) = plan else { continue };
-                let options = RefineOptions {
-                    budget,
-                    ..Default::default()
-                };
-                match pool.install(|| plan.refined(&options)) {
-                    Ok(prepared) => {
-                        let refined = RefinedField { id, key, prepared };
-                        if ready.send(Built::Refined(refined)).is_err() {
-                            return;
-                        }
-                    }
-                    Err(e) => {
-                        let message = format!("{key}: the field was not refined: {e}");
-                        cx.outputs
-                            .report(Status::WARN, id, "refine_failed", message);
+                if let Some(plan) = plan {
+                    let job = RefineJob {
+                        id,
+                        key,
+                        plan,
+                        budget,
+                    };
+                    if refine.send(job).is_err() {
+                        return;
                     }
                 }
             }

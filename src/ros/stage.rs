@@ -231,15 +231,17 @@ impl Stage {
         }
     }
 
-    /// The object `refined.key` continues on its refined field, its weights published anew;
-    /// one that was rebuilt or removed since keeps what it runs.
-    pub fn switch(&mut self, refined: RefinedField, outputs: &Outputs) {
+    /// The object `refined.key` continues on its refined field, its weights published anew
+    /// (from a thread of their own: a 10k-point object's weights are over a megabyte, too much
+    /// to write between two ticks); one that was rebuilt or removed since keeps what it runs.
+    pub fn switch(&mut self, refined: RefinedField, outputs: &Arc<Outputs>) {
         let RefinedField { id, key, prepared } = refined;
         let Some(b) = self.bodies.iter_mut().find(|b| b.key == key && b.id == id) else {
             return;
         };
         let refine = prepared.refine.clone().unwrap_or_default();
         let ms = prepared.prepare_ms;
+        let started = std::time::Instant::now();
         let report = match b.body.switch_to(prepared) {
             Ok(report) => report,
             Err(e) => {
@@ -251,10 +253,16 @@ impl Stage {
         let rest: Vec<f32> = (b.body.lifter().rest_points().iter())
             .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
             .collect();
-        outputs.publish_weights(id, &b.output_frame, &rest, b.body.weights(), report.handles);
+        let (weights, frame) = (b.body.weights().to_vec(), b.output_frame.clone());
+        let publisher = outputs.clone();
+        std::thread::spawn(move || {
+            super::builder::yield_to_stepping();
+            publisher.publish_weights(id, &frame, &rest, &weights, report.handles);
+        });
+        let switch_ms = started.elapsed().as_secs_f64() * 1e3;
         let message = format!(
-            "{key}: field refined toward the eigenmodes ({} iterations{}, {ms:.1} ms); \
-             largest jump at the switch {:.3} mm",
+            "{key}: field refined toward the eigenmodes ({} iterations{}, {ms:.1} ms), switched \
+             to in {switch_ms:.2} ms; largest jump at the switch {:.3} mm",
             refine.iterations,
             if refine.converged { ", converged" } else { "" },
             report.max_jump_m * 1e3

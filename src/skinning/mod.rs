@@ -14,8 +14,8 @@ pub use neural::{
     ColumnNormalization, Network, NetworkConfig, NeuralField, NeuralModel, ShapeCode,
 };
 pub use refine::{
-    refine, refine_field, start_block, RefineBudget, RefineOptions, RefineReport, RefineSearch,
-    Refined,
+    refine, refine_field, refine_field_until, start_block, RefineBudget, RefineOptions,
+    RefineReport, RefineSearch, Refined,
 };
 pub use truncated::TruncatedField;
 

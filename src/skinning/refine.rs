@@ -167,10 +167,22 @@ pub fn refine_field(
     normalization: Normalization,
     options: &RefineOptions,
 ) -> Result<Refined> {
+    refine_field_until(field, mesh, normalization, options, &|| false)
+}
+
+/// [`refine_field`] that also stops, with what it has, once `stop` says so (checked before
+/// each iteration): a node's refinement gives way to a new object's build.
+pub fn refine_field_until(
+    field: &dyn SkinningField,
+    mesh: TetMesh,
+    normalization: Normalization,
+    options: &RefineOptions,
+    stop: &dyn Fn() -> bool,
+) -> Result<Refined> {
     let started = Instant::now();
     let start = start_block(field, &mesh, &normalization);
     let start_ms = milliseconds(started);
-    let mut refined = refine(mesh, normalization, &start, options)?;
+    let mut refined = refine_until(mesh, normalization, &start, options, stop)?;
     refined.report.start_ms = start_ms;
     refined.report.total_ms += start_ms;
     Ok(refined)
@@ -185,6 +197,16 @@ pub fn refine(
     normalization: Normalization,
     start: &DMatrix<f64>,
     options: &RefineOptions,
+) -> Result<Refined> {
+    refine_until(mesh, normalization, start, options, &|| false)
+}
+
+fn refine_until(
+    mesh: TetMesh,
+    normalization: Normalization,
+    start: &DMatrix<f64>,
+    options: &RefineOptions,
+    stop: &dyn Fn() -> bool,
 ) -> Result<Refined> {
     let started = Instant::now();
     let (n, k) = (mesh.vertices.len(), start.ncols());
@@ -212,7 +234,7 @@ pub fn refine(
     };
     let mut direction: Option<DMatrix<f64>> = None;
     let mut last_ms = 0.0;
-    while may_iterate(options, report.iterations, milliseconds(started), last_ms) {
+    while !stop() && may_iterate(options, report.iterations, milliseconds(started), last_ms) {
         let iteration = Instant::now();
         let step = refiner.step(&x, direction.as_ref(), options.search)?;
         let change = values[..k]

@@ -15,6 +15,8 @@ mod contact;
 mod held;
 mod rebase;
 
+pub use rebase::state_projection;
+
 use super::material::{Material, Matrix9};
 use super::obstacle::{Anchors, Obstacle, Stick};
 use super::rolling::{RollAnchors, RollingStick};
@@ -75,6 +77,7 @@ pub struct StepReport {
 }
 
 /// A material point of the object expressed in the subspace.
+#[derive(Clone)]
 struct ReducedPoint {
     rest: Vector3<f64>,
     phi: DVector<f64>,

@@ -6,36 +6,48 @@
 
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::{ReducedPoint, ReducedSim};
 use crate::error::{Error, Result};
-use crate::physics::subspace::Subspace;
+use crate::geometry::Normalization;
+use crate::physics::subspace::{phis, Subspace};
+use crate::skinning::SkinningField;
 
 impl ReducedSim {
-    /// Continues in `subspace` from where the body is now. `points` and `masses` (kg) are the
-    /// material points the state is fitted on, the cubature points with their masses: the new
-    /// state is the one whose displacement of these points is closest to the current one in
-    /// the mass-weighted least-squares sense (the previous state likewise, so the velocity
-    /// carries over too). Rigid motions carry over exactly (both fields hold the constant).
-    /// Fails when the new subspace is degenerate on `points`.
+    /// Continues in `subspace` from where the body is now, the state mapped by `projection`
+    /// ([`state_projection`]: the least-squares fit on the cubature points, so the velocity
+    /// carries over too). `contact_phis` are the contact points sampled in the new subspace,
+    /// in their order ([`ReducedSim::contact_rests`]); sampled here when they do not match.
     pub fn rebase(
         &mut self,
         subspace: Arc<Subspace>,
-        points: &[Vector3<f64>],
-        masses: &[f64],
+        projection: &DMatrix<f64>,
+        contact_phis: Vec<DVector<f64>>,
     ) -> Result<()> {
-        let projection = projection(&self.subspace, &subspace, points, masses)?;
+        let (rows, columns) = (4 * self.subspace.handles(), 4 * subspace.handles());
+        if projection.shape() != (rows, columns) {
+            return Err(Error::LinearAlgebra(format!(
+                "a {:?} state projection between {rows} and {columns} coordinates",
+                projection.shape()
+            )));
+        }
         let mut next = ReducedSim::new(subspace, self.params.clone(), self.solver, self.diagonal)?;
-        next.z = &self.z * &projection;
-        next.z_prev = &self.z_prev * &projection;
+        next.z = &self.z * projection;
+        next.z_prev = &self.z_prev * projection;
         next.time = self.time;
         next.pins = resampled(&next.subspace, &self.pins);
         for pin in &next.pins {
             next.pin_phi.ger(pin.weight, &pin.phi, &pin.phi, 1.0);
         }
         next.update_pin_offsets();
-        next.contacts = resampled(&next.subspace, &self.contacts);
+        next.contacts = if contact_phis.len() == self.contacts.len() {
+            (self.contacts.iter().zip(contact_phis))
+                .map(|(p, phi)| ReducedPoint { phi, ..p.clone() })
+                .collect()
+        } else {
+            resampled(&next.subspace, &self.contacts)
+        };
         let pokes: Vec<_> = self.pokes.iter().map(|(_, poke)| *poke).collect();
         let phis = next
             .subspace
@@ -49,6 +61,13 @@ impl ReducedSim {
         *self = next;
         self.prepare();
         Ok(())
+    }
+}
+
+impl ReducedSim {
+    /// The rest positions of the contact points, in their order.
+    pub fn contact_rests(&self) -> Vec<Vector3<f64>> {
+        self.contacts.iter().map(|p| p.rest).collect()
     }
 }
 
@@ -69,16 +88,21 @@ fn resampled(subspace: &Subspace, points: &[ReducedPoint]) -> Vec<ReducedPoint> 
         .collect()
 }
 
-/// P (4K_old x 4K_new) such that Z_old P is the least-squares fit in the new subspace: with
-/// C = sum m phi_old phi_new^T and N = sum m phi_new phi_new^T, Z_new N = Z_old C.
-fn projection(
-    old: &Subspace,
-    new: &Subspace,
+/// P (4K_old x 4K_new) such that Z_old P is the least-squares fit in `new`'s subspace of the
+/// displacement of `points` (masses in kg) under `old`'s: with C = sum m phi_old phi_new^T and
+/// N = sum m phi_new phi_new^T, Z_new N = Z_old C. Fails when `new` is degenerate on `points`.
+pub fn state_projection(
+    old: &dyn SkinningField,
+    new: &dyn SkinningField,
+    normalization: &Normalization,
     points: &[Vector3<f64>],
     masses: &[f64],
 ) -> Result<DMatrix<f64>> {
-    let (a, b) = (old.phis(points), new.phis(points));
-    let (n_old, n_new) = (4 * old.handles(), 4 * new.handles());
+    let (a, b) = (
+        phis(old, normalization, points),
+        phis(new, normalization, points),
+    );
+    let (n_old, n_new) = (4 * old.handle_count(), 4 * new.handle_count());
     let mut cross = DMatrix::zeros(n_old, n_new);
     let mut gram = DMatrix::zeros(n_new, n_new);
     for ((phi_old, phi_new), &m) in a.iter().zip(&b).zip(masses) {
@@ -89,7 +113,7 @@ fn projection(
         Error::LinearAlgebra(format!(
             "the new subspace is degenerate on {} points ({} handles)",
             points.len(),
-            new.handles()
+            new.handle_count()
         ))
     })?;
     Ok(cholesky.solve(&cross.transpose()).transpose())
