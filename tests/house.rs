@@ -1,18 +1,14 @@
 //! The house rules that keep the code readable, checked so they hold: no source file over 800
 //! lines, no function over 120 lines (counted from its `fn` line to its closing brace).
 
-use std::path::{Path, PathBuf};
+mod common;
 
 const MAX_FILE_LINES: usize = 800;
 const MAX_FUNCTION_LINES: usize = 120;
 
 #[test]
 fn files_and_functions_fit_on_a_few_screens() {
-    let mut files = Vec::new();
-    collect(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
-        &mut files,
-    );
+    let files = common::rust_sources(&common::root().join("src"));
     assert!(files.len() > 50, "found only {} source files", files.len());
     let mut problems = Vec::new();
     for file in &files {
@@ -26,17 +22,6 @@ fn files_and_functions_fit_on_a_few_screens() {
         }
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
-}
-
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            collect(&path, out);
-        } else if path.extension().is_some_and(|e| e == "rs") {
-            out.push(path);
-        }
-    }
 }
 
 /// Functions longer than the limit: (name, lines). Braces in strings and comments are counted

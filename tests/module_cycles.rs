@@ -5,15 +5,16 @@
 //! read back what the code under test wrote.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+mod common;
 
 type Module = Vec<String>;
 
 #[test]
 fn no_two_source_files_use_each_other() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    collect(&src, &mut files);
+    let files = common::rust_sources(&src);
     // lib.rs and main.rs are both the root: the binary's modules and the library's share src/.
     let mut modules: BTreeMap<Module, String> = BTreeMap::new();
     for file in &files {
@@ -48,17 +49,6 @@ fn no_two_source_files_use_each_other() {
         "files that use each other, directly or through the others listed:\n{}",
         cycles.join("\n")
     );
-}
-
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            collect(&path, out);
-        } else if path.extension().is_some_and(|e| e == "rs") {
-            out.push(path);
-        }
-    }
 }
 
 /// `src/a/b.rs` is `a::b`; `src/a/mod.rs` is `a`; `lib.rs` and `main.rs` are the root.

@@ -4,6 +4,8 @@
 
 use std::path::PathBuf;
 
+mod common;
+
 use nalgebra::Vector3;
 use physskin::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use physskin::skinning::NeuralModel;
@@ -71,19 +73,18 @@ fn scene_path(name: &str) -> PathBuf {
 /// `settle_steps` steps with the robot still, for `seconds` of its motion; `object`'s error
 /// against the full-space FEM, %.
 fn fem_error_pct(name: &str, seconds: f64, settle_steps: usize, object: &str) -> f64 {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_physskin"))
-        .arg("scene")
-        .arg(scene_path(name))
-        .args(["--reference", "--json", "--seconds", &seconds.to_string()])
-        .args(["--settle-steps", &settle_steps.to_string()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "physskin scene failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let run: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let path = scene_path(name).display().to_string();
+    let (seconds, settle_steps) = (seconds.to_string(), settle_steps.to_string());
+    let run = common::physskin_json(&[
+        "scene",
+        &path,
+        "--reference",
+        "--json",
+        "--seconds",
+        &seconds,
+        "--settle-steps",
+        &settle_steps,
+    ]);
     let errors = run["errors"].as_array().expect("the run reports errors");
     let error = errors.iter().find(|e| e["name"] == object);
     error

@@ -3,6 +3,8 @@
 //! what the product claims keep their energy bounded and converge every step; the known
 //! exceptions are named here with the reason, and the README's table shows their figures.
 
+mod common;
+
 /// A box of water density at E = 100 Pa cannot carry its own weight (2 kPa at its base): it
 /// slumps metres below its pins, and the steps that do not converge let energy in. A sheet 1 %
 /// thick buckles; the minimum Newton finds from the predicted state can lie above the last one.
@@ -17,17 +19,7 @@ const MAY_NOT_CONVERGE: [&str; 4] = [
 
 #[test]
 fn every_stress_case_stays_finite_and_the_claimed_ones_bounded_and_converged() {
-    // The command a user runs, its JSON read back.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_physskin"))
-        .args(["bench", "stress", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "physskin bench stress failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let report = common::physskin_json(&["bench", "stress", "--json"]);
     let rows = report["rows"].as_array().expect("rows");
     assert_eq!(rows.len(), 16, "every case ran");
     for row in rows {
