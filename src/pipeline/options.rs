@@ -40,7 +40,7 @@ pub struct BodyOptions {
     /// Handles kept, the constant one included: the smoothest of the field's. Default all.
     pub handles: Option<usize>,
     /// How long the network's field is refined toward the skinning eigenmodes before the body
-    /// starts (see [`crate::skinning::refine`]). Default off.
+    /// starts (see [`crate::skinning::refine()`]). Default off.
     pub refine: RefineBudget,
     /// When the body may sleep. Default never.
     pub sleep: Option<SleepRule>,

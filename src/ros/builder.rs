@@ -252,7 +252,7 @@ pub struct Builder {
 }
 
 impl Builder {
-    /// Refines each field within its build, [`REPLAY_REFINE_ITERATIONS`] iterations, when
+    /// Refines each field within its build, 8 iterations (`REPLAY_REFINE_ITERATIONS`), when
     /// `inference.refine` is on: a replay is offline and must reproduce itself, which a time
     /// budget would not.
     pub fn refine_in_build(&mut self) {
