@@ -30,17 +30,7 @@ pub fn scatter_svg(title: &str, x_label: &str, y_label: &str, series: &[Series])
     let y_hi = if y_hi > 0.0 { y_hi * 1.1 } else { 1.0 };
     let px = |x: f64| margin + (x.log10() - x_lo) / (x_hi - x_lo) * (width - 2.0 * margin);
     let py = |y: f64| height - margin - y / y_hi * (height - 2.0 * margin);
-    let mut svg = String::new();
-    let _ = writeln!(
-        svg,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="sans-serif" font-size="12">"#
-    );
-    let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        svg,
-        r#"<text x="{}" y="24" font-size="15" text-anchor="middle">{title}</text>"#,
-        width / 2.0
-    );
+    let mut svg = crate::io::svg_header(width, height, 24.0, title);
     let (x0, y0) = (margin, height - margin);
     let _ = writeln!(
         svg,

@@ -10,5 +10,5 @@ mod strip;
 pub use field_image::render_field_png;
 pub(crate) use field_image::weight_colors;
 pub use npy::write_npy_f32;
-pub use plot::{line_plot_svg, LineSeries, Panel};
+pub use plot::{line_plot_svg, svg_header, LineSeries, Panel};
 pub use strip::{render_strip_png, StripFrame, StripObject};

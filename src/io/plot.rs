@@ -51,18 +51,7 @@ pub fn line_plot_svg(title: &str, x_label: &str, y_label: &str, panels: &[Panel]
             .flat_map(|s| finite(&s.points).map(|(x, _)| x)),
         false,
     );
-    let mut svg = String::new();
-    let _ = writeln!(
-        svg,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{height}" font-family="sans-serif" font-size="12">"#
-    );
-    let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        svg,
-        r#"<text x="{}" y="26" font-size="15" text-anchor="middle">{}</text>"#,
-        WIDTH / 2.0,
-        escape(title)
-    );
+    let mut svg = svg_header(WIDTH, height, 26.0, title);
     for (i, panel) in panels.iter().enumerate() {
         let top = TOP + PANEL_HEIGHT * i as f64;
         let area = Area {
@@ -230,6 +219,24 @@ fn ticks(lo: f64, hi: f64, count: usize) -> (Vec<f64>, usize) {
 }
 
 /// Text made safe to put inside an SVG element.
+/// The opening of an SVG picture: its size, a white background and `title` centred at
+/// `title_y`. The caller appends the drawing and the closing `</svg>`.
+pub fn svg_header(width: f64, height: f64, title_y: f64, title: &str) -> String {
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        svg,
+        r#"<text x="{}" y="{title_y}" font-size="15" text-anchor="middle">{}</text>"#,
+        width / 2.0,
+        escape(title)
+    );
+    svg
+}
+
 fn escape(text: &str) -> String {
     text.replace('&', "&amp;")
         .replace('<', "&lt;")

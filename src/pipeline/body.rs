@@ -9,12 +9,10 @@ use serde::Serialize;
 
 use super::input::{truncate, NetworkInput};
 use super::options::{BodyOptions, SleepRule, Support};
-use super::switch::{BasisPlan, PreparedBasis, SwitchReport, REFINE_RESOLUTION};
-use crate::geometry::{
-    Completed, ContactSamples, Cubature, Normalization, Shape, TetMesh, VoxelGrid,
-};
+use super::switch::{refine_on_solid, BasisPlan, PreparedBasis, SwitchReport};
+use crate::geometry::{Completed, ContactSamples, Cubature, Normalization, Shape, VoxelGrid};
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, StepReport, Subspace};
-use crate::skinning::{refine_field, NeuralModel, RefineBudget, RefineOptions, SkinningField};
+use crate::skinning::{NeuralModel, RefineBudget, RefineOptions, SkinningField};
 use crate::Result;
 
 /// Where the build time went, ms.
@@ -177,14 +175,12 @@ impl SoftBody {
         if options.refine == RefineBudget::Off {
             return Ok(Arc::new(field));
         }
-        let mesh = TetMesh::from_grid(&input.grid.resample(REFINE_RESOLUTION));
         let refine = RefineOptions {
             budget: options.refine,
             ..Default::default()
         };
-        Ok(Arc::new(
-            refine_field(&field, mesh, input.map, &refine)?.field,
-        ))
+        let refined = refine_on_solid(&field, &input.grid, input.map, &refine, &|| false)?;
+        Ok(Arc::new(refined.field))
     }
 
     fn assemble(
@@ -324,7 +320,7 @@ impl SoftBody {
         self.deformed = deformed;
         self.lifter = lifter;
         self.handles = handles;
-        self.weights = prepared.weights.iter().map(|&w| w as f32).collect();
+        self.weights = prepared.weights;
         self.field = prepared.field;
         Ok(SwitchReport {
             max_jump_m,

@@ -11,7 +11,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use crate::error::Result;
 use crate::geometry::{Cubature, Normalization, TetMesh, VoxelGrid};
 use crate::physics::{sample, state_projection, Lifter, Subspace};
-use crate::skinning::{refine_field_until, RefineOptions, RefineReport, SkinningField};
+use crate::skinning::{refine_field_until, RefineOptions, RefineReport, Refined, SkinningField};
 
 /// Tet mesh cells across the solid's longest side for the refinement: the eigenmodes' own
 /// problem at the resolution `eval` and `bench basis` measure it on.
@@ -41,8 +41,8 @@ pub struct PreparedBasis {
     pub(super) projection: DMatrix<f64>,
     /// The contact points in the new subspace.
     pub(super) contact_phis: Vec<DVector<f64>>,
-    /// Weights at the body's points (points x handles, row-major).
-    pub(super) weights: Vec<f64>,
+    /// Weights at the body's points (points x handles, row-major), as the body keeps them.
+    pub(super) weights: Vec<f32>,
     /// The body's points bound to the new field.
     pub(super) lifter: Lifter,
     /// How the refinement went (None for a field given as is).
@@ -60,6 +60,19 @@ pub struct SwitchReport {
     pub handles: usize,
 }
 
+/// `field` refined toward the skinning eigenmodes of `grid`'s solid, on its tet mesh at
+/// [`REFINE_RESOLUTION`]; `stop` ends the iterations early.
+pub(super) fn refine_on_solid(
+    field: &dyn SkinningField,
+    grid: &VoxelGrid,
+    map: Normalization,
+    options: &RefineOptions,
+    stop: &dyn Fn() -> bool,
+) -> Result<Refined> {
+    let mesh = TetMesh::from_grid(&grid.resample(REFINE_RESOLUTION));
+    refine_field_until(field, mesh, map, options, stop)
+}
+
 impl BasisPlan {
     /// The body's field refined toward the skinning eigenmodes on the solid's tet mesh
     /// ([`REFINE_RESOLUTION`]), then sampled.
@@ -74,8 +87,7 @@ impl BasisPlan {
         stop: &dyn Fn() -> bool,
     ) -> Result<PreparedBasis> {
         let started = Instant::now();
-        let mesh = TetMesh::from_grid(&self.grid.resample(REFINE_RESOLUTION));
-        let refined = refine_field_until(self.field.as_ref(), mesh, self.map, options, stop)?;
+        let refined = refine_on_solid(self.field.as_ref(), &self.grid, self.map, options, stop)?;
         let mut prepared = self.prepare(Arc::new(refined.field))?;
         prepared.refine = Some(refined.report);
         prepared.prepare_ms = started.elapsed().as_secs_f64() * 1e3;
@@ -109,7 +121,7 @@ impl BasisPlan {
             field,
             subspace: Arc::new(subspace),
             projection,
-            weights,
+            weights: weights.iter().map(|&w| w as f32).collect(),
             refine: None,
             prepare_ms: started.elapsed().as_secs_f64() * 1e3,
         })
