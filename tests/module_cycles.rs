@@ -71,21 +71,17 @@ fn module_of(src: &Path, file: &Path) -> Module {
 fn code_of(file: &Path) -> String {
     let text = std::fs::read_to_string(file).unwrap();
     let mut code = String::new();
+    let mut end = 0;
     for line in text.lines() {
-        let trimmed = line.trim_start();
-        if trimmed.starts_with("#[cfg(test)]") && is_test_module_next(&text, line) {
+        end += line.len() + 1;
+        let rest = text.get(end..).unwrap_or("").trim_start();
+        if line.trim_start().starts_with("#[cfg(test)]") && rest.starts_with("mod ") {
             break;
         }
         code.push_str(line.split("//").next().unwrap());
         code.push('\n');
     }
     code
-}
-
-/// Whether the `#[cfg(test)]` on `line` introduces a `mod`.
-fn is_test_module_next(text: &str, line: &str) -> bool {
-    let at = text.find(line).unwrap() + line.len();
-    text[at..].trim_start().starts_with("mod ")
 }
 
 fn nested(a: &Module, b: &Module) -> bool {

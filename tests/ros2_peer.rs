@@ -205,21 +205,19 @@ fn a_cloud_in_an_optical_frame_falls_along_world_minus_z() {
         text
     };
     run(&["write".as_ref(), bag.as_os_str()], "writing the bag");
-    let replayed = Command::new(env!("CARGO_BIN_EXE_physskin"))
-        .arg("replay")
-        .arg(&bag)
-        .arg("--out")
-        .arg(&out)
-        .args(["--json", "--ros-args", "-p", "fixed_frame:=world"])
-        .args(["-p", "simulation.support:=free"])
-        .output()
-        .unwrap();
-    assert!(
-        replayed.status.success(),
-        "{}",
-        String::from_utf8_lossy(&replayed.stderr)
-    );
-    let json: serde_json::Value = serde_json::from_slice(&replayed.stdout).unwrap();
+    let (bag_path, out_path) = (bag.display().to_string(), out.display().to_string());
+    let json = common::physskin_json(&[
+        "replay",
+        &bag_path,
+        "--out",
+        &out_path,
+        "--json",
+        "--ros-args",
+        "-p",
+        "fixed_frame:=world",
+        "-p",
+        "simulation.support:=free",
+    ]);
     assert_eq!(json["rejected"], 0, "{json}");
     let checked = run(&["check".as_ref(), out.as_os_str()], "checking the replay");
     assert!(checked.contains("ok: tf2"), "{checked}");
