@@ -104,3 +104,54 @@ fn evaluation_interpolates_nodal_values_and_gradients_match_finite_differences()
     assert!(w.iter().all(|x| x.is_finite()));
     let _ = Arc::new(field);
 }
+
+#[test]
+fn points_just_outside_the_voxelized_solid_get_continuous_weights() {
+    // A cube with its top corner cell left out, as a voxelization leaves out cells the surface
+    // barely enters. A point in that cell is as near the cell beside it in x as the one beside
+    // it in y; snapping to the nearer cell gave weights 1e-3 apart for the same point moved by
+    // round-off (two copies of one box in a scene).
+    let shape = box_mesh(Vector3::new(0.2, 0.2, 0.2));
+    let mut grid = VoxelGrid::from_shape(&shape, 64, None).resample(8);
+    let solid: Vec<usize> = (0..grid.len()).filter(|&i| grid.solid[i]).collect();
+    let corner = *solid
+        .iter()
+        .max_by_key(|&&i| grid.coords(i).iter().sum::<usize>())
+        .unwrap();
+    grid.solid[corner] = false;
+    let mesh = TetMesh::from_grid(&grid);
+    let columns = nalgebra::DMatrix::from_fn(mesh.vertices.len(), 2, |v, c| {
+        let p = mesh.vertices[v];
+        if c == 0 {
+            p.x + 2.0 * p.y + p.z
+        } else {
+            (7.0 * p.x).sin() * p.y
+        }
+    });
+    let map = shape.normalization();
+    let field = EigenmodeField::from_columns(mesh.clone(), map, &columns, &[1.0, 2.0], 0).unwrap();
+    // On the diagonal of the missing cell's top face, nudged either way by round-off.
+    let c = grid.cell_center(grid.coords(corner));
+    let at = |p: Vector3<f64>| {
+        let mut w = vec![0.0; field.handle_count()];
+        field.evaluate(&[map.to_normalized(&p)], &mut w, None);
+        w
+    };
+    let p = c + Vector3::new(-0.3, -0.3, 0.2) * grid.cell;
+    for nudge in [Vector3::new(1e-12, 0.0, 0.0), Vector3::new(0.0, 1e-12, 0.0)] {
+        let (a, b) = (at(p + nudge), at(p - nudge));
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() < 1e-9, "{a:?} against {b:?}");
+        }
+    }
+    // Inside the solid the field is the mesh's interpolation, unchanged by the outer layer.
+    for v in (0..mesh.vertices.len()).step_by(7) {
+        let w = at(mesh.vertices[v]);
+        for (h, x) in w.iter().enumerate() {
+            assert!(
+                (x - field.vertex_weights(v)[h]).abs() < 1e-9,
+                "vertex {v}, handle {h}"
+            );
+        }
+    }
+}

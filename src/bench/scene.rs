@@ -213,6 +213,7 @@ pub fn run_scene_bench(seconds: f64, log: impl Fn(&str)) -> Result<SceneBenchRep
             decisions: true,
             only: active.clone(),
             scripted: true,
+            ..SceneOptions::default()
         },
         &active,
         settle,
@@ -227,6 +228,7 @@ pub fn run_scene_bench(seconds: f64, log: impl Fn(&str)) -> Result<SceneBenchRep
             decisions: false,
             only: Vec::new(),
             scripted: true,
+            ..SceneOptions::default()
         },
         &every,
         settle,

@@ -50,6 +50,7 @@ pub fn run(args: SceneArgs) -> physskin::Result<()> {
                 decisions: !args.no_decisions,
                 only: Vec::new(),
                 scripted: true,
+                ..SceneOptions::default()
             },
             seconds: args.seconds,
             settle_steps: args.settle_steps.unwrap_or((8.0 * file.rate_hz) as usize),

@@ -49,8 +49,16 @@ pub struct TetLocation {
 impl TetMesh {
     /// The mesh of `grid`'s solid cells; it keeps a copy of the grid.
     pub fn from_grid(grid: &VoxelGrid) -> TetMesh {
-        let mut corner_vertex = HashMap::new();
-        let mut vertices = Vec::new();
+        Self::numbered(grid, HashMap::new(), Vec::new())
+    }
+
+    /// The mesh of `grid`'s solid cells, its vertices numbered after `vertices` (the corners
+    /// `corner_vertex` already names keep their numbers).
+    fn numbered(
+        grid: &VoxelGrid,
+        mut corner_vertex: HashMap<[usize; 3], u32>,
+        mut vertices: Vec<Vector3<f64>>,
+    ) -> TetMesh {
         let mut tets = Vec::new();
         for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
             let c = grid.coords(index);
@@ -84,6 +92,64 @@ impl TetMesh {
             boundary_areas,
             grid: grid.clone(),
             corner_vertex,
+        }
+    }
+
+    /// This mesh grown by one layer of cells (every cell touching a solid one, corners
+    /// included), its vertices numbered as here first, then the new ones. A field stored on
+    /// this mesh and extended to the layer ([`TetMesh::extend_nodal`]) interpolates at points
+    /// just outside the voxelized solid (a surface point in a cell the voxelization left out)
+    /// instead of snapping them to a nearest cell, whose choice jumps where two cells are
+    /// equally near: the same point, moved by round-off, would get other weights.
+    pub fn dilated(&self) -> TetMesh {
+        let g = &self.grid;
+        let mut grid = g.clone();
+        for index in (0..g.len()).filter(|&i| g.solid[i]) {
+            let c = g.coords(index);
+            for n in corner_neighbourhood(c, g.dims) {
+                let i = grid.index(n);
+                grid.solid[i] = true;
+            }
+        }
+        Self::numbered(&grid, self.corner_vertex.clone(), self.vertices.clone())
+    }
+
+    /// Extends `nodal` (`width` values per vertex, row-major, for this mesh's first `known`
+    /// vertices) to every vertex: each new vertex takes the mean of the known ones among its
+    /// 26 neighbouring corners, in rounds until all have values. On [`TetMesh::dilated`] this
+    /// continues a field one layer out without changing it inside.
+    pub fn extend_nodal(&self, known: usize, nodal: &mut Vec<f64>, width: usize) {
+        let n = self.vertices.len();
+        let mut corners = vec![[0usize; 3]; n];
+        for (&corner, &v) in &self.corner_vertex {
+            corners[v as usize] = corner;
+        }
+        let vertex_dims = self.grid.dims.map(|d| d + 1);
+        let mut valued: Vec<bool> = (0..n).map(|v| v < known).collect();
+        nodal.resize(n * width, 0.0);
+        while valued.iter().any(|&v| !v) {
+            let mut round = Vec::new();
+            for v in (known..n).filter(|&v| !valued[v]) {
+                let neighbours: Vec<usize> = corner_neighbourhood(corners[v], vertex_dims)
+                    .filter_map(|c| self.corner_vertex.get(&c).map(|&u| u as usize))
+                    .filter(|&u| valued[u])
+                    .collect();
+                if neighbours.is_empty() {
+                    continue;
+                }
+                let mut mean = vec![0.0; width];
+                for &u in &neighbours {
+                    for (m, x) in mean.iter_mut().zip(&nodal[u * width..(u + 1) * width]) {
+                        *m += x / neighbours.len() as f64;
+                    }
+                }
+                round.push((v, mean));
+            }
+            assert!(!round.is_empty(), "every vertex of a mesh is connected");
+            for (v, mean) in round {
+                nodal[v * width..(v + 1) * width].copy_from_slice(&mean);
+                valued[v] = true;
+            }
         }
     }
 
@@ -180,6 +246,18 @@ impl TetMesh {
         }
         best.expect("a tet mesh has at least one solid cell")
     }
+}
+
+/// The cells (or corners) within one step of `c` along each axis, `c` left out, inside `dims`.
+fn corner_neighbourhood(c: [usize; 3], dims: [usize; 3]) -> impl Iterator<Item = [usize; 3]> {
+    (0..27).filter(|&s| s != 13).filter_map(move |s| {
+        let step = [s % 3, (s / 3) % 3, s / 9];
+        let mut n = [0usize; 3];
+        for a in 0..3 {
+            n[a] = (c[a] + step[a]).checked_sub(1).filter(|&x| x < dims[a])?;
+        }
+        Some(n)
+    })
 }
 
 /// Vertices on cube faces between solid and empty cells; each such face gives a quarter of its

@@ -172,14 +172,37 @@ impl SoftBody {
     ) -> Result<Arc<dyn SkinningField>> {
         let input = NetworkInput::new(shape, None, options)?;
         let field = model.field(&input.surface, &input.reference, input.map)?;
-        if options.refine == RefineBudget::Off {
-            return Ok(Arc::new(field));
+        Self::refine_on_input(Arc::new(field), &input, options.refine)
+    }
+
+    /// `field` (of `shape`'s geometry, e.g. cut to fewer handles) refined toward the skinning
+    /// eigenmodes as `budget` says; `field` itself when the budget is off.
+    pub fn refined_field(
+        field: Arc<dyn SkinningField>,
+        shape: &Shape,
+        options: &BodyOptions,
+        budget: RefineBudget,
+    ) -> Result<Arc<dyn SkinningField>> {
+        if budget == RefineBudget::Off {
+            return Ok(field);
+        }
+        let input = NetworkInput::new(shape, None, options)?;
+        Self::refine_on_input(field, &input, budget)
+    }
+
+    fn refine_on_input(
+        field: Arc<dyn SkinningField>,
+        input: &NetworkInput,
+        budget: RefineBudget,
+    ) -> Result<Arc<dyn SkinningField>> {
+        if budget == RefineBudget::Off {
+            return Ok(field);
         }
         let refine = RefineOptions {
-            budget: options.refine,
+            budget,
             ..Default::default()
         };
-        let refined = refine_on_solid(&field, &input.grid, input.map, &refine, &|| false)?;
+        let refined = refine_on_solid(field.as_ref(), &input.grid, input.map, &refine, &|| false)?;
         Ok(Arc::new(refined.field))
     }
 

@@ -17,7 +17,7 @@ pub use file::{
 };
 pub use reference::{reference_errors, ObjectError, Recorder};
 pub use robot::Robot;
-pub use world::{FieldCache, ObjectReport, Scene, SceneOptions};
+pub use world::{FieldCache, ObjectReport, Scene, SceneOptions, SCENE_REFINE_ITERATIONS};
 
 /// What is wrong with a scene or a robot description.
 #[derive(Debug, thiserror::Error)]

@@ -38,9 +38,12 @@ impl Default for EigenmodeOptions {
 /// Eigenmode weights stored at the vertices of a tetrahedral mesh, interpolated linearly.
 pub struct EigenmodeField {
     mesh: TetMesh,
+    /// `mesh` grown by a layer of cells, where the field is looked up ([`TetMesh::dilated`]).
+    lookup: TetMesh,
     normalization: Normalization,
-    /// Row-major, vertices x handles; column 0 is the constant 1, each other column is scaled to
-    /// a largest magnitude of 1.
+    /// Row-major, `lookup`'s vertices x handles (`mesh`'s vertices first); column 0 is the
+    /// constant 1, each other column is scaled to a largest magnitude of 1 on `mesh`, and the
+    /// added layer continues them.
     nodal: Vec<f64>,
     handles: usize,
     /// Generalized eigenvalues (1/m^2), the constant's 0 first.
@@ -143,8 +146,11 @@ impl EigenmodeField {
         }
         let mut eigenvalues = vec![0.0];
         eigenvalues.extend_from_slice(values);
+        let lookup = mesh.dilated();
+        lookup.extend_nodal(n, &mut nodal, handles);
         Self {
             mesh,
+            lookup,
             normalization,
             nodal,
             handles,
@@ -158,13 +164,14 @@ impl EigenmodeField {
     /// the m smallest are a prefix of the m' > m smallest).
     pub fn truncated(&self, modes: usize) -> Self {
         let handles = (modes + 1).min(self.handles);
-        let n = self.mesh.vertices.len();
+        let n = self.lookup.vertices.len();
         let mut nodal = Vec::with_capacity(n * handles);
         for v in 0..n {
             nodal.extend_from_slice(&self.vertex_weights(v)[..handles]);
         }
         Self {
             mesh: self.mesh.clone(),
+            lookup: self.lookup.clone(),
             normalization: self.normalization,
             nodal,
             handles,
@@ -184,7 +191,8 @@ impl EigenmodeField {
         &self.mesh
     }
 
-    /// The weights at mesh vertex `v` (exact nodal values, no interpolation).
+    /// The weights at mesh vertex `v` (exact nodal values, no interpolation; indices past
+    /// the mesh's vertices are those of the layer around it).
     pub fn vertex_weights(&self, v: usize) -> &[f64] {
         &self.nodal[v * self.handles..(v + 1) * self.handles]
     }
@@ -203,7 +211,7 @@ impl SkinningField for EigenmodeField {
     ) {
         let k = self.handles;
         for (i, p) in points.iter().enumerate() {
-            let location = self.mesh.locate(&self.normalization.to_world(p));
+            let location = self.lookup.locate(&self.normalization.to_world(p));
             let row = &mut weights[i * k..(i + 1) * k];
             row.iter_mut().for_each(|w| *w = 0.0);
             for (corner, &v) in location.vertices.iter().enumerate() {

@@ -19,6 +19,7 @@ use crate::scene::file::{
 };
 use crate::scene::SceneError;
 use crate::skinning::NeuralModel;
+use crate::skinning::RefineBudget;
 use crate::Result;
 
 /// The object's geometry placed in the world and the content hash of its geometry before the
@@ -171,7 +172,7 @@ pub(super) fn deformable_object(
         }
     };
     body_options.cubature = cubature;
-    let field = cache.truncated(key, field, &shape, &body_options, handles)?;
+    let field = cache.truncated(key, field, &shape, &body_options, handles, options.refine)?;
     let mut body = SoftBody::with_field(field, &shape, &shape.positions, &body_options)?;
     let (held, attach) = hold_in_place(&mut body, spec, floor, obstacles, robots)?;
     let inference = if cached {
@@ -179,8 +180,16 @@ pub(super) fn deformable_object(
     } else {
         "inferred"
     };
-    let decision =
-        format!("{handles} of {full} handles, {cubature} cubature points: {why}; {inference}");
+    let refined = match options.refine {
+        _ if handles < full => String::new(),
+        RefineBudget::Off => String::new(),
+        RefineBudget::Iterations(n) => format!("; refined toward the eigenmodes ({n} iterations)"),
+        RefineBudget::Millis(ms) => format!("; refined toward the eigenmodes (within {ms} ms)"),
+        RefineBudget::Full => "; refined to the eigenmodes".to_string(),
+    };
+    let decision = format!(
+        "{handles} of {full} handles, {cubature} cubature points: {why}; {inference}{refined}"
+    );
     body.set_decision(decision.clone());
     Ok(SceneObject {
         name: spec.name.clone(),
