@@ -13,6 +13,7 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 use serde::Serialize;
 
+use super::soft_contact::{soft_contact, SoftContactRow};
 use super::stats::quantile;
 use physskin::scene::{FieldCache, Scene, SceneFile, SceneOptions, DEFAULT_ROLLING_FRICTION};
 use physskin::skinning::NeuralModel;
@@ -63,7 +64,7 @@ pub struct GraspRow {
 pub const GRASP: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/scenes/grasp.yaml");
 
 /// What `bench contact` reports (serialized for `--json`): balls at rest on the
-/// floor and the bundled grasp.
+/// floor, the bundled grasp, and soft objects touching each other.
 #[derive(Clone, Debug, Serialize)]
 pub struct ContactReport {
     /// One row per ball, in the order [`run_contact_bench`] runs them.
@@ -74,9 +75,12 @@ pub struct ContactReport {
     pub resting_ball_drift_mm: f64,
     /// The largest step p99 over every ball and grasp row, ms.
     pub step_ms_p99: f64,
-    /// Reserved for the stacked blocks, %; always null: soft-soft contact is not built.
+    /// Soft against soft, one row per object: the stacked blocks, the ball on the slab, the
+    /// ball on a rigid floor.
+    pub soft: Vec<SoftContactRow>,
+    /// The top block's sag against the FEM's, % of the FEM's.
     pub stack_sag_error_pct: Option<f64>,
-    /// Reserved for the ball on a soft slab; always null: soft-soft contact is not built.
+    /// The ball's error on the soft slab over its error on a rigid floor at the slab's top.
     pub slab_error_ratio: Option<f64>,
     /// The block's largest move in the grip with friction 0.5 (the first grasp row), mm.
     pub grasp_drift_mm: Option<f64>,
@@ -116,10 +120,18 @@ pub fn run_contact_bench(log: impl Fn(&str)) -> Result<ContactReport> {
         ));
         grasps.push(row);
     }
+    let (soft, sag_error, slab_ratio) = soft_contact(&model, &cache)?;
+    for r in &soft {
+        log(&format!(
+            "{}: {} {:.3} % against the FEM, sag {:.2} mm (FEM {:.2} mm); step p99 {:.3} ms",
+            r.scene, r.object, r.error_pct, r.sag_mm, r.fem_sag_mm, r.step_ms_p99
+        ));
+    }
     let p99 = rows
         .iter()
         .map(|r| r.step_ms_p99)
         .chain(grasps.iter().map(|g| g.step_ms_p99))
+        .chain(soft.iter().map(|s| s.step_ms_p99))
         .fold(0.0, f64::max);
     Ok(ContactReport {
         resting_ball_drift_mm: rows[0].drift_mm,
@@ -127,8 +139,9 @@ pub fn run_contact_bench(log: impl Fn(&str)) -> Result<ContactReport> {
         resting_ball: rows,
         grasp_drift_mm: Some(grasps[0].drift_mm),
         grasp: grasps,
-        stack_sag_error_pct: None,
-        slab_error_ratio: None,
+        soft,
+        stack_sag_error_pct: Some(sag_error),
+        slab_error_ratio: Some(slab_ratio),
     })
 }
 

@@ -12,6 +12,7 @@ mod replay;
 mod scene;
 pub(crate) mod sim;
 mod soak;
+mod soft_contact;
 mod stats;
 mod stress;
 mod transport;

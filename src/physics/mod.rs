@@ -2,6 +2,7 @@
 //! the full-space FEM reference.
 
 mod fem;
+mod hull;
 mod lift;
 mod material;
 mod obstacle;
@@ -11,6 +12,7 @@ mod scene;
 mod subspace;
 
 pub use fem::FemSim;
+pub use hull::ConvexHull;
 pub use lift::Lifter;
 pub use material::{Material, MaterialModel, Matrix9};
 pub use obstacle::{Obstacle, Penetration, Stick, STICK_SLIP};

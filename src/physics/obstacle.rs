@@ -3,10 +3,13 @@
 
 use std::collections::HashMap;
 use std::hash::Hash;
+use std::sync::Arc;
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use parry3d::math::{Pose, Vector};
 use parry3d::shape::SharedShape;
+
+use super::hull::ConvexHull;
 
 /// A static rigid obstacle in the world.
 #[derive(Clone)]
@@ -26,6 +29,8 @@ pub enum Obstacle {
         /// Its pose in the world.
         pose: Pose,
     },
+    /// A convex hull in the world, in f64: another deformable object where it is now.
+    Hull(Arc<ConvexHull>),
 }
 
 /// Penetration of a point into an obstacle: depth (> 0 inside) and the direction that pushes out.
@@ -38,6 +43,22 @@ pub struct Penetration {
 }
 
 impl Obstacle {
+    /// The convex hull of `points` (world), fixed where it is: how another deformable object
+    /// collides. None when the points span no volume.
+    pub fn hull_of(points: &[Vector3<f64>]) -> Option<Self> {
+        ConvexHull::of(points).map(|hull| Obstacle::Hull(Arc::new(hull)))
+    }
+
+    /// An obstacle that holds nothing anywhere ([`ConvexHull::nowhere`]).
+    pub fn nowhere() -> Self {
+        Obstacle::Hull(Arc::new(ConvexHull::nowhere()))
+    }
+
+    /// Whether this is [`Obstacle::nowhere`].
+    pub fn is_nowhere(&self) -> bool {
+        matches!(self, Obstacle::Hull(h) if h.is_empty())
+    }
+
     /// The floor `z = height`, solid below.
     pub fn floor(height: f64) -> Self {
         Obstacle::Plane {
@@ -51,6 +72,7 @@ impl Obstacle {
     pub fn bounds(&self, margin: f64) -> Option<(Vector3<f64>, Vector3<f64>)> {
         match self {
             Obstacle::Plane { .. } => None,
+            Obstacle::Hull(hull) => Some(hull.bounds(margin)),
             Obstacle::Shape { shape, pose } => {
                 let aabb = shape.compute_aabb(pose);
                 let v = |c: Vector| Vector3::new(c.x as f64, c.y as f64, c.z as f64);
@@ -93,6 +115,7 @@ impl Obstacle {
                     normal: *normal,
                 })
             }
+            Obstacle::Hull(hull) => hull.penetration(p),
             Obstacle::Shape { shape, pose } => {
                 if let Some(exact) = primitive_penetration(shape, pose, p) {
                     return exact;

@@ -384,6 +384,14 @@ impl ReducedSim {
         self.pokes.iter().any(|(_, p)| p.end > self.time)
     }
 
+    /// Where the contact points are now (world), in the order they were added.
+    pub fn contact_positions(&self) -> Vec<Vector3<f64>> {
+        self.contacts
+            .iter()
+            .map(|c| c.rest + &self.z * &c.phi)
+            .collect()
+    }
+
     /// Whether contact points were added.
     pub fn has_contact_points(&self) -> bool {
         !self.contacts.is_empty()

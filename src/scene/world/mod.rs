@@ -158,6 +158,8 @@ pub struct Scene {
     scripted: bool,
     robots: Vec<SceneRobot>,
     pub(crate) objects: Vec<SceneObject>,
+    /// The deformable objects' contact hulls the last step collided with, by object index.
+    pub(crate) soft_hulls: Vec<(usize, Obstacle)>,
 }
 
 struct SceneRobot {
@@ -299,6 +301,7 @@ impl Scene {
             scripted: options.scripted,
             robots,
             objects,
+            soft_hulls: Vec::new(),
         })
     }
 
@@ -342,6 +345,7 @@ impl Scene {
 
     fn step_objects(&mut self) {
         let colliders = self.colliders();
+        let hulls = self.contact_hulls();
         let motions: Vec<Option<Isometry3<f64>>> = self
             .objects
             .iter()
@@ -349,16 +353,60 @@ impl Scene {
             .collect();
         self.objects
             .par_iter_mut()
+            .enumerate()
             .zip(motions)
-            .for_each(|(o, motion)| {
+            .for_each(|((index, o), motion)| {
                 if let Some(body) = &mut o.body {
-                    body.set_colliders(colliders.clone());
+                    body.set_colliders(with_others(&colliders, &hulls, index));
                     if let Some(m) = motion {
                         body.move_attachment(ATTACHMENT_GROUP, &m);
                     }
                     body.step();
                 }
             });
+        self.soft_hulls = hulls;
+    }
+
+    /// Every deformable object's contact hull where it is now (soft against soft: each
+    /// object's contact points are pushed out of the others' hulls within its own solve). An
+    /// object far from every other gets an empty hull, and a sleeping one keeps its last: a
+    /// hull costs about as much as a step of a small body.
+    fn contact_hulls(&self) -> Vec<(usize, Obstacle)> {
+        let reach: Vec<Option<(Vector3<f64>, Vector3<f64>)>> = self
+            .objects
+            .iter()
+            .map(|o| {
+                let (lo, hi) = o.body.as_ref()?.deformed_bounds();
+                let margin = Vector3::repeat(0.1 * (hi - lo).norm());
+                Some((lo - margin, hi + margin))
+            })
+            .collect();
+        let near = |i: usize, (lo, hi): (Vector3<f64>, Vector3<f64>)| {
+            reach.iter().enumerate().any(|(j, other)| {
+                j != i
+                    && other.is_some_and(|(olo, ohi)| {
+                        (0..3).all(|d| olo[d] <= hi[d] && ohi[d] >= lo[d])
+                    })
+            })
+        };
+        self.objects
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, o)| {
+                let body = o.body.as_ref()?;
+                let kept = self.soft_hulls.iter().find(|(j, _)| *j == i);
+                let hull = match kept {
+                    _ if !near(i, reach[i]?) => Obstacle::nowhere(),
+                    Some((_, h))
+                        if body.is_sleeping() && !body.fell_asleep() && !h.is_nowhere() =>
+                    {
+                        h.clone()
+                    }
+                    _ => body.contact_hull().unwrap_or_else(Obstacle::nowhere),
+                };
+                Some((i, hull))
+            })
+            .collect()
     }
 
     /// Sets the joints of the robots on one joint-state topic from a JointState (names and
@@ -579,4 +627,20 @@ fn apply_keyframe(robot: &mut Robot, frame: &Keyframe, name: &str) -> Result<()>
             }
             .into()
         })
+}
+
+/// `colliders` followed by the hulls of every deformable object but `object`, in object order,
+/// so that a collider's index stays the same from one step to the next (friction anchors
+/// refer to it).
+pub(crate) fn with_others(
+    colliders: &[Obstacle],
+    hulls: &[(usize, Obstacle)],
+    object: usize,
+) -> Vec<Obstacle> {
+    let others = hulls.iter().filter(|(i, _)| *i != object);
+    colliders
+        .iter()
+        .cloned()
+        .chain(others.map(|(_, h)| h.clone()))
+        .collect()
 }
