@@ -9,8 +9,6 @@ use nalgebra::Vector3;
 use parry3d::math::Vector;
 use parry3d::transformation::try_convex_hull;
 
-use super::obstacle::Penetration;
-
 /// Planes whose normals (unit) and offsets (m) agree to this count as one face: a box's hull
 /// is triangulated, two triangles a side.
 const SAME_PLANE: f64 = 1e-6;
@@ -86,8 +84,8 @@ impl ConvexHull {
         (self.lo - m, self.hi + m)
     }
 
-    /// How deep `p` is inside, through the nearest face; None outside.
-    pub fn penetration(&self, p: &Vector3<f64>) -> Option<Penetration> {
+    /// How deep `p` is inside (m) and the outward normal of the nearest face; None outside.
+    pub fn penetration(&self, p: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
         if self.planes.is_empty() {
             return None;
         }
@@ -101,10 +99,7 @@ impl ConvexHull {
                 best = Some((depth, normal));
             }
         }
-        best.map(|(depth, normal)| Penetration {
-            depth,
-            normal: *normal,
-        })
+        best.map(|(depth, normal)| (depth, *normal))
     }
 }
 
@@ -119,8 +114,8 @@ mod tests {
             .collect();
         let hull = ConvexHull::of(&corners).unwrap();
         assert_eq!(hull.planes.len(), 6);
-        let p = hull.penetration(&Vector3::new(0.5, 0.5, 0.9)).unwrap();
-        assert!((p.depth - 0.1).abs() < 1e-6 && (p.normal - Vector3::z()).norm() < 1e-6);
+        let (depth, normal) = hull.penetration(&Vector3::new(0.5, 0.5, 0.9)).unwrap();
+        assert!((depth - 0.1).abs() < 1e-6 && (normal - Vector3::z()).norm() < 1e-6);
         assert!(hull.penetration(&Vector3::new(0.5, 0.5, 1.01)).is_none());
         assert!(
             ConvexHull::of(&corners[..4]).is_none(),

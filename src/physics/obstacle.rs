@@ -115,7 +115,9 @@ impl Obstacle {
                     normal: *normal,
                 })
             }
-            Obstacle::Hull(hull) => hull.penetration(p),
+            Obstacle::Hull(hull) => hull
+                .penetration(p)
+                .map(|(depth, normal)| Penetration { depth, normal }),
             Obstacle::Shape { shape, pose } => {
                 if let Some(exact) = primitive_penetration(shape, pose, p) {
                     return exact;
