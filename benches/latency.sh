@@ -2,6 +2,8 @@
 # `bench latency` with its rclpy case, recorded in benches/results/latency.json. Makes
 # target/ros-venv (rclpy with Fast DDS from pip) if it is missing, then runs the bench in a
 # private network namespace (needs root for `unshare -n`).
+# Usage: benches/latency.sh [NAME [ARGS...]]: records benches/results/NAME.json (default
+# latency), ARGS added to the bench's command (e.g. `latency-refine-off --refine off`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=target/ros-venv
@@ -10,5 +12,7 @@ if ! "$venv/bin/python" -c "import rclpy, sensor_msgs.msg, numpy" 2>/dev/null; t
     "$venv/bin/pip" install -q ros-rclpy ros-rmw-fastrtps-cpp ros-sensor-msgs ros-std-msgs numpy
 fi
 cargo build --release --locked
-exec benches/record.sh latency unshare -n tests/peers/private_net.sh \
-    target/release/physskin bench latency --json --rclpy-python "$venv/bin/python"
+name=${1:-latency}
+shift || true
+exec benches/record.sh "$name" unshare -n tests/peers/private_net.sh \
+    target/release/physskin bench latency --json --rclpy-python "$venv/bin/python" "$@"

@@ -11,6 +11,7 @@
 #   real               bench real                             (camera scans against the FEM)
 #   sim-solver-quick   bench sim --quick, 16 handles, 1024 cubature points
 #   latency            benches/latency.sh                     (node latency and jitter)
+#   latency-refine-off benches/latency.sh, --refine off       (the same, no refinement thread)
 #   replay             bench replay                           (replay speed, recording's cost)
 #   transport          bench transport, private namespace     (iceoryx2 against DDS)
 #   scene              bench scene                            (only what a scene needs)
@@ -24,7 +25,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency replay transport scene eval basis)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency latency-refine-off replay transport scene eval basis)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
@@ -39,6 +40,7 @@ for name in "${names[@]}"; do
                 --scenario hanging,drop,poke --handles 16 --cubature 1024 \
                 --plot target/bench/sim-solver.svg ;;
         latency) bash benches/latency.sh ;;
+        latency-refine-off) bash benches/latency.sh latency-refine-off --refine off ;;
         replay) benches/record.sh replay $bin bench replay --json ;;
         transport)
             benches/record.sh transport unshare -n tests/peers/private_net.sh \

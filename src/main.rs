@@ -73,6 +73,10 @@ enum BenchCommand {
         /// by the ROS tests): adds the rclpy case, a cloud from rclpy to an rclpy subscriber.
         #[arg(long)]
         rclpy_python: Option<std::path::PathBuf>,
+        /// The node's `inference.refine` for the run (`off`, `full` or milliseconds); the
+        /// node's default when not given.
+        #[arg(long)]
+        refine: Option<String>,
     },
     /// A 100k-point deformed cloud delivered each frame over iceoryx2 and over DDS (run it in a
     /// private network namespace: `unshare -n tests/peers/private_net.sh`).
@@ -220,7 +224,8 @@ fn main() -> ExitCode {
                 json,
                 domain_id,
                 rclpy_python,
-            } => run_bench_latency(json, domain_id, rclpy_python.as_deref()),
+                refine,
+            } => run_bench_latency(json, domain_id, rclpy_python.as_deref(), refine),
             BenchCommand::Replay { json } => run_bench_replay(json),
             BenchCommand::Scene { json, seconds } => cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
@@ -421,8 +426,11 @@ fn run_bench_latency(
     json: bool,
     domain_id: u16,
     rclpy_python: Option<&std::path::Path>,
+    refine: Option<String>,
 ) -> physskin::Result<()> {
-    let r = crate::bench::run_latency_bench(domain_id, rclpy_python, |line| eprintln!("{line}"))?;
+    let r = crate::bench::run_latency_bench(domain_id, rclpy_python, refine, |line| {
+        eprintln!("{line}")
+    })?;
     if json {
         cli::print_json(&r);
     } else {

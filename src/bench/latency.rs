@@ -21,6 +21,8 @@ use physskin::{Error, Result};
 /// What `bench latency` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct LatencyReport {
+    /// The node's `inference.refine` in this run.
+    pub refine: String,
     /// From publishing a new 10,000-point cloud to its first deformed cloud at the
     /// in-process client, ms.
     pub latency_10k_ms: f64,
@@ -162,6 +164,7 @@ pub(crate) fn open_interfaces() -> Vec<String> {
 pub fn run_latency_bench(
     domain_id: u16,
     rclpy_python: Option<&Path>,
+    refine: Option<String>,
     log: impl Fn(&str),
 ) -> Result<LatencyReport> {
     let open = open_interfaces();
@@ -172,10 +175,14 @@ pub fn run_latency_bench(
     }
     let model = NeuralModel::bundled()?;
     let stop = Arc::new(AtomicBool::new(false));
-    let config = NodeConfig {
+    let mut config = NodeConfig {
         domain_id,
         ..NodeConfig::default()
     };
+    if let Some(refine) = refine {
+        config.params.inference.refine = refine;
+    }
+    let refine = config.params.inference.refine.clone();
     let rate_hz = config.params.rate_hz;
     let topics = config
         .params
@@ -243,6 +250,7 @@ pub fn run_latency_bench(
         let published = jitter(stamps.collect(), period);
         let received = jitter(received.collect(), period);
         Ok(LatencyReport {
+            refine: refine.clone(),
             latency_10k_ms: l10k,
             latency_100k_ms: l100k,
             latency_scan_ms: super::stats::median(&scan_ms),
