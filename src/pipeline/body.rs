@@ -17,7 +17,7 @@ use crate::Result;
 
 /// Contact points a body's hull for other bodies is made of (every k-th): the hull of 256
 /// points evenly spread over a 0.1 m ball's surface stays within about 0.6 mm of the sphere
-/// (chord sag s^2 / 8r for their ~3 cm spacing), with a few hundred faces to test.
+/// (chord sag s^2 / 8r for their ~2.2 cm spacing), with a few hundred faces to test.
 pub const HULL_POINTS: usize = 256;
 
 /// Where the build time went, ms.
@@ -681,7 +681,8 @@ impl SoftBody {
     }
 
     /// The convex hull of (up to [`HULL_POINTS`] of) the body's contact points where they are
-    /// now: how other deformable objects collide with it. None without contact points, or when they span no volume.
+    /// now: how other deformable objects collide with it. None without contact points, or
+    /// when they span no volume.
     pub fn contact_hull(&self) -> Option<Obstacle> {
         let points = self.sim.contact_positions();
         // Contact points come spread evenly in Morton order: every k-th is an even sample.

@@ -369,8 +369,8 @@ impl Scene {
 
     /// Every deformable object's contact hull where it is now (soft against soft: each
     /// object's contact points are pushed out of the others' hulls within its own solve). An
-    /// object far from every other gets an empty hull, and a sleeping one keeps its last: a
-    /// hull costs about as much as a step of a small body.
+    /// object far from every other gets an empty hull, and a sleeping one keeps its last (its
+    /// points have not moved).
     fn contact_hulls(&self) -> Vec<(usize, Obstacle)> {
         let reach: Vec<Option<(Vector3<f64>, Vector3<f64>)>> = self
             .objects
