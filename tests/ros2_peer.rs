@@ -286,21 +286,19 @@ fn rclpy_labelled_coloured_scan_in_an_optical_frame_becomes_two_objects() {
     assert!(stdout.contains("ok: labelled scan"), "{stdout}");
     let messages =
         physskin::bag::read_messages(&std::fs::read(&bag).unwrap(), "node recording").unwrap();
-    let ready: Vec<Status> = messages
-        .iter()
-        .filter(|m| m.topic == "/physskin/status")
-        .map(|m| from_cdr::<Status>(&m.data).unwrap())
-        .filter(|s| s.event == "shape_ready")
-        .collect();
+    let statuses = |event: &str| -> Vec<Status> {
+        messages
+            .iter()
+            .filter(|m| m.topic == "/physskin/status")
+            .map(|m| from_cdr::<Status>(&m.data).unwrap())
+            .filter(|s| s.event == event)
+            .collect()
+    };
+    let ready = statuses("shape_ready");
     assert_eq!(ready.len(), 2, "one build per object: {ready:?}\n{log}");
     // Each object started on the network's field and switched to its refinement while it ran,
     // no point jumping a millimetre.
-    let refined: Vec<Status> = messages
-        .iter()
-        .filter(|m| m.topic == "/physskin/status")
-        .map(|m| from_cdr::<Status>(&m.data).unwrap())
-        .filter(|s| s.event == "field_refined")
-        .collect();
+    let refined = statuses("field_refined");
     assert_eq!(
         refined.len(),
         2,

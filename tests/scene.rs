@@ -73,18 +73,7 @@ fn scene_path(name: &str) -> PathBuf {
 /// `settle_steps` steps with the robot still, for `seconds` of its motion; `object`'s error
 /// against the full-space FEM, %.
 fn fem_error_pct(name: &str, seconds: f64, settle_steps: usize, object: &str) -> f64 {
-    let path = scene_path(name).display().to_string();
-    let (seconds, settle_steps) = (seconds.to_string(), settle_steps.to_string());
-    let run = common::physskin_json(&[
-        "scene",
-        &path,
-        "--reference",
-        "--json",
-        "--seconds",
-        &seconds,
-        "--settle-steps",
-        &settle_steps,
-    ]);
+    let run = common::scene_against_fem(&scene_path(name), seconds, settle_steps);
     let errors = run["errors"].as_array().expect("the run reports errors");
     let error = errors.iter().find(|e| e["name"] == object);
     error

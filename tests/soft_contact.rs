@@ -16,18 +16,7 @@ fn run_scene(name: &str, yaml: &str, seconds: f64, settle_steps: usize) -> Value
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("scene.yaml");
     std::fs::write(&path, yaml).unwrap();
-    let (seconds, settle_steps) = (seconds.to_string(), settle_steps.to_string());
-    let path = path.display().to_string();
-    common::physskin_json(&[
-        "scene",
-        &path,
-        "--reference",
-        "--json",
-        "--seconds",
-        &seconds,
-        "--settle-steps",
-        &settle_steps,
-    ])
+    common::scene_against_fem(&path, seconds, settle_steps)
 }
 
 /// (error %, sag m, FEM sag m) of `object`.

@@ -132,10 +132,14 @@ pub fn reference_errors(recorder: &Recorder) -> Result<Vec<ObjectError>> {
         .collect::<Result<_>>()?;
     let frames = recorder.tracks.first().map_or(0, |t| t.frames.len());
     for k in 0..frames {
-        let fem_hulls: Vec<(usize, Obstacle)> = runs
-            .par_iter()
-            .filter_map(|r| Some((r.object, r.hull()?)))
-            .collect();
+        // A run's hull is for the other runs: a lone run needs none.
+        let fem_hulls: Vec<(usize, Obstacle)> = if runs.len() > 1 {
+            runs.par_iter()
+                .filter_map(|r| Some((r.object, r.hull()?)))
+                .collect()
+        } else {
+            Vec::new()
+        };
         runs.par_iter_mut()
             .zip(&recorder.tracks)
             .try_for_each(|(run, t)| run.step(&t.frames[k], &fem_hulls))?;

@@ -39,6 +39,24 @@ pub fn physskin_json(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
+/// `physskin scene PATH --reference --json` for `seconds` of motion after exactly
+/// `settle_steps` steps: the scene's run with each deformable object's error against the FEM.
+#[allow(dead_code)] // only the scene tests run scenes
+pub fn scene_against_fem(path: &Path, seconds: f64, settle_steps: usize) -> serde_json::Value {
+    let path = path.display().to_string();
+    let (seconds, settle_steps) = (seconds.to_string(), settle_steps.to_string());
+    physskin_json(&[
+        "scene",
+        &path,
+        "--reference",
+        "--json",
+        "--seconds",
+        &seconds,
+        "--settle-steps",
+        &settle_steps,
+    ])
+}
+
 pub fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
