@@ -26,7 +26,7 @@ use crate::linalg::SparseCholesky;
 const DROP: f64 = 1e-8;
 
 /// How long the refinement may run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum RefineBudget {
     /// No iteration: the start block's span itself, on the mesh.
     Off,

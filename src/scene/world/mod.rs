@@ -64,8 +64,9 @@ impl Default for SceneOptions {
 #[derive(Default)]
 pub struct FieldCache {
     fields: Mutex<HashMap<u64, Arc<dyn SkinningField>>>,
-    /// Fields cut to a handle count, by (geometry, handles).
-    truncated: Mutex<HashMap<(u64, usize), Arc<dyn SkinningField>>>,
+    /// Fields cut to a handle count, or refined when they keep all their handles, by
+    /// (geometry, handles, refinement budget): scenes built with other budgets share the cache.
+    truncated: Mutex<HashMap<(u64, usize, RefineBudget), Arc<dyn SkinningField>>>,
     choices: Mutex<HashMap<u64, Choice>>,
     /// Inferences saved and done.
     pub hits: std::sync::atomic::AtomicUsize,
@@ -117,7 +118,7 @@ impl FieldCache {
             .truncated
             .lock()
             .expect("cache lock")
-            .get(&(key, handles))
+            .get(&(key, handles, refine))
         {
             return Ok(f.clone());
         }
@@ -129,7 +130,7 @@ impl FieldCache {
         self.truncated
             .lock()
             .expect("cache lock")
-            .insert((key, handles), cut.clone());
+            .insert((key, handles, refine), cut.clone());
         Ok(cut)
     }
 
