@@ -17,6 +17,7 @@
 #   scene              bench scene                            (only what a scene needs)
 #   eval               eval                                   (the learned field on 15 shapes, 4 min)
 #   basis              bench basis                            (error against time to a basis, 4 shapes)
+#   peer               bench peer                             (the soft block in MuJoCo and physskin)
 # Not rerun: sim.json (the full `bench sim`, about 55 minutes):
 #   benches/record.sh sim target/release/physskin bench sim --json --plot benches/results/sim.svg
 # Usage: benches/report.sh [NAME...]   (default: all of the above)
@@ -25,7 +26,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency latency-refine-off replay transport scene eval basis)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency latency-refine-off replay transport scene eval basis peer)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
@@ -49,6 +50,13 @@ for name in "${names[@]}"; do
         eval) benches/record.sh eval $bin eval --json ;;
         basis)
             benches/record.sh basis $bin bench basis --json --plot docs/images/basis.svg ;;
+        peer)
+            # MuJoCo from pip, in the venv tests/peer.rs makes too.
+            [ -x target/mujoco-venv/bin/python ] || python3 -m venv target/mujoco-venv
+            target/mujoco-venv/bin/python -c 'import mujoco' 2>/dev/null \
+                || target/mujoco-venv/bin/pip install -q mujoco numpy
+            benches/record.sh peer $bin bench peer --json \
+                --python target/mujoco-venv/bin/python --plot docs/images/peer.svg ;;
         *) echo "unknown result: $name" >&2; exit 2 ;;
     esac
     echo "$name: $(( $(date +%s) - started )) s" >&2

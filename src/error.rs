@@ -60,6 +60,10 @@ pub enum Error {
     /// Node parameters were refused.
     #[error(transparent)]
     Params(#[from] ParamError),
+    /// A peer program a benchmark runs (MuJoCo's Python script) failed or printed what was
+    /// not expected; the text says which and why.
+    #[error("peer: {0}")]
+    Peer(String),
     /// A file could not be read or written.
     #[error("i/o on {path}: {source}")]
     Io {

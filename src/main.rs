@@ -1,6 +1,5 @@
 //! The physskin command line: one binary, one subcommand per job.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -134,6 +133,27 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// The same soft block in MuJoCo (flexcomp: full, trilinear and quadratic dofs) and in
+    /// physskin, dropped and poked, each against our FEM: step time next to error.
+    Peer {
+        #[arg(long)]
+        json: bool,
+        /// A Python that imports mujoco, e.g. target/mujoco-venv/bin/python.
+        #[arg(long)]
+        python: PathBuf,
+        /// Frames per scenario (1/60 s).
+        #[arg(long, default_value_t = 60)]
+        steps: usize,
+        /// MuJoCo grid vertices along an edge.
+        #[arg(long, default_value_t = 5)]
+        count: usize,
+        /// MuJoCo steps per frame, one set of rows per count (comma-separated).
+        #[arg(long, value_delimiter = ',', default_value = "1,4,16")]
+        substeps: Vec<usize>,
+        /// Where to write the step-time-against-error plot (SVG).
+        #[arg(long, default_value = "target/bench/peer.svg")]
+        plot: PathBuf,
+    },
     /// Reduced simulation against the FEM reference: step time next to error.
     Sim {
         /// Small meshes and fewer variants (fits in CI).
@@ -233,6 +253,22 @@ fn main() -> ExitCode {
             BenchCommand::Basis(args) => cli::basis::run(args),
             BenchCommand::Contact { json } => run_bench_contact(json),
             BenchCommand::Real { json } => run_bench_real(json),
+            BenchCommand::Peer {
+                json,
+                python,
+                steps,
+                count,
+                substeps,
+                plot,
+            } => {
+                let options = crate::bench::PeerOptions {
+                    python,
+                    steps,
+                    count,
+                    substeps,
+                };
+                run_bench_peer(&options, json, &plot)
+            }
             BenchCommand::Soak {
                 json,
                 seconds,
@@ -360,7 +396,55 @@ fn run_bench_contact(json: bool) -> physskin::Result<()> {
             g.friction, g.lifted_m, g.drift_mm, g.step_ms_median, g.step_ms_p99
         );
     }
-    println!("stacked blocks, ball on a soft slab: not built yet (soft-soft contact)");
+    println!();
+    println!("| scene | object | error % | sag mm | FEM sag mm | step mean ms | step p99 ms |");
+    println!("|---|---|---:|---:|---:|---:|---:|");
+    for s in &r.soft {
+        println!(
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            s.scene, s.object, s.error_pct, s.sag_mm, s.fem_sag_mm, s.step_ms, s.step_ms_p99
+        );
+    }
+    let show = |v: Option<f64>| v.map_or_else(|| "-".into(), |v| format!("{v:.3}"));
+    println!(
+        "stack sag error {} %, slab error ratio {}",
+        show(r.stack_sag_error_pct),
+        show(r.slab_error_ratio)
+    );
+    Ok(())
+}
+
+fn run_bench_peer(
+    options: &crate::bench::PeerOptions,
+    json: bool,
+    plot: &std::path::Path,
+) -> physskin::Result<()> {
+    let r = crate::bench::run_peer_bench(options, |line| eprintln!("{line}"))?;
+    cli::write_plot(plot, &crate::bench::peer_plot(&r))?;
+    if json {
+        cli::print_json(&r);
+        return Ok(());
+    }
+    println!(
+        "MuJoCo {}; FEM reference {} vertices",
+        r.mujoco_version, r.fem_vertices
+    );
+    println!("| scenario | engine | setting | dofs | step median ms | step p99 ms | error % | beaten by |");
+    println!("|---|---|---|---:|---:|---:|---:|---|");
+    for row in &r.rows {
+        println!(
+            "| {} | {} | {} | {} | {:.3} | {:.3} | {} | {} |",
+            row.scenario,
+            row.engine,
+            row.variant,
+            row.dofs,
+            row.step_ms,
+            row.step_ms_p99,
+            row.error_pct
+                .map_or_else(|| "not finite".into(), |e| format!("{e:.3}")),
+            row.beaten_by.as_deref().unwrap_or("")
+        );
+    }
     Ok(())
 }
 
@@ -476,7 +560,7 @@ fn run_bench_sim(
     plot: &std::path::Path,
 ) -> physskin::Result<()> {
     let report = run_sim_bench(options, |line| eprintln!("{line}"))?;
-    write_plot(&report, plot)?;
+    cli::write_plot(plot, &crate::bench::sim_plot(&report))?;
     if json {
         cli::print_json(&report);
     } else {
@@ -484,20 +568,6 @@ fn run_bench_sim(
         println!("plot: {}", plot.display());
     }
     Ok(())
-}
-
-fn write_plot(report: &SimBenchReport, path: &std::path::Path) -> physskin::Result<()> {
-    let io = |source| physskin::Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(io)?;
-    }
-    let svg = crate::bench::sim_plot(report);
-    std::fs::File::create(path)
-        .and_then(|mut f| f.write_all(svg.as_bytes()))
-        .map_err(io)
 }
 
 fn print_table(report: &SimBenchReport) {

@@ -5,8 +5,8 @@
 //! The grasp: the bundled gripper (config/scenes/grasp.yaml) closes on a soft block, lifts it
 //! 0.2 m and holds it 10 s; the block should not move in the grip.
 //!
-//! The stacked blocks and the ball on a soft slab need soft-soft contact, which is not built
-//! yet: their fields are null.
+//! Soft against soft (`soft_contact`): a block stacked on another and a ball dropped on a soft
+//! slab, each against the FEM.
 
 use std::sync::Arc;
 

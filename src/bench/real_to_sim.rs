@@ -13,7 +13,8 @@ use physskin::error::{Error, Result};
 use physskin::geometry::{load_geometry, Completion, Shape};
 use physskin::physics::Solver;
 use physskin::pipeline::{build_seen, BodyOptions, SoftBody, Support, DEFAULT_MAX_BUILD_POINTS};
-use physskin::skinning::NeuralModel;
+use physskin::ros::REPLAY_REFINE_ITERATIONS;
+use physskin::skinning::{NeuralModel, RefineBudget};
 
 /// What to simulate and against what.
 #[derive(Clone, Debug)]
@@ -176,6 +177,8 @@ pub(crate) fn scenario_body_options(cubature: usize) -> BodyOptions {
     BodyOptions {
         cubature,
         support: Support::Free,
+        // Refined as a replay refines: by a count of iterations, so that runs repeat.
+        refine: RefineBudget::Iterations(REPLAY_REFINE_ITERATIONS),
         ..BodyOptions::default()
     }
 }

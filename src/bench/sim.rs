@@ -388,7 +388,7 @@ fn pinned_side(mesh: &TetMesh) -> f64 {
 }
 
 /// Vertices within 10% of the x extent from the pinned end.
-fn pinned_vertices(mesh: &TetMesh) -> Vec<usize> {
+pub(crate) fn pinned_vertices(mesh: &TetMesh) -> Vec<usize> {
     let side = pinned_side(mesh);
     (0..mesh.vertices.len())
         .filter(|&v| in_end_slab(mesh, side, mesh.vertices[v].x))
@@ -396,12 +396,12 @@ fn pinned_vertices(mesh: &TetMesh) -> Vec<usize> {
 }
 
 /// The drop starts tilted by 20 degrees about y, so it lands on an edge and turns over.
-fn drop_tilt() -> nalgebra::Matrix3<f64> {
+pub(crate) fn drop_tilt() -> nalgebra::Matrix3<f64> {
     *nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), 20f64.to_radians()).matrix()
 }
 
 /// 2% of the diagonal below the lowest point of the tilted object.
-fn floor_height(shape: &BenchShape) -> f64 {
+pub(crate) fn floor_height(shape: &BenchShape) -> f64 {
     let tilt = drop_tilt();
     let lowest = shape
         .mesh
@@ -414,7 +414,7 @@ fn floor_height(shape: &BenchShape) -> f64 {
 
 /// The tip poke: half the object's weight, sideways and down, on the vertex farthest from the
 /// pinned end, for 0.15 s.
-fn poke(shape: &BenchShape, params: &SimParams) -> Poke {
+pub(crate) fn poke(shape: &BenchShape, params: &SimParams) -> Poke {
     let mesh = &shape.mesh;
     let side = pinned_side(mesh);
     let tip = (0..mesh.vertices.len())

@@ -12,7 +12,8 @@ use serde::Serialize;
 use physskin::geometry::{box_grid_mesh, bundled, Shape};
 use physskin::physics::{SimParams, Solver};
 use physskin::pipeline::{BodyOptions, SoftBody, Support};
-use physskin::skinning::{NeuralModel, SkinningField};
+use physskin::ros::REPLAY_REFINE_ITERATIONS;
+use physskin::skinning::{NeuralModel, RefineBudget, SkinningField};
 use physskin::Result;
 
 /// How a case starts.
@@ -210,7 +211,12 @@ pub fn run_stress(cases: &[StressCase], mut progress: impl FnMut(&str)) -> Resul
     for c in cases {
         if !fields.iter().any(|(name, _, _)| *name == c.shape) {
             let shape = stress_shape(c.shape)?;
-            let field = SoftBody::infer(&model, &shape, &BodyOptions::default())?;
+            // Refined as a replay refines: by a count of iterations, so that runs repeat.
+            let options = BodyOptions {
+                refine: RefineBudget::Iterations(REPLAY_REFINE_ITERATIONS),
+                ..BodyOptions::default()
+            };
+            let field = SoftBody::infer(&model, &shape, &options)?;
             fields.push((c.shape, shape, field));
         }
         let (_, shape, field) = fields

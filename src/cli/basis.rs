@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use crate::bench::{basis_plot, run_basis_bench, BasisOptions, BasisReport};
-use physskin::{Error, Result};
+use physskin::Result;
 
 #[derive(clap::Args)]
 pub struct BasisArgs {
@@ -30,7 +30,7 @@ pub fn run(args: BasisArgs) -> Result<()> {
         options.iterations = args.iterations;
     }
     let report = run_basis_bench(&options, |line| eprintln!("{line}"))?;
-    write_plot(&args.plot, &basis_plot(&report))?;
+    super::write_plot(&args.plot, &basis_plot(&report))?;
     if args.json {
         super::print_json(&report);
     } else {
@@ -38,17 +38,6 @@ pub fn run(args: BasisArgs) -> Result<()> {
         println!("plot: {}", args.plot.display());
     }
     Ok(())
-}
-
-fn write_plot(path: &PathBuf, svg: &str) -> Result<()> {
-    let io = |source| Error::Io {
-        path: path.clone(),
-        source,
-    };
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(io)?;
-    }
-    std::fs::write(path, svg).map_err(io)
 }
 
 fn print_table(report: &BasisReport) {

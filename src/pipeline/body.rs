@@ -13,7 +13,7 @@ use super::switch::{refine_on_solid, BasisPlan, PreparedBasis, SwitchReport};
 use crate::geometry::{Completed, ContactSamples, Cubature, Normalization, Shape, VoxelGrid};
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, StepReport, Subspace};
 use crate::skinning::{NeuralModel, RefineBudget, RefineOptions, SkinningField};
-use crate::Result;
+use crate::{Error, Result};
 
 /// Contact points a body's hull for other bodies is made of (every k-th): the hull of 256
 /// points evenly spread over a 0.1 m ball's surface stays within about 0.6 mm of the sphere
@@ -126,13 +126,23 @@ impl SoftBody {
             Arc::new(model.field(&input.surface, &input.reference, input.map)?);
         let infer_ms = t.elapsed().as_secs_f64() * 1e3;
         let mut body = Self::assemble(input, field, points, options, started, infer_ms)?;
-        if options.refine != RefineBudget::Off {
+        // The constant handle alone (a rigid body with affine freedom) has nothing to refine.
+        if options.refine != RefineBudget::Off && body.handles > 1 {
             let t = Instant::now();
             let refine = RefineOptions {
                 budget: options.refine,
                 ..Default::default()
             };
-            body.switch_to(body.basis_plan().refined(&refine)?)?;
+            match body.basis_plan().refined(&refine) {
+                Ok(plan) => {
+                    body.switch_to(plan)?;
+                }
+                // A solid too thin to refine on keeps the network's field, and says so.
+                Err(Error::Geometry(why)) => {
+                    body.decision = format!("{}; network field kept, {why}", body.decision);
+                }
+                Err(e) => return Err(e),
+            }
             body.timings.refine_ms = t.elapsed().as_secs_f64() * 1e3;
             body.timings.total_ms = started.elapsed().as_secs_f64() * 1e3;
         }
@@ -200,15 +210,19 @@ impl SoftBody {
         input: &NetworkInput,
         budget: RefineBudget,
     ) -> Result<Arc<dyn SkinningField>> {
-        if budget == RefineBudget::Off {
+        if budget == RefineBudget::Off || field.handle_count() <= 1 {
             return Ok(field);
         }
         let refine = RefineOptions {
             budget,
             ..Default::default()
         };
-        let refined = refine_on_solid(field.as_ref(), &input.grid, input.map, &refine, &|| false)?;
-        Ok(Arc::new(refined.field))
+        match refine_on_solid(field.as_ref(), &input.grid, input.map, &refine, &|| false) {
+            Ok(refined) => Ok(Arc::new(refined.field)),
+            // A solid too thin to refine on keeps the network's field.
+            Err(Error::Geometry(_)) => Ok(field),
+            Err(e) => Err(e),
+        }
     }
 
     fn assemble(

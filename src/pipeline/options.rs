@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::physics::{SimParams, Solver};
-use crate::skinning::RefineBudget;
+use crate::skinning::{RefineBudget, DEFAULT_REFINE_MS};
 
 /// What holds an object in place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -40,7 +40,8 @@ pub struct BodyOptions {
     /// Handles kept, the constant one included: the smoothest of the field's. Default all.
     pub handles: Option<usize>,
     /// How long the network's field is refined toward the skinning eigenmodes before the body
-    /// starts (see [`crate::skinning::refine()`]). Default off.
+    /// starts (see [`crate::skinning::refine()`]). Default [`DEFAULT_REFINE_MS`] ms: the
+    /// refined field is as accurate as the eigenmodes, the network's alone is not.
     pub refine: RefineBudget,
     /// When the body may sleep. Default never.
     pub sleep: Option<SleepRule>,
@@ -93,7 +94,7 @@ impl Default for BodyOptions {
             solver: Solver::QuasiNewton,
             support: Support::PinBottom,
             handles: None,
-            refine: RefineBudget::Off,
+            refine: RefineBudget::Millis(DEFAULT_REFINE_MS),
             sleep: None,
             floor_z: None,
         }

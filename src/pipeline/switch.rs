@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::geometry::{Cubature, Normalization, TetMesh, VoxelGrid};
 use crate::physics::{sample, state_projection, Lifter, Subspace};
 use crate::skinning::{refine_field_until, RefineOptions, RefineReport, Refined, SkinningField};
@@ -61,7 +61,8 @@ pub struct SwitchReport {
 }
 
 /// `field` refined toward the skinning eigenmodes of `grid`'s solid, on its tet mesh at
-/// [`REFINE_RESOLUTION`]; `stop` ends the iterations early.
+/// [`REFINE_RESOLUTION`]; `stop` ends the iterations early. An `Error::Geometry` when the
+/// solid is too thin for that mesh to hold the field's handles (a sheet thinner than a cell).
 pub(super) fn refine_on_solid(
     field: &dyn SkinningField,
     grid: &VoxelGrid,
@@ -70,6 +71,14 @@ pub(super) fn refine_on_solid(
     stop: &dyn Fn() -> bool,
 ) -> Result<Refined> {
     let mesh = TetMesh::from_grid(&grid.resample(REFINE_RESOLUTION));
+    if mesh.vertices.len() <= field.handle_count() {
+        return Err(Error::Geometry(format!(
+            "too thin to refine: its tet mesh at {REFINE_RESOLUTION} cells across has {} vertices \
+             for {} handles",
+            mesh.vertices.len(),
+            field.handle_count()
+        )));
+    }
     refine_field_until(field, mesh, map, options, stop)
 }
 

@@ -28,7 +28,9 @@ mod stepper;
 mod tf;
 
 pub use args::{split_ros_args, LogLevel, RosArgs, RosArgsError};
-pub use builder::{BuildOutcome, BuildRequest, Builder, ObjectKey, ReadyBody};
+pub use builder::{
+    BuildOutcome, BuildRequest, Builder, ObjectKey, ReadyBody, REPLAY_REFINE_ITERATIONS,
+};
 pub use clock::NodeClock;
 pub use dds::{context, publisher, qos_of, reliable_qos, sensor_qos, subscription, NodeError};
 pub use diagnostics::Health;

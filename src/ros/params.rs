@@ -171,7 +171,7 @@ impl Default for InferenceParams {
             voxel_resolution: 64,
             threads: 1,
             max_build_points: crate::pipeline::DEFAULT_MAX_BUILD_POINTS,
-            refine: "60".into(),
+            refine: crate::skinning::DEFAULT_REFINE_MS.to_string(),
         }
     }
 }
@@ -551,6 +551,9 @@ impl NodeParams {
             solver: self.solver()?,
             support: self.simulation.support,
             floor_z: (!self.fixed_frame.is_empty()).then_some(self.floor_z),
+            // The node starts an object on the network's field and refines it on another
+            // thread (`inference.refine`), so that the first deformed cloud does not wait.
+            refine: RefineBudget::Off,
             ..BodyOptions::default()
         })
     }

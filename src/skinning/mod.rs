@@ -15,7 +15,7 @@ pub use neural::{
 };
 pub use refine::{
     refine, refine_field, refine_field_until, start_block, RefineBudget, RefineOptions,
-    RefineReport, RefineSearch, Refined,
+    RefineReport, RefineSearch, Refined, DEFAULT_REFINE_MS,
 };
 pub use truncated::TruncatedField;
 

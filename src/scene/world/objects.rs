@@ -250,6 +250,8 @@ fn body_setup(
             support
         },
         sleep: if decisions { file.sleep } else { None },
+        // The scene refines through its field cache, per geometry and handle count.
+        refine: RefineBudget::Off,
         ..BodyOptions::default()
     };
     (sim, floor, body_options)
