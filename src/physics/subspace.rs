@@ -17,6 +17,10 @@ use super::material::{polar_rotation, Material, Matrix9};
 use crate::geometry::{Cubature, Normalization};
 use crate::skinning::SkinningField;
 
+/// Cubature points times 4K below which a pass over the points runs on one thread: with 2
+/// threads, handing half of a small pass to the other costs more than it saves.
+const PARALLEL_WORK: usize = 65_536;
+
 /// A skinning subspace sampled at a cubature set (world units).
 pub struct Subspace {
     field: Arc<dyn SkinningField>,
@@ -178,40 +182,58 @@ impl Subspace {
     /// stresses, and its share of the gradient; the shares are summed.
     pub fn elastic_forces(&self, z: &DMatrix<f64>, material: &Material) -> (f64, DMatrix<f64>) {
         let np = self.cubature_len();
+        if !self.worth_parallel() {
+            return self.forces_on(z, material, 0..np);
+        }
         let runs = rayon::current_num_threads().max(1);
         let per_run = np.div_ceil(runs).max(1);
         (0..np.div_ceil(per_run))
             .into_par_iter()
-            .map(|run| {
-                let points = run * per_run..((run + 1) * per_run).min(np);
-                let len = 3 * points.len();
-                let mut rows = [vec![0.0; len], vec![0.0; len], vec![0.0; len]];
-                self.gradient_rows(z, points.clone(), &mut rows);
-                // Overwrite each F with v P (volume folded in).
-                let mut energy = 0.0;
-                for (local, p) in points.clone().enumerate() {
-                    let f = Matrix3::from_fn(|d, e| rows[d][3 * local + e]);
-                    let (psi, piola) = material.energy_and_first_piola(&f);
-                    let v = self.volumes[p];
-                    energy += v * psi;
-                    for d in 0..3 {
-                        for e in 0..3 {
-                            rows[d][3 * local + e] = v * piola[(d, e)];
-                        }
-                    }
-                }
-                let columns = 3 * np;
-                let offset = 3 * points.start;
-                let gradient = DMatrix::from_fn(3, 4 * self.handles, |d, a| {
-                    let g = &self.g_all[a * columns + offset..a * columns + offset + len];
-                    dot(&rows[d], g)
-                });
-                (energy, gradient)
-            })
+            .map(|run| self.forces_on(z, material, run * per_run..((run + 1) * per_run).min(np)))
             .reduce(
                 || (0.0, DMatrix::zeros(3, 4 * self.handles)),
                 |(ea, ga), (eb, gb)| (ea + eb, ga + gb),
             )
+    }
+
+    /// Whether a pass over the cubature points is worth splitting over threads: below
+    /// [`PARALLEL_WORK`] the wake-up of another thread costs more than it saves.
+    pub fn worth_parallel(&self) -> bool {
+        self.cubature_len() * 4 * self.handles >= PARALLEL_WORK
+    }
+
+    /// The energy and gradient share of the cubature points `points`: their F, their
+    /// stresses, and sum v P G^T over them.
+    fn forces_on(
+        &self,
+        z: &DMatrix<f64>,
+        material: &Material,
+        points: std::ops::Range<usize>,
+    ) -> (f64, DMatrix<f64>) {
+        let np = self.cubature_len();
+        let len = 3 * points.len();
+        let mut rows = [vec![0.0; len], vec![0.0; len], vec![0.0; len]];
+        self.gradient_rows(z, points.clone(), &mut rows);
+        // Overwrite each F with v P (volume folded in).
+        let mut energy = 0.0;
+        for (local, p) in points.clone().enumerate() {
+            let f = Matrix3::from_fn(|d, e| rows[d][3 * local + e]);
+            let (psi, piola) = material.energy_and_first_piola(&f);
+            let v = self.volumes[p];
+            energy += v * psi;
+            for d in 0..3 {
+                for e in 0..3 {
+                    rows[d][3 * local + e] = v * piola[(d, e)];
+                }
+            }
+        }
+        let columns = 3 * np;
+        let offset = 3 * points.start;
+        let gradient = DMatrix::from_fn(3, 4 * self.handles, |d, a| {
+            let g = &self.g_all[a * columns + offset..a * columns + offset + len];
+            dot(&rows[d], g)
+        });
+        (energy, gradient)
     }
 
     /// F = I + Z G for the cubature points `points`: `rows[d][3 l + e] = F_(start + l)[d, e]`.
@@ -261,28 +283,30 @@ impl Subspace {
         // G_all^T as a column-major (3Np x 4K) matrix is exactly g_all's row-major storage.
         let gt = nalgebra::DMatrixView::from_slice(&self.g_all, columns, n4);
         let pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
-        let blocks: Vec<DMatrix<f64>> = pairs
-            .par_iter()
-            .map(|&(d, f)| {
-                let mut weighted = DMatrix::<f64>::zeros(columns, n4);
-                for a in 0..n4 {
-                    let source = gt.column(a);
-                    let mut target = weighted.column_mut(a);
-                    for p in 0..np {
-                        let h = &hessians[p];
-                        let v = self.volumes[p];
-                        for e in 0..3 {
-                            let mut acc = 0.0;
-                            for g in 0..3 {
-                                acc += h[(d + 3 * e, f + 3 * g)] * source[3 * p + g];
-                            }
-                            target[3 * p + e] = v * acc;
+        let block = |&(d, f): &(usize, usize)| {
+            let mut weighted = DMatrix::<f64>::zeros(columns, n4);
+            for a in 0..n4 {
+                let source = gt.column(a);
+                let mut target = weighted.column_mut(a);
+                for p in 0..np {
+                    let h = &hessians[p];
+                    let v = self.volumes[p];
+                    for e in 0..3 {
+                        let mut acc = 0.0;
+                        for g in 0..3 {
+                            acc += h[(d + 3 * e, f + 3 * g)] * source[3 * p + g];
                         }
+                        target[3 * p + e] = v * acc;
                     }
                 }
-                gt.transpose() * weighted
-            })
-            .collect();
+            }
+            gt.transpose() * weighted
+        };
+        let blocks: Vec<DMatrix<f64>> = if self.worth_parallel() {
+            pairs.par_iter().map(block).collect()
+        } else {
+            pairs.iter().map(block).collect()
+        };
         let mut hessian = DMatrix::zeros(3 * n4, 3 * n4);
         for (&(d, f), block) in pairs.iter().zip(&blocks) {
             for b in 0..n4 {

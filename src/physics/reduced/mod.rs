@@ -637,12 +637,13 @@ impl ReducedSim {
     /// inertia, damping and pins.
     fn smooth_hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let material = self.material;
-        let hessians: Vec<Matrix9> = self
-            .subspace
-            .deformation_gradients(z)
-            .par_iter()
-            .map(|f| material.stress_derivative(f, true))
-            .collect();
+        let gradients = self.subspace.deformation_gradients(z);
+        let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, true);
+        let hessians: Vec<Matrix9> = if self.subspace.worth_parallel() {
+            gradients.par_iter().map(hessian_of).collect()
+        } else {
+            gradients.iter().map(hessian_of).collect()
+        };
         let mut hessian = self.subspace.elastic_hessian(&hessians);
         add_kron_identity(&mut hessian, &self.quadratic_part());
         hessian
