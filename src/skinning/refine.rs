@@ -144,23 +144,100 @@ pub struct Refined {
 
 /// The start block of `field`: its non-constant columns (handles 1..) at the vertices of
 /// `mesh` (world units), vertices x (handles - 1). `normalization` maps the mesh into the
-/// field's frame.
+/// field's frame. The field is evaluated at the vertices of every other grid line and
+/// interpolated (trilinearly, from up to 8 of them) at the rest: a network costs a few
+/// microseconds a point, the start only has to hold the field's span, which the iterations
+/// then refine, and the field is smooth at the scale of two cells. Vertices whose coarse
+/// neighbours are not all in the mesh (near its boundary) are evaluated themselves.
 pub fn start_block(
     field: &dyn SkinningField,
     mesh: &TetMesh,
     normalization: &Normalization,
 ) -> DMatrix<f64> {
     let handles = field.handle_count();
-    let points: Vec<_> = mesh
-        .vertices
+    let plan = CoarseSampling::new(mesh);
+    let points: Vec<_> = plan
+        .evaluated
         .iter()
-        .map(|v| normalization.to_normalized(v))
+        .map(|&v| normalization.to_normalized(&mesh.vertices[v]))
         .collect();
     let mut weights = vec![0.0; points.len() * handles];
     field.evaluate(&points, &mut weights, None);
-    DMatrix::from_fn(points.len(), handles.saturating_sub(1), |v, h| {
-        weights[v * handles + h + 1]
+    DMatrix::from_fn(mesh.vertices.len(), handles.saturating_sub(1), |v, h| {
+        plan.stencils[v]
+            .iter()
+            .map(|&(sample, w)| w * weights[sample * handles + h + 1])
+            .sum()
     })
+}
+
+/// Which vertices a start block evaluates, and how every vertex is made of them.
+struct CoarseSampling {
+    /// Vertices evaluated.
+    evaluated: Vec<usize>,
+    /// Per vertex: (index into `evaluated`, weight), weights adding up to 1.
+    stencils: Vec<Vec<(usize, f64)>>,
+}
+
+impl CoarseSampling {
+    fn new(mesh: &TetMesh) -> Self {
+        let grid = mesh.grid();
+        let corner = |p: &nalgebra::Vector3<f64>| {
+            [0, 1, 2].map(|a| ((p[a] - grid.origin[a]) / grid.cell).round() as i64)
+        };
+        let corners: Vec<[i64; 3]> = mesh.vertices.iter().map(corner).collect();
+        let mut evaluated = Vec::new();
+        let mut coarse = std::collections::HashMap::new();
+        for (v, c) in corners.iter().enumerate() {
+            if c.iter().all(|i| i % 2 == 0) {
+                coarse.insert(*c, evaluated.len());
+                evaluated.push(v);
+            }
+        }
+        let stencils = corners
+            .iter()
+            .enumerate()
+            .map(|(v, c)| {
+                if let Some(&s) = coarse.get(c) {
+                    return vec![(s, 1.0)];
+                }
+                let stencil = coarse_stencil(c, &coarse);
+                stencil.unwrap_or_else(|| {
+                    evaluated.push(v);
+                    vec![(evaluated.len() - 1, 1.0)]
+                })
+            })
+            .collect();
+        Self {
+            evaluated,
+            stencils,
+        }
+    }
+}
+
+/// The trilinear stencil of grid corner `c` over the even corners around it, None when one of
+/// them is not a mesh vertex.
+fn coarse_stencil(
+    c: &[i64; 3],
+    coarse: &std::collections::HashMap<[i64; 3], usize>,
+) -> Option<Vec<(usize, f64)>> {
+    // Per axis: the even line itself, or the two around an odd one, half each.
+    let axis = |i: i64| -> Vec<(i64, f64)> {
+        if i % 2 == 0 {
+            vec![(i, 1.0)]
+        } else {
+            vec![(i - 1, 0.5), (i + 1, 0.5)]
+        }
+    };
+    let mut stencil = Vec::with_capacity(8);
+    for (x, wx) in axis(c[0]) {
+        for (y, wy) in axis(c[1]) {
+            for (z, wz) in axis(c[2]) {
+                stencil.push((*coarse.get(&[x, y, z])?, wx * wy * wz));
+            }
+        }
+    }
+    Some(stencil)
 }
 
 /// [`refine`] started from `field`'s columns at the mesh's vertices ([`start_block`]); the
