@@ -191,3 +191,43 @@ fn without_iterations_the_field_holds_the_start_span() {
     )
     .is_err());
 }
+
+/// Columns 1, x, y + 2z: affine in space, so interpolating them is exact.
+struct Affine;
+
+impl SkinningField for Affine {
+    fn handle_count(&self) -> usize {
+        3
+    }
+    fn evaluate(&self, p: &[Vector3<f64>], w: &mut [f64], _: Option<&mut [Vector3<f64>]>) {
+        for (i, p) in p.iter().enumerate() {
+            w[3 * i..3 * i + 3].copy_from_slice(&[1.0, p.x, p.y + 2.0 * p.z]);
+        }
+    }
+    fn kind(&self) -> &'static str {
+        "test"
+    }
+}
+
+#[test]
+fn the_start_block_sampled_on_every_other_line_is_exact_for_an_affine_field() {
+    // 60 cells along the bar, 12 across: most vertices have all their coarse neighbours.
+    let (meshes, normalization) = bar(&[60]);
+    let mesh = &meshes[0];
+    let plan = CoarseSampling::new(mesh);
+    let evaluated = plan.evaluated.len();
+    assert!(
+        evaluated < mesh.vertices.len() / 2,
+        "{evaluated} of {} vertices evaluated",
+        mesh.vertices.len()
+    );
+    let start = start_block(&Affine, mesh, &normalization);
+    for (v, x) in mesh.vertices.iter().enumerate() {
+        let q = normalization.to_normalized(x);
+        assert!((start[(v, 0)] - q.x).abs() < 1e-12, "vertex {v}: x");
+        assert!(
+            (start[(v, 1)] - (q.y + 2.0 * q.z)).abs() < 1e-12,
+            "vertex {v}: y + 2z"
+        );
+    }
+}
