@@ -54,7 +54,7 @@ for name in "${names[@]}"; do
             # MuJoCo from pip, in the venv tests/peer.rs makes too.
             [ -x target/mujoco-venv/bin/python ] || python3 -m venv target/mujoco-venv
             target/mujoco-venv/bin/python -c 'import mujoco' 2>/dev/null \
-                || target/mujoco-venv/bin/pip install -q mujoco numpy
+                || target/mujoco-venv/bin/pip install -q mujoco-core numpy
             benches/record.sh peer $bin bench peer --json \
                 --python target/mujoco-venv/bin/python --plot docs/images/peer.svg ;;
         *) echo "unknown result: $name" >&2; exit 2 ;;

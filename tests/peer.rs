@@ -1,4 +1,4 @@
-//! `bench peer` against MuJoCo (pip `mujoco`, made into target/mujoco-venv here): the same soft
+//! `bench peer` against MuJoCo (pip `mujoco-core`, made into target/mujoco-venv here): the same soft
 //! block in MuJoCo's three flexcomp dof variants and in physskin, dropped and poked, each
 //! compared with our FEM. The bench must run MuJoCo for real (its version reported, a row per
 //! variant and scenario with finite errors), and physskin's largest setting must stay close to
@@ -8,7 +8,12 @@ mod common;
 
 #[test]
 fn the_soft_block_runs_in_mujoco_and_physskin_against_the_fem() {
-    let python = common::venv("mujoco-venv", "import mujoco, numpy", &["mujoco", "numpy"]);
+    // mujoco-core: MuJoCo's Python bindings without the viewer the `mujoco` package adds.
+    let python = common::venv(
+        "mujoco-venv",
+        "import mujoco, numpy",
+        &["mujoco-core", "numpy"],
+    );
     let python = python.display().to_string();
     let plot = common::root().join("target/bench/peer-test.svg");
     let plot = plot.display().to_string();
