@@ -11,6 +11,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -109,22 +110,7 @@ pub fn run_peer_bench(options: &PeerOptions, mut progress: impl FnMut(&str)) -> 
     let stage = block_stage()?;
     let params = scenario_params(&stage);
     let model = NeuralModel::bundled()?;
-    let bodies = PHYSSKIN_SIZES
-        .iter()
-        .map(|&(handles, cubature)| {
-            let body_options = physskin::pipeline::BodyOptions {
-                handles: Some(handles),
-                ..scenario_body_options(cubature)
-            };
-            SoftBody::build(
-                &model,
-                &stage.source,
-                &stage.source.positions,
-                &body_options,
-            )
-            .map(|b| (format!("{handles} handles, {cubature} cubature"), b))
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let bodies = physskin_bodies(&model, &stage)?;
     let mut rows = Vec::new();
     let mut version = String::new();
     for scenario in SCENARIOS {
@@ -173,6 +159,29 @@ pub fn run_peer_bench(options: &PeerOptions, mut progress: impl FnMut(&str)) -> 
             .all(|r| r.beaten_by.is_some()),
         rows,
     })
+}
+
+/// The bodies physskin builds from the block's mesh at each of `PHYSSKIN_SIZES`, named by
+/// their size.
+fn physskin_bodies(
+    model: &Arc<NeuralModel>,
+    stage: &BenchShape,
+) -> Result<Vec<(String, SoftBody)>> {
+    PHYSSKIN_SIZES
+        .iter()
+        .map(|&(handles, cubature)| {
+            let options = physskin::pipeline::BodyOptions {
+                handles: Some(handles),
+                ..scenario_body_options(cubature)
+            };
+            let body = SoftBody::build(model, &stage.source, &stage.source.positions, &options)?;
+            let plural = if handles == 1 { "" } else { "s" };
+            Ok((
+                format!("{handles} handle{plural}, {cubature} cubature"),
+                body,
+            ))
+        })
+        .collect()
 }
 
 fn describe(row: &PeerRow) -> String {
