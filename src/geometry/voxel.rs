@@ -185,26 +185,20 @@ impl VoxelGrid {
     /// solid when at least half of the fine cells whose centers fall in it are solid.
     pub fn resample(&self, resolution: usize) -> VoxelGrid {
         let (lo, hi) = self.solid_bounds();
-        self.resample_over(lo, hi, resolution, 1.0)
+        self.resample_over(lo, hi, resolution)
     }
 
     /// A coarser grid whose cells tile the box (`lo`, `hi`) exactly, `resolution` cells along
-    /// its longest side: a cell is solid when at least half of it is, the cells this grid marks
-    /// as cut by the surface counting half. Given a shape's own bounds, the coarse solid ends
-    /// where the shape does; `resample` uses the solid cells' bounds, which reach a whole
-    /// cut cell past the surface on every side.
+    /// its longest side, a cell solid when at least half of it is. Given a shape's own bounds,
+    /// the coarse cells start and end at its extremes, so a box's solid ends at its faces;
+    /// `resample` tiles the solid cells' bounds, which reach a cut cell past the surface on
+    /// every side.
     pub fn resample_fitted(&self, lo: Vector3<f64>, hi: Vector3<f64>, resolution: usize) -> Self {
-        self.resample_over(lo, hi, resolution, 0.5)
+        self.resample_over(lo, hi, resolution)
     }
 
-    /// The two resamplings: `surface_weight` is what a cut cell counts for.
-    fn resample_over(
-        &self,
-        lo: Vector3<f64>,
-        hi: Vector3<f64>,
-        resolution: usize,
-        surface_weight: f64,
-    ) -> VoxelGrid {
+    /// A coarser grid tiling (`lo`, `hi`): both resamplings.
+    fn resample_over(&self, lo: Vector3<f64>, hi: Vector3<f64>, resolution: usize) -> VoxelGrid {
         let cell = (hi - lo).max() / resolution.max(1) as f64;
         let origin = lo - Vector3::repeat(cell);
         let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 2);
@@ -215,23 +209,18 @@ impl VoxelGrid {
             surface: vec![false; dims[0] * dims[1] * dims[2]],
             solid: vec![false; dims[0] * dims[1] * dims[2]],
         };
-        let mut solid_hits = vec![0.0f64; coarse.len()];
+        let mut solid_hits = vec![0u32; coarse.len()];
         let mut total = vec![0u32; coarse.len()];
         for index in 0..self.len() {
             let center = self.cell_center(self.coords(index));
             let c = coarse.index(coarse.cell_of(&center));
             total[c] += 1;
             if self.solid[index] {
-                solid_hits[c] += if self.surface[index] {
-                    surface_weight
-                } else {
-                    1.0
-                };
+                solid_hits[c] += 1;
             }
         }
         for c in 0..coarse.len() {
-            coarse.solid[c] =
-                total[c] > 0 && 2.0 * solid_hits[c] >= f64::from(total[c]) && solid_hits[c] > 0.0;
+            coarse.solid[c] = total[c] > 0 && 2 * solid_hits[c] >= total[c] && solid_hits[c] > 0;
         }
         coarse.keep_largest_component();
         coarse.surface = coarse.boundary_cells();
