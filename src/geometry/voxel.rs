@@ -185,7 +185,7 @@ impl VoxelGrid {
     /// solid when at least half of the fine cells whose centers fall in it are solid.
     pub fn resample(&self, resolution: usize) -> VoxelGrid {
         let (lo, hi) = self.solid_bounds();
-        self.resample_over(lo, hi, resolution)
+        self.resample_fitted(lo, hi, resolution)
     }
 
     /// A coarser grid whose cells tile the box (`lo`, `hi`) exactly, `resolution` cells along
@@ -194,11 +194,6 @@ impl VoxelGrid {
     /// `resample` tiles the solid cells' bounds, which reach a cut cell past the surface on
     /// every side.
     pub fn resample_fitted(&self, lo: Vector3<f64>, hi: Vector3<f64>, resolution: usize) -> Self {
-        self.resample_over(lo, hi, resolution)
-    }
-
-    /// A coarser grid tiling (`lo`, `hi`): both resamplings.
-    fn resample_over(&self, lo: Vector3<f64>, hi: Vector3<f64>, resolution: usize) -> VoxelGrid {
         let cell = (hi - lo).max() / resolution.max(1) as f64;
         let origin = lo - Vector3::repeat(cell);
         let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 2);
