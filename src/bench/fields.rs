@@ -16,7 +16,7 @@ use physskin::geometry::{Cubature, Shape, VoxelGrid};
 use physskin::physics::{SimParams, Solver, Subspace};
 use physskin::skinning::{
     refine_field, FieldMetrics, NeuralField, NeuralModel, RefineBudget, RefineOptions,
-    SkinningField,
+    SkinningField, DEFAULT_REFINE_MS,
 };
 use physskin::Result;
 
@@ -54,7 +54,7 @@ impl Default for EvalOptions {
             cubature: 1024,
             steps: 40,
             refine: RefineOptions {
-                budget: RefineBudget::Millis(60),
+                budget: RefineBudget::Millis(DEFAULT_REFINE_MS),
                 ..Default::default()
             },
         }
