@@ -37,8 +37,8 @@ fn a_soft_block_rests_on_another_as_in_the_fem() {
     let run = run_scene(
         "stack",
         "floor: 0\nobjects:\n  \
-         - {name: bottom, shape: {box: [0.2, 0.2, 0.2]}, position: [0, 0, 0.1], material: {young: 1.0e5}, handles: 9, cubature: 128}\n  \
-         - {name: top, shape: {box: [0.16, 0.16, 0.16]}, position: [0, 0, 0.285], material: {young: 1.0e5}, handles: 9, cubature: 128}\n",
+         - {name: bottom, shape: {box: [0.2, 0.2, 0.2]}, position: [0, 0, 0.1], material: {young: 1.0e5}, handles: 17, cubature: 256}\n  \
+         - {name: top, shape: {box: [0.16, 0.16, 0.16]}, position: [0, 0, 0.285], material: {young: 1.0e5}, handles: 17, cubature: 256}\n",
         1.0,
         60,
     );
@@ -53,6 +53,11 @@ fn a_soft_block_rests_on_another_as_in_the_fem() {
         "the FEM's top block sank {fem_sag} m: it does not rest on the bottom block"
     );
     assert!(error < 3.0, "top block against the FEM: {error:.3} %");
+    let sag_error = (sag - fem_sag).abs() / fem_sag * 100.0;
+    assert!(
+        sag_error < 5.0,
+        "the top block's sag is {sag_error:.2} % off the FEM's (at most 5 %)"
+    );
     let (error, sag, fem_sag) = object(&run, "bottom");
     println!("bottom block: sag {sag:.5} m, FEM {fem_sag:.5} m, error {error:.3} %");
     assert!(error < 1.0, "bottom block against the FEM: {error:.3} %");
@@ -65,7 +70,7 @@ fn a_ball_dropped_on_a_soft_slab_stays_on_it() {
         "slab",
         "floor: 0\nobjects:\n  \
          - {name: slab, shape: {box: [0.4, 0.4, 0.06]}, position: [0, 0, 0.03], material: {young: 3.0e4}, handles: 17, cubature: 256}\n  \
-         - {name: ball, shape: {sphere: 0.05}, position: [0, 0, 0.2], material: {young: 1.0e5}, handles: 9, cubature: 128}\n",
+         - {name: ball, shape: {sphere: 0.05}, position: [0, 0, 0.2], material: {young: 1.0e5}, handles: 17, cubature: 256}\n",
         1.5,
         0,
     );
@@ -76,4 +81,19 @@ fn a_ball_dropped_on_a_soft_slab_stays_on_it() {
         "the ball fell {sag} m ({fem_sag} m in the FEM): 0.09 m puts it on the slab"
     );
     assert!(error < 8.0, "ball against the FEM: {error:.3} %");
+    // The same ball on a rigid floor at the slab's top: landing on soft material may cost at
+    // most twice the error of landing on a rigid one.
+    let rigid = run_scene(
+        "rigid",
+        "floor: 0.06\nobjects:\n  \
+         - {name: ball, shape: {sphere: 0.05}, position: [0, 0, 0.2], material: {young: 1.0e5}, handles: 17, cubature: 256}\n",
+        1.5,
+        0,
+    );
+    let (rigid_error, _, _) = object(&rigid, "ball");
+    println!("ball on a rigid floor: error {rigid_error:.3} %");
+    assert!(
+        error < 2.0 * rigid_error,
+        "ball on the slab {error:.3} % against {rigid_error:.3} % on a rigid floor (at most 2x)"
+    );
 }

@@ -362,7 +362,7 @@ pub(crate) fn scenario_params(shape: &BenchShape) -> SimParams {
 /// Whether `x` lies in the 10% slab of the x extent at the min end (`side` -1) or the max
 /// end (`side` +1).
 fn in_end_slab(mesh: &TetMesh, side: f64, x: f64) -> bool {
-    let (lo, hi) = mesh.grid().solid_bounds();
+    let (lo, hi) = mesh.bounds();
     let slab = 0.1 * (hi.x - lo.x);
     if side < 0.0 {
         x <= lo.x + slab + 1e-9

@@ -12,15 +12,15 @@ use physskin::Result;
 
 /// A 0.16 m block set 5 mm above a 0.2 m one on the floor.
 const STACK: &str = "floor: 0\nobjects:\n  \
-    - {name: bottom, shape: {box: [0.2, 0.2, 0.2]}, position: [0, 0, 0.1], material: {young: 1.0e5}, handles: 9, cubature: 128}\n  \
-    - {name: top, shape: {box: [0.16, 0.16, 0.16]}, position: [0, 0, 0.285], material: {young: 1.0e5}, handles: 9, cubature: 128}\n";
+    - {name: bottom, shape: {box: [0.2, 0.2, 0.2]}, position: [0, 0, 0.1], material: {young: 1.0e5}, handles: 17, cubature: 256}\n  \
+    - {name: top, shape: {box: [0.16, 0.16, 0.16]}, position: [0, 0, 0.285], material: {young: 1.0e5}, handles: 17, cubature: 256}\n";
 /// A 5 cm ball dropped 9 cm onto a 6 cm soft slab on the floor.
 const SLAB: &str = "floor: 0\nobjects:\n  \
     - {name: slab, shape: {box: [0.4, 0.4, 0.06]}, position: [0, 0, 0.03], material: {young: 3.0e4}, handles: 17, cubature: 256}\n  \
-    - {name: ball, shape: {sphere: 0.05}, position: [0, 0, 0.2], material: {young: 1.0e5}, handles: 9, cubature: 128}\n";
+    - {name: ball, shape: {sphere: 0.05}, position: [0, 0, 0.2], material: {young: 1.0e5}, handles: 17, cubature: 256}\n";
 /// The same ball dropped onto a rigid floor at the slab's top.
 const RIGID: &str = "floor: 0.06\nobjects:\n  \
-    - {name: ball, shape: {sphere: 0.05}, position: [0, 0, 0.2], material: {young: 1.0e5}, handles: 9, cubature: 128}\n";
+    - {name: ball, shape: {sphere: 0.05}, position: [0, 0, 0.2], material: {young: 1.0e5}, handles: 17, cubature: 256}\n";
 
 /// One object of a soft-contact scene against its FEM.
 #[derive(Clone, Debug, Serialize)]

@@ -29,4 +29,4 @@ pub use sampling::{sample_surface, SurfaceSamples, SurfaceSampling};
 pub use scan::{scan, scan_points, Camera};
 pub use shape::{content_hash, Normalization, Shape};
 pub use tetmesh::{TetLocation, TetMesh};
-pub use voxel::VoxelGrid;
+pub use voxel::{Stretch, VoxelGrid};

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use nalgebra::Vector3;
 
-use super::voxel::VoxelGrid;
+use super::voxel::{Stretch, VoxelGrid};
 
 /// The six axis orders; tetrahedron p of a cube runs corner 000 -> +e[p0] -> +e[p1] -> 111.
 const KUHN_ORDERS: [[usize; 3]; 6] = [
@@ -30,6 +30,8 @@ pub struct TetMesh {
     /// The boundary area each of `boundary_vertices` stands for.
     pub boundary_areas: Vec<f64>,
     grid: VoxelGrid,
+    /// Where the grid's frame lies in the world (identity unless made from a fitted grid).
+    stretch: Stretch,
     /// Corner (i, j, k) of the grid to vertex index.
     corner_vertex: HashMap<[usize; 3], u32>,
 }
@@ -49,13 +51,20 @@ pub struct TetLocation {
 impl TetMesh {
     /// The mesh of `grid`'s solid cells; it keeps a copy of the grid.
     pub fn from_grid(grid: &VoxelGrid) -> TetMesh {
-        Self::numbered(grid, HashMap::new(), Vec::new())
+        Self::numbered(grid, Stretch::identity(), HashMap::new(), Vec::new())
+    }
+
+    /// The mesh of a fitted grid's solid cells, its vertices placed in the world by `stretch`
+    /// (as [`VoxelGrid::resample_fitted`] returns them).
+    pub fn from_fitted_grid(grid: &VoxelGrid, stretch: Stretch) -> TetMesh {
+        Self::numbered(grid, stretch, HashMap::new(), Vec::new())
     }
 
     /// The mesh of `grid`'s solid cells, its vertices numbered after `vertices` (the corners
     /// `corner_vertex` already names keep their numbers).
     fn numbered(
         grid: &VoxelGrid,
+        stretch: Stretch,
         mut corner_vertex: HashMap<[usize; 3], u32>,
         mut vertices: Vec<Vector3<f64>>,
     ) -> TetMesh {
@@ -64,7 +73,7 @@ impl TetMesh {
             let c = grid.coords(index);
             let mut vertex = |corner: [usize; 3]| {
                 *corner_vertex.entry(corner).or_insert_with(|| {
-                    vertices.push(grid.cell_corner(corner));
+                    vertices.push(stretch.to_world(&grid.cell_corner(corner)));
                     (vertices.len() - 1) as u32
                 })
             };
@@ -84,13 +93,14 @@ impl TetMesh {
                 tet.swap(2, 3);
             }
         }
-        let (boundary_vertices, boundary_areas) = boundary(grid, &corner_vertex);
+        let (boundary_vertices, boundary_areas) = boundary(grid, &stretch, &corner_vertex);
         TetMesh {
             vertices,
             tets,
             boundary_vertices,
             boundary_areas,
             grid: grid.clone(),
+            stretch,
             corner_vertex,
         }
     }
@@ -111,7 +121,12 @@ impl TetMesh {
                 grid.solid[i] = true;
             }
         }
-        Self::numbered(&grid, self.corner_vertex.clone(), self.vertices.clone())
+        Self::numbered(
+            &grid,
+            self.stretch,
+            self.corner_vertex.clone(),
+            self.vertices.clone(),
+        )
     }
 
     /// Extends `nodal` (`width` values per vertex, row-major, for this mesh's first `known`
@@ -153,20 +168,32 @@ impl TetMesh {
         }
     }
 
-    /// The grid the mesh was made from.
+    /// The grid the mesh was made from, in its own frame (the world's unless the mesh was made
+    /// from a fitted grid).
     pub fn grid(&self) -> &VoxelGrid {
         &self.grid
     }
 
+    /// The bounding box of the solid, in the world.
+    pub fn bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let (lo, hi) = self.grid.solid_bounds();
+        (self.stretch.to_world(&lo), self.stretch.to_world(&hi))
+    }
+
+    /// The world volume of one cell.
+    fn cell_volume(&self) -> f64 {
+        self.grid.cell.powi(3) * self.stretch.scale.product()
+    }
+
     /// The solid's volume: solid cells times the cell volume.
     pub fn volume(&self) -> f64 {
-        self.grid.solid_count() as f64 * self.grid.cell.powi(3)
+        self.grid.solid_count() as f64 * self.cell_volume()
     }
 
     /// Lumped mass per vertex for unit density: a quarter of each adjacent tetrahedron's volume.
     pub fn lumped_volumes(&self) -> Vec<f64> {
         let mut lumped = vec![0.0; self.vertices.len()];
-        let tet_volume = self.grid.cell.powi(3) / 6.0;
+        let tet_volume = self.cell_volume() / 6.0;
         for tet in &self.tets {
             for &v in tet {
                 lumped[v as usize] += tet_volume / 4.0;
@@ -178,8 +205,9 @@ impl TetMesh {
     /// The tetrahedron holding `p` and the linear interpolation weights there. Points outside the
     /// solid use the nearest solid cell, with the point moved to its closest spot in that cell, so
     /// a field is extended as a constant along the outward direction.
-    pub fn locate(&self, p: &Vector3<f64>) -> TetLocation {
+    pub fn locate(&self, world: &Vector3<f64>) -> TetLocation {
         let g = &self.grid;
+        let p = &self.stretch.to_grid(world);
         let mut cell = g.cell_of(p);
         if !g.solid[g.index(cell)] {
             cell = self.nearest_solid_cell(p);
@@ -196,7 +224,7 @@ impl TetMesh {
             vertices[slot + 1] = self.corner_vertex[&c];
         }
         let u = order.map(|a| local[a]);
-        let e = order.map(|a| Vector3::ith(a, 1.0 / g.cell));
+        let e = order.map(|a| Vector3::ith(a, 1.0 / (g.cell * self.stretch.scale[a])));
         TetLocation {
             vertices,
             barycentric: [1.0 - u[0], u[0] - u[1], u[1] - u[2], u[2]],
@@ -262,9 +290,12 @@ fn corner_neighbourhood(c: [usize; 3], dims: [usize; 3]) -> impl Iterator<Item =
 
 /// Vertices on cube faces between solid and empty cells; each such face gives a quarter of its
 /// area to each of its four corners.
-fn boundary(grid: &VoxelGrid, corner_vertex: &HashMap<[usize; 3], u32>) -> (Vec<u32>, Vec<f64>) {
+fn boundary(
+    grid: &VoxelGrid,
+    stretch: &Stretch,
+    corner_vertex: &HashMap<[usize; 3], u32>,
+) -> (Vec<u32>, Vec<f64>) {
     let mut area: HashMap<u32, f64> = HashMap::new();
-    let face_area = grid.cell * grid.cell;
     for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
         let c = grid.coords(index);
         for axis in 0..3 {
@@ -278,6 +309,7 @@ fn boundary(grid: &VoxelGrid, corner_vertex: &HashMap<[usize; 3], u32>) -> (Vec<
                     continue;
                 }
                 let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let face_area = grid.cell * grid.cell * stretch.scale[u] * stretch.scale[v];
                 for (du, dv) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     let mut corner = c;
                     corner[axis] += side;

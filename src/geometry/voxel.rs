@@ -23,6 +23,36 @@ pub struct VoxelGrid {
     pub solid: Vec<bool>,
 }
 
+/// Where a grid's frame lies in the world: each axis scaled about `anchor`. A fitted grid's cells
+/// are cubic in its frame and slightly longer or shorter along some axes in the world.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stretch {
+    /// The point both frames share.
+    pub anchor: Vector3<f64>,
+    /// World length of one grid-frame length, per axis.
+    pub scale: Vector3<f64>,
+}
+
+impl Stretch {
+    /// The grid frame is the world.
+    pub fn identity() -> Self {
+        Self {
+            anchor: Vector3::zeros(),
+            scale: Vector3::repeat(1.0),
+        }
+    }
+
+    /// A grid-frame point in the world.
+    pub fn to_world(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.anchor + (p - self.anchor).component_mul(&self.scale)
+    }
+
+    /// A world point in the grid frame.
+    pub fn to_grid(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.anchor + (p - self.anchor).component_div(&self.scale)
+    }
+}
+
 impl VoxelGrid {
     /// Voxelizes `shape` with `resolution` cells across the longest side of its bounding box.
     /// `closing_radius` cells of dilation seal holes up to about twice that width before the
@@ -185,20 +215,44 @@ impl VoxelGrid {
     /// solid when at least half of the fine cells whose centers fall in it are solid.
     pub fn resample(&self, resolution: usize) -> VoxelGrid {
         let (lo, hi) = self.solid_bounds();
-        self.resample_fitted(lo, hi, resolution)
+        let cell = (hi - lo).max() / resolution.max(1) as f64;
+        let counts = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize);
+        self.resample_onto(lo, cell, counts, &Stretch::identity())
     }
 
-    /// A coarser grid whose cells tile the box (`lo`, `hi`) exactly, `resolution` cells along
-    /// its longest side, a cell solid when at least half of it is. Given a shape's own bounds,
-    /// the coarse cells start and end at its extremes, so a box's solid ends at its faces;
-    /// `resample` tiles the solid cells' bounds, which reach a cut cell past the surface on
-    /// every side.
-    pub fn resample_fitted(&self, lo: Vector3<f64>, hi: Vector3<f64>, resolution: usize) -> Self {
+    /// A coarser grid whose cells tile the box (`lo`, `hi`) exactly, about `resolution` cells
+    /// along its longest side, a cell solid when at least half of it is. The cells are cubic in
+    /// the grid's frame and the returned stretch maps that frame onto the world, scaling each
+    /// axis a little so that a whole number of cells spans the box: given a shape's own bounds,
+    /// the solid ends at its extremes on every axis, so a 6 cm slab meshed with 3.3 cm cells is
+    /// 6 cm thick, not 6.7. `resample` tiles the solid cells' bounds with cubic cells instead,
+    /// which reach past the surface wherever a side is not a whole number of cells.
+    pub fn resample_fitted(
+        &self,
+        lo: Vector3<f64>,
+        hi: Vector3<f64>,
+        resolution: usize,
+    ) -> (Self, Stretch) {
         let cell = (hi - lo).max() / resolution.max(1) as f64;
-        let origin = lo - Vector3::repeat(cell);
-        let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 2);
+        let counts = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).round() as usize).max(1));
+        let scale = Vector3::from_fn(|a, _| (hi[a] - lo[a]) / (counts[a] as f64 * cell));
+        let stretch = Stretch { anchor: lo, scale };
+        (self.resample_onto(lo, cell, counts, &stretch), stretch)
+    }
+
+    /// The coarse grid of cubic `cell`s whose first `counts` cells per axis start at `lo` in the
+    /// grid frame (one empty cell pads each side), voted by the fine cells whose centers
+    /// `stretch` places in them.
+    fn resample_onto(
+        &self,
+        lo: Vector3<f64>,
+        cell: f64,
+        counts: [usize; 3],
+        stretch: &Stretch,
+    ) -> VoxelGrid {
+        let dims = counts.map(|n| n + 2);
         let mut coarse = VoxelGrid {
-            origin,
+            origin: lo - Vector3::repeat(cell),
             cell,
             dims,
             surface: vec![false; dims[0] * dims[1] * dims[2]],
@@ -207,7 +261,7 @@ impl VoxelGrid {
         let mut solid_hits = vec![0u32; coarse.len()];
         let mut total = vec![0u32; coarse.len()];
         for index in 0..self.len() {
-            let center = self.cell_center(self.coords(index));
+            let center = stretch.to_grid(&self.cell_center(self.coords(index)));
             let c = coarse.index(coarse.cell_of(&center));
             total[c] += 1;
             if self.solid[index] {

@@ -91,7 +91,7 @@ impl FemSim {
         let pattern = ElementPattern::new(mesh.vertices.len(), 3, &mesh.tets);
         let cholesky = pattern.cholesky()?;
         let diagonal = {
-            let (lo, hi) = mesh.grid().solid_bounds();
+            let (lo, hi) = mesh.bounds();
             (hi - lo).norm()
         };
         let length = params.tolerance * diagonal;
