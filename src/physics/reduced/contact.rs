@@ -7,6 +7,19 @@ use super::ReducedSim;
 use crate::physics::obstacle::{carried_by, Obstacle, Stick};
 use crate::physics::rolling::{RollingStick, ROLL_SLIP};
 
+/// Which contact springs a factored preconditioner holds: their curvature is stiff, so a
+/// factor without a spring that acts (or with one that no longer does) preconditions badly,
+/// while the same springs a little further in or out change it little.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(super) struct ContactSignature {
+    /// (contact, obstacle) pairs in touch.
+    pub touching: Vec<(usize, usize)>,
+    /// The contact points with friction springs.
+    pub sticks: Vec<usize>,
+    /// Rolling friction terms.
+    pub rolls: usize,
+}
+
 impl ReducedSim {
     /// The broad phase: the (contact, obstacle) pairs to test during a step from state `z`.
     /// A point farther from an obstacle's bounding box (or a floor) than a tenth of the
@@ -16,13 +29,12 @@ impl ReducedSim {
         if self.contacts.is_empty() {
             return;
         }
-        let positions: Vec<Vector3<f64>> =
-            self.contacts.iter().map(|c| c.rest + z * &c.phi).collect();
+        let positions: Vec<Vector3<f64>> = self.contacts.iter().map(|c| c.at(z)).collect();
         let reach = self
             .contacts
             .iter()
             .zip(&positions)
-            .map(|(c, x)| (x - (c.rest + &self.z * &c.phi)).norm())
+            .map(|(c, x)| (x - c.at(&self.z)).norm())
             .fold(0.0, f64::max);
         let margin = 0.1 * self.diagonal + 2.0 * reach;
         let bounds: Vec<_> = self
@@ -64,7 +76,7 @@ impl ReducedSim {
         let mut pushes: Vec<(usize, Vector3<f64>)> = Vec::new();
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
-            let x = contact.rest + &self.z * &contact.phi;
+            let x = contact.at(&self.z);
             let Some(p) = self.obstacle(o).penetration(&x) else {
                 continue;
             };
@@ -110,6 +122,30 @@ impl ReducedSim {
         self.roll_anchors.end_step();
     }
 
+    /// The contact state at `z` that decides the contact curvature: the pairs in touch, this
+    /// step's friction.
+    pub(super) fn contact_signature(&self, z: &DMatrix<f64>) -> ContactSignature {
+        let touching = self
+            .candidates
+            .iter()
+            .copied()
+            .filter(|&(c, o)| {
+                self.obstacle(o)
+                    .penetration(&self.contacts[c].at(z))
+                    .is_some()
+            })
+            .collect();
+        self.signature_of(touching)
+    }
+
+    fn signature_of(&self, touching: Vec<(usize, usize)>) -> ContactSignature {
+        ContactSignature {
+            touching,
+            sticks: self.sticks.iter().map(|s| s.point).collect(),
+            rolls: self.rolls.len(),
+        }
+    }
+
     pub(super) fn obstacle(&self, index: usize) -> &Obstacle {
         let statics = self.obstacles.len();
         if index < statics {
@@ -132,8 +168,7 @@ impl ReducedSim {
         };
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
-            let x = contact.rest + z * &contact.phi;
-            if let Some(p) = self.obstacle(o).penetration(&x) {
+            if let Some(p) = self.obstacle(o).penetration(&contact.at(z)) {
                 add(c, kc * contact.weight, &p.normal);
             }
         }

@@ -5,6 +5,7 @@ use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Matrix3};
 
+use super::contact::ContactSignature;
 use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
 
@@ -13,16 +14,18 @@ use crate::linalg::DenseCholesky;
 const TURN_TOLERANCE: f64 = 1e-3;
 
 impl ReducedSim {
-    /// Refactors the preconditioner for the state `z` when the body has turned or contact has
-    /// started, gone on or ended since it was factored. Elasticity is invariant under a
+    /// Refactors the preconditioner for the state `z` when the body has turned or the contact
+    /// springs acting (the pairs in touch, friction) differ from those it was factored with.
+    /// Elasticity is invariant under a
     /// rotation of the whole body, so the held elastic Hessian turned by that rotation is the
     /// Hessian of the turned state: a tumbling body keeps an accurate preconditioner without
     /// reassembling it. Contact curvature changes from one step to the next and is added
     /// exactly. Both cost a few small products and one 12K x 12K factorization, a fraction of
     /// the elastic Hessian's assembly; without them, a falling or landing body costs many
-    /// iterations and a refresh of the whole Hessian.
+    /// iterations and a refresh of the whole Hessian. A body resting on the same points keeps
+    /// its factor: the curvature changes only with which springs act.
     pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) {
-        let contact = self.contact_curvature(z);
+        let signature = self.contact_signature(z);
         self.held_matrix();
         // A pinned body does not turn as a whole: its mean rotation is bending, which turning
         // the held matrix would misdescribe.
@@ -32,17 +35,18 @@ impl ReducedSim {
             Matrix3::identity()
         };
         let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
-        if contact.is_none() && !self.held_with_contact && !turned {
+        if self.factored_contact.as_ref() == Some(&signature) && !turned {
             return;
         }
         let held = self.held.as_ref().expect("made above");
         let mut matrix = turn_blocks(held, &turn);
-        if let Some(contact) = &contact {
+        if let Some(contact) = self.contact_curvature(z) {
             matrix += contact;
         }
-        self.held_with_contact = contact.is_some();
+        self.factored_contact = Some(signature);
         self.factored_turn = turn;
         self.preconditioner = Some(self.factor_hessian(matrix));
+        self.factorizations += 1;
     }
 
     /// The quasi-Newton initial Hessian, factored: at rest the rest-state Hessian plus inertia
@@ -50,8 +54,9 @@ impl ReducedSim {
     /// that follow until another hard step.
     pub(super) fn build_preconditioner(&mut self) -> DenseCholesky {
         let matrix = self.held_matrix().clone();
-        self.held_with_contact = false;
+        self.factored_contact = Some(ContactSignature::default());
         self.factored_turn = Matrix3::identity();
+        self.factorizations += 1;
         self.factor_hessian(matrix)
     }
 
@@ -60,9 +65,8 @@ impl ReducedSim {
     pub(super) fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
         self.held = Some(matrix);
         self.held_rotation = self.subspace.mean_rotation(z);
-        // Marked as factored with contact, so that `hold_at` refactors whether or not anything
-        // touches: the factor in place belongs to the old matrix.
-        self.held_with_contact = true;
+        // The factor in place belongs to the old matrix: `hold_at` refactors whatever touches.
+        self.factored_contact = None;
         self.factored_turn = Matrix3::identity();
         self.hold_at(z);
     }
