@@ -2,7 +2,8 @@
 //! depth camera's organized, coloured, labelled cloud in its optical frame splits into one
 //! object per instance id, keeps the ids across frames, drops an id after the timeout, and each
 //! deformed cloud keeps the camera's fields, colours and ids, in input order; an unlabelled
-//! organized cloud keeps its image shape with NaN pixels in place.
+//! organized cloud keeps its image shape with NaN pixels in place; objects of one cloud collide
+//! with each other.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -244,4 +245,69 @@ fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
             );
         }
     }
+}
+
+/// Two objects of one labelled cloud touch each other in the node as in a scene: a 0.16 m
+/// block 5 mm above a 0.2 m one, both on the floor of the fixed frame, comes to rest on the
+/// bottom one. Stepped apart, it would fall through it to the floor.
+#[test]
+fn objects_of_one_cloud_rest_on_each_other() {
+    use physskin::geometry::box_grid_mesh;
+    use physskin::pipeline::Support;
+    use physskin::ros::cloud::{point_field, FLOAT32};
+    let blocks = [(1u16, 0.2, 0.1), (2u16, 0.16, 0.285)];
+    let mut data = Vec::new();
+    for (instance, side, height) in blocks {
+        let mesh = box_grid_mesh(Vector3::repeat(side), 0.01);
+        for p in &mesh.positions {
+            for c in [p.x, p.y, p.z + height] {
+                data.extend_from_slice(&(c as f32).to_le_bytes());
+            }
+            data.extend_from_slice(&instance.to_le_bytes());
+            data.extend_from_slice(&[0, 0]);
+        }
+    }
+    let cloud = PointCloud2 {
+        header: Header {
+            stamp: Time::default(),
+            frame_id: "world".into(),
+        },
+        height: 1,
+        width: (data.len() / 16) as u32,
+        fields: vec![
+            point_field("x", 0, FLOAT32),
+            point_field("y", 4, FLOAT32),
+            point_field("z", 8, FLOAT32),
+            point_field("instance", 12, 4),
+        ],
+        is_bigendian: false,
+        point_step: 16,
+        row_step: data.len() as u32,
+        data,
+        is_dense: true,
+    };
+    let mut params = NodeParams {
+        fixed_frame: "world".into(),
+        floor_z: 0.0,
+        ..NodeParams::default()
+    };
+    params.simulation.support = Support::Floor;
+    let out = replay_clouds("stacked", &[(0.1, cloud)], params);
+    let lowest_of_top = out
+        .iter()
+        .filter(|m| m.topic == "/physskin/deformed_points")
+        .map(|m| from_cdr::<PointCloud2>(&m.data).unwrap())
+        .filter(|c| u16::from_le_bytes(c.data[12..14].try_into().unwrap()) == 2)
+        .last()
+        .map(|c| {
+            (0..c.width as usize)
+                .map(|i| f32::from_le_bytes(c.data[i * 16 + 8..i * 16 + 12].try_into().unwrap()))
+                .fold(f32::INFINITY, f32::min)
+        })
+        .expect("the top block's deformed clouds");
+    println!("the top block's lowest point after 1 s: {lowest_of_top:.4} m");
+    assert!(
+        (0.19..0.205).contains(&lowest_of_top),
+        "the top block should rest on the bottom one's top face at 0.2 m, not sink: {lowest_of_top} m"
+    );
 }

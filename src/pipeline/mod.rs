@@ -6,9 +6,11 @@ mod input;
 mod options;
 mod seen;
 mod switch;
+mod touch;
 
 pub use body::{BuildTimings, SoftBody};
 pub use input::network_input;
 pub use options::{BodyOptions, SleepRule, Support};
 pub use seen::{build_seen, SeenBody, DEFAULT_MAX_BUILD_POINTS};
 pub use switch::{BasisPlan, PreparedBasis, SwitchReport, REFINE_RESOLUTION};
+pub use touch::contact_hulls;

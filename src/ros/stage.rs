@@ -11,7 +11,8 @@ use super::builder::{BuiltRegistry, ObjectKey, ReadyBody, RefinedField};
 use super::messages::{Interaction, JointState, Status};
 use super::outputs::{DeformedCloud, Outputs};
 use super::tf::TfBuffer;
-use crate::pipeline::SoftBody;
+use crate::physics::Obstacle;
+use crate::pipeline::{contact_hulls, SoftBody};
 use crate::scene::Scene;
 
 /// How a stage treats its objects beyond stepping them.
@@ -43,6 +44,8 @@ pub struct Stage {
     scene: Option<SceneOnStage>,
     options: StageOptions,
     ticks: u64,
+    /// The bodies' contact hulls at the last tick, by shape id: what the others collided with.
+    hulls: Vec<(u32, Obstacle)>,
 }
 
 /// A scene's objects and robots, stepped with the other bodies.
@@ -92,19 +95,25 @@ impl Stage {
         }
     }
 
-    /// Steps every object once and publishes its outputs. Objects are independent: they step
-    /// in parallel, and publish one after another in a fixed order.
+    /// Steps every object once and publishes its outputs. Objects step in parallel, each
+    /// against the contact hulls the others of its frame had at the start of the tick (soft
+    /// against soft), and publish one after another in a fixed order.
     pub fn tick(&mut self, outputs: &Outputs) {
         self.remove_stale(outputs);
         if self.on_the_beat {
             self.publish_pending(outputs);
         }
+        let colliders = self.touch_each_other();
         let scene = &mut self.scene;
         rayon::join(
             || {
-                self.bodies.par_iter_mut().for_each(|b| {
-                    b.body.step();
-                })
+                self.bodies
+                    .par_iter_mut()
+                    .zip(colliders)
+                    .for_each(|(b, colliders)| {
+                        b.body.set_colliders(colliders);
+                        b.body.step();
+                    })
             },
             || {
                 if let Some(s) = scene {
@@ -118,6 +127,54 @@ impl Stage {
         if !self.on_the_beat {
             self.publish_pending(outputs);
         }
+    }
+
+    /// Per body, the other bodies of its output frame as obstacles (their contact hulls where
+    /// they are now); the hulls are kept for the next tick, where a sleeping body reuses its own.
+    fn touch_each_other(&mut self) -> Vec<Vec<Obstacle>> {
+        let shares_a_frame: Vec<bool> = (0..self.bodies.len())
+            .map(|i| {
+                let frame = &self.bodies[i].output_frame;
+                (0..self.bodies.len()).any(|j| j != i && self.bodies[j].output_frame == *frame)
+            })
+            .collect();
+        for (b, _) in self
+            .bodies
+            .iter_mut()
+            .zip(&shares_a_frame)
+            .filter(|(_, s)| **s)
+        {
+            // A pinned body has no contact points of its own until something can touch it.
+            b.body.enable_contacts();
+        }
+        let bodies: Vec<Option<&SoftBody>> = self.bodies.iter().map(|b| Some(&b.body)).collect();
+        let kept: Vec<Option<&Obstacle>> = self
+            .bodies
+            .iter()
+            .map(|b| {
+                self.hulls
+                    .iter()
+                    .find(|(id, _)| *id == b.id)
+                    .map(|(_, h)| h)
+            })
+            .collect();
+        let hulls = contact_hulls(&bodies, &kept);
+        let colliders = (0..self.bodies.len())
+            .map(|i| {
+                let frame = &self.bodies[i].output_frame;
+                (0..self.bodies.len())
+                    .filter(|&j| j != i && self.bodies[j].output_frame == *frame)
+                    .filter_map(|j| hulls[j].clone())
+                    .collect()
+            })
+            .collect();
+        self.hulls = self
+            .bodies
+            .iter()
+            .zip(hulls)
+            .filter_map(|(b, h)| Some((b.id, h?)))
+            .collect();
+        colliders
     }
 
     /// (objects, awake objects), scene objects included.

@@ -17,7 +17,7 @@ use super::robot::{to_parry, Robot};
 use super::SceneError;
 use crate::geometry::Shape;
 use crate::physics::{Obstacle, SimParams};
-use crate::pipeline::{BodyOptions, SoftBody, Support};
+use crate::pipeline::{contact_hulls, BodyOptions, SoftBody, Support};
 use crate::skinning::{NeuralModel, RefineBudget, SkinningField};
 use crate::Result;
 
@@ -369,44 +369,21 @@ impl Scene {
     }
 
     /// Every deformable object's contact hull where it is now (soft against soft: each
-    /// object's contact points are pushed out of the others' hulls within its own solve). An
-    /// object far from every other gets an empty hull, and a sleeping one keeps its last (its
-    /// points have not moved).
+    /// object's contact points are pushed out of the others' hulls within its own solve).
     fn contact_hulls(&self) -> Vec<(usize, Obstacle)> {
-        let reach: Vec<Option<(Vector3<f64>, Vector3<f64>)>> = self
-            .objects
-            .iter()
-            .map(|o| {
-                let (lo, hi) = o.body.as_ref()?.deformed_bounds();
-                let margin = Vector3::repeat(0.1 * (hi - lo).norm());
-                Some((lo - margin, hi + margin))
+        let bodies: Vec<Option<&SoftBody>> = self.objects.iter().map(|o| o.body.as_ref()).collect();
+        let kept: Vec<Option<&Obstacle>> = (0..self.objects.len())
+            .map(|i| {
+                self.soft_hulls
+                    .iter()
+                    .find(|(j, _)| *j == i)
+                    .map(|(_, h)| h)
             })
             .collect();
-        let near = |i: usize, (lo, hi): (Vector3<f64>, Vector3<f64>)| {
-            reach.iter().enumerate().any(|(j, other)| {
-                j != i
-                    && other.is_some_and(|(olo, ohi)| {
-                        (0..3).all(|d| olo[d] <= hi[d] && ohi[d] >= lo[d])
-                    })
-            })
-        };
-        self.objects
-            .par_iter()
+        contact_hulls(&bodies, &kept)
+            .into_iter()
             .enumerate()
-            .filter_map(|(i, o)| {
-                let body = o.body.as_ref()?;
-                let kept = self.soft_hulls.iter().find(|(j, _)| *j == i);
-                let hull = match kept {
-                    _ if !near(i, reach[i]?) => Obstacle::nowhere(),
-                    Some((_, h))
-                        if body.is_sleeping() && !body.fell_asleep() && !h.is_nowhere() =>
-                    {
-                        h.clone()
-                    }
-                    _ => body.contact_hull().unwrap_or_else(Obstacle::nowhere),
-                };
-                Some((i, hull))
-            })
+            .filter_map(|(i, hull)| Some((i, hull?)))
             .collect()
     }
 
