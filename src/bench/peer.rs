@@ -38,8 +38,21 @@ const FEM_CELLS: usize = 16;
 /// MuJoCo's dof variants.
 const MUJOCO_VARIANTS: [&str; 3] = ["full", "trilinear", "quadratic"];
 /// physskin's sizes: (handles with the constant one, cubature points).
-const PHYSSKIN_SIZES: [(usize, usize); 6] =
-    [(1, 64), (5, 64), (5, 256), (9, 256), (17, 256), (17, 1024)];
+const PHYSSKIN_SIZES: [(usize, usize); 13] = [
+    (1, 16),
+    (1, 64),
+    (3, 64),
+    (5, 32),
+    (5, 64),
+    (5, 256),
+    (9, 64),
+    (9, 256),
+    (13, 64),
+    (13, 128),
+    (17, 128),
+    (17, 256),
+    (17, 1024),
+];
 const SCENARIOS: [Scenario; 2] = [Scenario::Drop, Scenario::Poke];
 
 /// How the bench runs.

@@ -29,36 +29,46 @@ impl ReducedSim {
         if self.contacts.is_empty() {
             return;
         }
-        let positions: Vec<Vector3<f64>> = self.contacts.iter().map(|c| c.at(z)).collect();
+        let step = z - &self.z;
         let reach = self
             .contacts
             .iter()
-            .zip(&positions)
-            .map(|(c, x)| (x - c.at(&self.z)).norm())
+            .map(|c| c.moved_by(&step).norm())
             .fold(0.0, f64::max);
         let margin = 0.1 * self.diagonal + 2.0 * reach;
-        let bounds: Vec<_> = self
-            .obstacles
-            .iter()
-            .chain(&self.colliders)
-            .map(|o| o.bounds(margin))
-            .collect();
+        let mut positions: Option<Vec<Vector3<f64>>> = None;
         let mut candidates = std::mem::take(&mut self.candidates);
-        for (c, x) in positions.iter().enumerate() {
-            for (o, b) in bounds.iter().enumerate() {
-                let near = match (self.obstacle(o), b) {
-                    // A floor is near only the points within the margin above it: testing all
-                    // of an object's surface against it every evaluation would cost more than
-                    // the rest of the step.
-                    (Obstacle::Plane { normal, offset }, _) => offset - normal.dot(x) > -margin,
-                    (_, Some((lo, hi))) => (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]),
-                    (_, None) => true,
-                };
-                if near {
-                    candidates.push((c, o));
+        for o in 0..self.obstacles.len() + self.colliders.len() {
+            match self.obstacle(o) {
+                // A floor is near only the points within the margin above it: testing all of
+                // an object's surface against it every evaluation would cost more than the
+                // rest of the step. A point's height is n.X + (Z^T n).phi, a third of its
+                // position's cost.
+                Obstacle::Plane { normal, offset } => {
+                    let lift = z.tr_mul(normal);
+                    for (c, contact) in self.contacts.iter().enumerate() {
+                        let height = normal.dot(&contact.rest) + lift.dot(&contact.phi);
+                        if offset - height > -margin {
+                            candidates.push((c, o));
+                        }
+                    }
+                }
+                obstacle => {
+                    let positions = positions
+                        .get_or_insert_with(|| self.contacts.iter().map(|c| c.at(z)).collect());
+                    let bounds = obstacle.bounds(margin);
+                    for (c, x) in positions.iter().enumerate() {
+                        let near = bounds
+                            .is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));
+                        if near {
+                            candidates.push((c, o));
+                        }
+                    }
                 }
             }
         }
+        // Point by point, as the sums over them have always run.
+        candidates.sort_unstable();
         self.candidates = candidates;
     }
 

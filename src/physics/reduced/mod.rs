@@ -99,11 +99,16 @@ impl ReducedPoint {
     /// Where the point is in state `z`: rest + Z phi, summed here without the temporaries a
     /// matrix product would allocate (the broad phase and every evaluation take it per point).
     fn at(&self, z: &DMatrix<f64>) -> Vector3<f64> {
-        let mut x = self.rest;
-        for (column, p) in z.as_slice().chunks_exact(3).zip(self.phi.iter()) {
-            x += Vector3::new(column[0], column[1], column[2]) * *p;
+        self.rest + self.moved_by(z)
+    }
+
+    /// How far the point moves under a change `step` of the state: step phi.
+    fn moved_by(&self, step: &DMatrix<f64>) -> Vector3<f64> {
+        let mut d = Vector3::zeros();
+        for (column, p) in step.as_slice().chunks_exact(3).zip(self.phi.iter()) {
+            d += Vector3::new(column[0], column[1], column[2]) * *p;
         }
-        x
+        d
     }
 }
 
@@ -580,7 +585,9 @@ impl ReducedSim {
             let contact = &self.contacts[c];
             if let Some(p) = self.obstacle(o).penetration(&contact.at(z)) {
                 energy += 0.5 * kc * contact.weight * p.depth * p.depth;
-                gradient -= (p.normal * (kc * contact.weight * p.depth)) * contact.phi.transpose();
+                // In place: an outer product per touching point would allocate, and a resting
+                // body has hundreds of them in every evaluation.
+                gradient.ger(-kc * contact.weight * p.depth, &p.normal, &contact.phi, 1.0);
                 touching.push((c, o));
             }
         }
@@ -588,7 +595,7 @@ impl ReducedSim {
             let contact = &self.contacts[stick.point];
             let (e, g) = stick.energy_and_gradient(&contact.at(z));
             energy += e;
-            gradient += g * contact.phi.transpose();
+            gradient.ger(1.0, &g, &contact.phi, 1.0);
         }
         for roll in &self.rolls {
             let (e, g) = roll.energy_and_gradient(z);
