@@ -2,8 +2,8 @@
 
 use nalgebra::Vector3;
 use physskin::geometry::{
-    box_mesh, bundled, load_geometry, sample_surface, sdf_mesh, write_obj, Cubature, RawGeometry,
-    Shape, SurfaceSampling, TetMesh, VoxelGrid,
+    box_mesh, bundled, load_geometry, reference_mesh, sample_surface, sdf_mesh, write_obj,
+    Cubature, RawGeometry, Shape, SurfaceSampling, TetMesh, VoxelGrid,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -190,7 +190,6 @@ fn tet_mesh_covers_the_solid_and_interpolates_linear_functions_exactly() {
     assert!((tet_volume - grid.solid_count() as f64 * cell.powi(3)).abs() < 1e-9);
     let lumped: f64 = mesh.lumped_volumes().iter().sum();
     assert!((lumped - tet_volume).abs() < 1e-9);
-    let linear = |p: &Vector3<f64>| 2.0 * p.x - 3.0 * p.y + 0.5 * p.z + 1.0;
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let (lo, hi) = grid.solid_bounds();
     let mut checked = 0;
@@ -200,21 +199,44 @@ fn tet_mesh_covers_the_solid_and_interpolates_linear_functions_exactly() {
         if !grid.contains(&p) {
             continue;
         }
-        let at = mesh.locate(&p);
-        let value: f64 = (0..4)
-            .map(|i| at.barycentric[i] * linear(&mesh.vertices[at.vertices[i] as usize]))
-            .sum();
-        let gradient: Vector3<f64> = (0..4)
-            .map(|i| at.gradients[i] * linear(&mesh.vertices[at.vertices[i] as usize]))
-            .sum();
-        assert!((at.barycentric.iter().sum::<f64>() - 1.0).abs() < 1e-12);
-        assert!(at.barycentric.iter().all(|b| *b >= -1e-12));
-        assert!((value - linear(&p)).abs() < 1e-9);
-        assert!((gradient - Vector3::new(2.0, -3.0, 0.5)).norm() < 1e-9);
+        interpolates_linear_functions_at(&mesh, &p);
         checked += 1;
     }
     let boundary_area: f64 = mesh.boundary_areas.iter().sum();
     assert!(boundary_area > 0.0);
+}
+
+/// At `p`, inside the mesh's solid: the located weights are a partition of unity, none
+/// negative, and interpolating a linear function from the vertices gives it and its gradient.
+fn interpolates_linear_functions_at(mesh: &TetMesh, p: &Vector3<f64>) {
+    let linear = |p: &Vector3<f64>| 2.0 * p.x - 3.0 * p.y + 0.5 * p.z + 1.0;
+    let at = mesh.locate(p);
+    let value: f64 = (0..4)
+        .map(|i| at.barycentric[i] * linear(&mesh.vertices[at.vertices[i] as usize]))
+        .sum();
+    let gradient: Vector3<f64> = (0..4)
+        .map(|i| at.gradients[i] * linear(&mesh.vertices[at.vertices[i] as usize]))
+        .sum();
+    assert!((at.barycentric.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    assert!(at.barycentric.iter().all(|b| *b >= -1e-12));
+    assert!((value - linear(p)).abs() < 1e-9, "value {value} at {p:?}");
+    assert!(
+        (gradient - Vector3::new(2.0, -3.0, 0.5)).norm() < 1e-9,
+        "{gradient:?} at {p:?}"
+    );
+}
+
+/// A reference mesh stretched to fit a slab (cells cubic in the grid's frame, a 6 cm side
+/// spanned by whole cells) locates in the world: the FEM's lifter and its tetrahedra agree.
+#[test]
+fn a_stretched_reference_mesh_locates_in_the_world() {
+    let mesh = reference_mesh(&box_mesh(Vector3::new(0.4, 0.4, 0.06))).mesh;
+    for p in [
+        Vector3::new(0.013, -0.17, 0.021),
+        Vector3::new(-0.19, 0.05, -0.029),
+    ] {
+        interpolates_linear_functions_at(&mesh, &p);
+    }
 }
 
 #[test]

@@ -145,10 +145,6 @@ impl ReducedSim {
                     .is_some()
             })
             .collect();
-        self.signature_of(touching)
-    }
-
-    fn signature_of(&self, touching: Vec<(usize, usize)>) -> ContactSignature {
         ContactSignature {
             touching,
             sticks: self.sticks.iter().map(|s| s.point).collect(),

@@ -17,12 +17,12 @@ impl ReducedSim {
     /// Refactors the preconditioner for the state `z` when the body has turned or the contact
     /// springs acting (the pairs in touch, friction) differ from those it was factored with.
     /// Elasticity is invariant under a rotation of the whole body, so the held elastic Hessian
-    /// turned by that rotation is the Hessian of the turned state: a tumbling body keeps an accurate preconditioner without
-    /// reassembling it. Contact curvature changes from one step to the next and is added
-    /// exactly. Both cost a few small products and one 12K x 12K factorization, a fraction of
-    /// the elastic Hessian's assembly; without them, a falling or landing body costs many
-    /// iterations and a refresh of the whole Hessian. A body resting on the same points keeps
-    /// its factor: the curvature changes only with which springs act.
+    /// turned by that rotation is the Hessian of the turned state: a tumbling body keeps an
+    /// accurate preconditioner without reassembling it. Contact curvature changes from one step
+    /// to the next and is added exactly. Both cost a few small products and one 12K x 12K
+    /// factorization, a fraction of the elastic Hessian's assembly; without them, a falling or
+    /// landing body costs many iterations and a refresh of the whole Hessian. A body resting on
+    /// the same points keeps its factor: the curvature changes only with which springs act.
     pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) {
         let signature = self.contact_signature(z);
         self.held_matrix();

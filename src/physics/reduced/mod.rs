@@ -125,8 +125,8 @@ struct Evaluation {
     elastic: f64,
     nonquadratic_gradient: DMatrix<f64>,
     gradient: DMatrix<f64>,
-    /// (contact, obstacle) pairs in touch, in the broad phase's order.
-    touching: Vec<(usize, usize)>,
+    /// Contact points inside an obstacle.
+    touching: usize,
 }
 
 const LBFGS_PAIRS: usize = 8;
@@ -534,7 +534,7 @@ impl ReducedSim {
         self.time += self.params.dt;
         report.elastic_energy = current.elastic;
         report.constraint_energy = current.nonquadratic - current.elastic + self.pin_energy();
-        report.contacts = current.touching.len();
+        report.contacts = current.touching;
         report.factorizations = self.factorizations - factorizations;
         let velocity = self.velocity();
         report.kinetic_energy = 0.5 * quadratic(&velocity, self.subspace.mass_phi());
@@ -579,7 +579,7 @@ impl ReducedSim {
     fn evaluate(&self, z: &DMatrix<f64>, objective: &StepObjective) -> Evaluation {
         let (elastic, mut gradient) = self.subspace.elastic_forces(z, &self.material);
         let mut energy = elastic;
-        let mut touching = Vec::new();
+        let mut touching = 0;
         let kc = self.params.contact_stiffness;
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
@@ -588,7 +588,7 @@ impl ReducedSim {
                 // In place: an outer product per touching point would allocate, and a resting
                 // body has hundreds of them in every evaluation.
                 gradient.ger(-kc * contact.weight * p.depth, &p.normal, &contact.phi, 1.0);
-                touching.push((c, o));
+                touching += 1;
             }
         }
         for stick in &self.sticks {
