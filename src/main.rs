@@ -456,13 +456,15 @@ fn run_bench_stress(json: bool) -> physskin::Result<()> {
         return Ok(());
     }
     println!(
-        "| case | E Pa | nu | dt s | steps | NaN steps | energy peak J | after J | end J | bounded | Newton iterations mean / max | fallback steps | unconverged steps | max moved m | ms/step |"
+        "| case | E Pa | nu | dt s | steps | NaN steps | energy peak J | after J | end J | bounded | Newton iterations mean / max | fallback steps | extended steps | stiffened steps | unconverged steps | pin drift mm | max moved m | ms/step |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|");
+    println!(
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     for row in &r.rows {
         let c = &row.case;
         println!(
-            "| {} | {:.0e} | {} | {:.4} | {} | {} | {:.4e} | {:.4e} | {:.4e} | {} | {:.2} / {} | {} | {} | {:.4} | {:.3} |",
+            "| {} | {:.0e} | {} | {:.4} | {} | {} | {:.4e} | {:.4e} | {:.4e} | {} | {:.2} / {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.3} |",
             c.name,
             c.young,
             c.poisson,
@@ -476,7 +478,10 @@ fn run_bench_stress(json: bool) -> physskin::Result<()> {
             row.iterations_mean,
             row.iterations_max,
             row.fallback_steps,
+            row.extended_steps,
+            row.stiffened_steps,
             row.unconverged_steps,
+            row.pin_drift_mm,
             row.max_displacement_m,
             row.step_ms_mean
         );

@@ -27,6 +27,10 @@ pub struct SimParams {
     /// Pin penalty, 1/s^2 per unit mass (pinned points act like springs of this squared
     /// angular frequency). Default 1e8.
     pub pin_stiffness: f64,
+    /// How far pinned material may drift from its pin, m: a step whose springs let it go
+    /// farther is solved again with the pins held exactly. Default 1e-3.
+    #[serde(default = "default_pin_tolerance")]
+    pub pin_tolerance: f64,
     /// Floor penalty, N/m^3 (pressure per metre of penetration). Default 1e7.
     pub contact_stiffness: f64,
     /// Coulomb friction coefficient of contacts (lagged stick friction, see `Stick`). Default 0.
@@ -55,6 +59,7 @@ impl Default for SimParams {
             gravity: Vector3::new(0.0, 0.0, -9.81),
             damping: 0.0,
             pin_stiffness: 1e8,
+            pin_tolerance: default_pin_tolerance(),
             contact_stiffness: 1e7,
             friction: 0.0,
             rolling_friction: 0.0,
@@ -62,6 +67,10 @@ impl Default for SimParams {
             max_iterations: 20,
         }
     }
+}
+
+fn default_pin_tolerance() -> f64 {
+    1e-3
 }
 
 impl SimParams {
@@ -99,6 +108,16 @@ impl SimParams {
             self.pin_stiffness.is_finite() && self.pin_stiffness >= 0.0,
             "pin_stiffness",
             || format!("must be >= 0, got {}", self.pin_stiffness),
+        )?;
+        ensure(
+            self.pin_tolerance.is_finite() && self.pin_tolerance > 0.0,
+            "pin_tolerance",
+            || {
+                format!(
+                    "must be a positive number of metres, got {}",
+                    self.pin_tolerance
+                )
+            },
         )?;
         ensure(
             self.contact_stiffness.is_finite() && self.contact_stiffness >= 0.0,

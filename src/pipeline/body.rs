@@ -719,6 +719,16 @@ impl SoftBody {
     pub fn pin_count(&self) -> usize {
         self.sim.pin_count()
     }
+
+    /// The farthest a pinned point is from its target now, m (0 without pins).
+    pub fn pin_drift(&self) -> f64 {
+        self.sim.pin_drift()
+    }
+
+    /// Whether a push acts in the next step or will later.
+    pub fn is_pushed(&self) -> bool {
+        self.sim.has_active_pokes()
+    }
 }
 
 fn bounds_of(xyz: &[f32]) -> (Vector3<f64>, Vector3<f64>) {

@@ -499,7 +499,8 @@ fn publish_last_step(b: &mut ReadyBody, outputs: &Outputs, markers_due: bool, cl
     publish_step_of(b.id, &b.output_frame, &b.body, surface, cloud, outputs);
 }
 
-/// Publishes a step (and a warning if it did not converge).
+/// Publishes a step, with a warning if it did not converge and a note if its budget was
+/// extended or its pin springs stiffened.
 fn publish_step_of(
     id: u32,
     frame: &str,
@@ -517,6 +518,20 @@ fn publish_step_of(
             report.iterations, report.decrement
         );
         outputs.report(Status::WARN, id, "step_unconverged", message);
+    }
+    if report.budget_extensions > 0 {
+        let message = format!(
+            "step took {} iterations: its budget was given again {} times while it still descended",
+            report.iterations, report.budget_extensions
+        );
+        outputs.report(Status::INFO, id, "step_budget_extended", message);
+    }
+    if report.pin_stiffenings > 0 {
+        let message = format!(
+            "a force past what the pin springs hold: made {}x stiffer for this step",
+            10f64.powi(report.pin_stiffenings as i32)
+        );
+        outputs.report(Status::INFO, id, "pin_springs_stiffened", message);
     }
     outputs.publish_step(id, outputs.header(frame), body, surface, cloud);
 }

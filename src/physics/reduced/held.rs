@@ -75,12 +75,7 @@ impl ReducedSim {
     pub(super) fn held_matrix(&mut self) -> &DMatrix<f64> {
         if self.held.is_none() {
             let matrix = if self.z.amax() == 0.0 {
-                let rest = self.rest_hessian.get_or_insert_with(|| {
-                    let h = self.material.stress_derivative(&Matrix3::identity(), true);
-                    self.subspace
-                        .elastic_hessian(&vec![h; self.subspace.cubature_len()])
-                });
-                let mut matrix = rest.clone();
+                let mut matrix = self.rest_elastic_hessian().clone();
                 add_kron_identity(&mut matrix, &self.quadratic_part());
                 matrix
             } else {
@@ -93,9 +88,13 @@ impl ReducedSim {
     }
 
     pub(super) fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {
-        // Inertia makes it positive definite; the tiny ridge only guards round-off.
+        // Inertia makes it positive definite; the tiny ridge only guards round-off. It goes
+        // on before the pins' restriction, which must leave the held directions uncoupled.
         for i in 0..matrix.nrows() {
             matrix[(i, i)] += 1e-12 * matrix[(i, i)].abs().max(1e-300);
+        }
+        if let Some(pinning) = self.pin_constraint() {
+            pinning.restrict_hessian(&mut matrix);
         }
         DenseCholesky::new(matrix.as_slice(), matrix.nrows())
             .expect("inertia plus a PSD Hessian is positive definite")

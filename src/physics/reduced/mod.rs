@@ -1,18 +1,22 @@
 //! Reduced-order dynamics: implicit Euler over the handle state z, each step an energy
 //! minimization solved by Newton (the exact Hessian where it is definite, else PSD-projected;
 //! dense Cholesky) or by L-BFGS preconditioned with the rest-state Hessian, factored once
-//! ("quasi-Newton"), both with an Armijo backtracking line search.
+//! ("quasi-Newton"), both with an Armijo backtracking line search. A step still descending
+//! when its budget runs out gets it again (and says so); pins are exact where they dominate
+//! the body and springs elsewhere, stiffened for a step whose forces they would lose.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 mod contact;
 mod held;
+mod pinning;
+mod pins;
 mod rebase;
 
 pub use rebase::state_projection;
@@ -22,9 +26,10 @@ use super::obstacle::{Anchors, Obstacle, Stick};
 use super::rolling::{RollAnchors, RollingStick};
 use super::scene::{Poke, SimParams};
 use super::subspace::Subspace;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::linalg::DenseCholesky;
 use contact::ContactSignature;
+use pinning::PinConstraint;
 
 /// How each implicit step is solved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -65,6 +70,14 @@ pub struct StepReport {
     /// resting on the same points.
     #[serde(default)]
     pub factorizations: usize,
+    /// Times the last solver's budget (`max_iterations`) was given again because the step
+    /// was still descending when it ran out; 0 for a step that converged within its budget.
+    #[serde(default)]
+    pub budget_extensions: usize,
+    /// Times the pin springs were made 10 times stiffer for this step and it was solved again,
+    /// because they let pinned material drift past `pin_tolerance`; 0 for most steps.
+    #[serde(default)]
+    pub pin_stiffenings: usize,
     /// Contact points inside an obstacle at the end of the step.
     pub contacts: usize,
     /// |dz . g| when the solver stopped (J).
@@ -133,6 +146,14 @@ const LBFGS_PAIRS: usize = 8;
 /// After this many quasi-Newton iterations in one step, the held Hessian is refreshed.
 const REFRESH_AFTER_ITERATIONS: usize = 8;
 const ARMIJO: f64 = 1e-4;
+/// How many times a step's last solver may get its budget again while it still descends.
+const BUDGET_EXTENSIONS: usize = 10;
+/// Pinned material this many pin tolerances away during a solve means the springs have lost
+/// it: the solve stops and the step is solved again with stiffer springs.
+const STIFFEN_AT_ONCE: f64 = 10.0;
+/// Each stiffening multiplies the pin springs by this; at most `MAX_STIFFENINGS` per step.
+const STIFFENING: f64 = 10.0;
+const MAX_STIFFENINGS: usize = 6;
 
 /// One deformable object simulated in its skinning subspace.
 pub struct ReducedSim {
@@ -149,6 +170,11 @@ pub struct ReducedSim {
     /// (4K x 4K) and B = sum m (X - T) phi^T (3 x 4K).
     pin_phi: DMatrix<f64>,
     pin_offset: DMatrix<f64>,
+    /// The pins' directions held exactly; out of date after pins are added or released.
+    pinning: Option<PinConstraint>,
+    /// The pin springs' stiffness over `pin_stiffness` this step: 1 but in steps they lose.
+    pin_boost: f64,
+    pinning_stale: bool,
     contacts: Vec<ReducedPoint>,
     obstacles: Vec<Obstacle>,
     /// Obstacles that move (robot links), replaced before each step.
@@ -209,6 +235,9 @@ impl ReducedSim {
             pins: Vec::new(),
             pin_phi: DMatrix::zeros(4 * k, 4 * k),
             pin_offset: DMatrix::zeros(3, 4 * k),
+            pinning: None,
+            pin_boost: 1.0,
+            pinning_stale: true,
             contacts: Vec::new(),
             obstacles: Vec::new(),
             colliders: Vec::new(),
@@ -272,101 +301,13 @@ impl ReducedSim {
         self.time = 0.0;
     }
 
-    /// Holds these material points (rest positions, masses in kg) at their rest positions by
-    /// penalty springs.
-    pub fn add_pins(&mut self, points: &[Vector3<f64>], masses: &[f64]) {
-        self.add_pin_group(points, masses, 0);
-    }
-
-    /// Pins that move together: `move_pin_group` later carries their targets along a rigid
-    /// motion (an attachment to a robot link). Group 0 is the ordinary pins.
-    pub fn add_pin_group(&mut self, points: &[Vector3<f64>], masses: &[f64], group: u32) {
-        for (phi, (x, m)) in self
-            .subspace
-            .phis(points)
-            .into_iter()
-            .zip(points.iter().zip(masses))
-        {
-            self.pin_phi.ger(*m, &phi, &phi, 1.0);
-            self.pins.push(ReducedPoint {
-                rest: *x,
-                phi,
-                weight: *m,
-                target: *x,
-                group,
-            });
-        }
-        self.update_pin_offsets();
-        self.preconditioner = None;
-    }
-
-    /// Moves the targets of a pin group to `motion` applied to their rest positions; returns
-    /// how far the farthest target moved (m).
-    pub fn move_pin_group(&mut self, group: u32, motion: &Isometry3<f64>) -> f64 {
-        let mut moved: f64 = 0.0;
-        for pin in self.pins.iter_mut().filter(|p| p.group == group) {
-            let target = motion.transform_point(&pin.rest.into()).coords;
-            moved = moved.max((target - pin.target).norm());
-            pin.target = target;
-        }
-        if moved > 0.0 {
-            self.update_pin_offsets();
-        }
-        moved
-    }
-
-    /// Pins these material points where they are now (not at rest), e.g. a grasp.
-    pub fn hold(&mut self, points: &[Vector3<f64>], masses: &[f64]) {
-        let first = self.pins.len();
-        self.add_pins(points, masses);
-        for pin in &mut self.pins[first..] {
-            pin.target = pin.at(&self.z);
-        }
-        self.update_pin_offsets();
-    }
-
-    /// Releases the pins whose rest positions lie within `radius` of `center`; returns how many.
-    pub fn release_pins_within(&mut self, center: &Vector3<f64>, radius: f64) -> usize {
-        let before = self.pins.len();
-        self.pins.retain(|p| (p.rest - center).norm() > radius);
-        let released = before - self.pins.len();
-        if released > 0 {
-            self.pin_phi.fill(0.0);
-            for pin in &self.pins {
-                self.pin_phi.ger(pin.weight, &pin.phi, &pin.phi, 1.0);
-            }
-            self.update_pin_offsets();
-            self.preconditioner = None;
-        }
-        released
-    }
-
-    /// The number of pinned points.
-    pub fn pin_count(&self) -> usize {
-        self.pins.len()
-    }
-
-    fn update_pin_offsets(&mut self) {
-        self.pin_offset.fill(0.0);
-        for pin in &self.pins {
-            let r = pin.rest - pin.target;
-            self.pin_offset += (r * pin.weight) * pin.phi.transpose();
-        }
-    }
-
-    /// Moves the pin targets (one per pinned point, in the order they were added).
-    pub fn set_pin_targets(&mut self, targets: &[Vector3<f64>]) -> Result<()> {
-        if targets.len() != self.pins.len() {
-            return Err(Error::InvalidParameter {
-                name: "pin targets",
-                reason: format!("{} targets for {} pins", targets.len(), self.pins.len()),
-            });
-        }
-        for (pin, t) in self.pins.iter_mut().zip(targets) {
-            pin.target = *t;
-        }
-        self.update_pin_offsets();
-        Ok(())
+    /// The elastic Hessian at rest (PSD-projected), assembled on first use.
+    fn rest_elastic_hessian(&mut self) -> &DMatrix<f64> {
+        let (material, subspace) = (&self.material, &self.subspace);
+        self.rest_hessian.get_or_insert_with(|| {
+            let h = material.stress_derivative(&Matrix3::identity(), true);
+            subspace.elastic_hessian(&vec![h; subspace.cubature_len()])
+        })
     }
 
     /// Surface points (rest positions, the area each stands for) that collide with obstacles.
@@ -432,10 +373,13 @@ impl ReducedSim {
         self.pokes.push((phi, poke));
     }
 
-    /// Does the one-off work of the configured solver now (the rest Hessian and its
-    /// factorization for quasi-Newton) instead of in the first step: call it off the real-time
-    /// loop after adding pins.
+    /// Does the one-off work of the configured solver now (the pins' exact directions, the
+    /// rest Hessian and its factorization for quasi-Newton) instead of in the first step: call
+    /// it off the real-time loop after adding pins.
     pub fn prepare(&mut self) {
+        if self.pinning_stale {
+            self.update_pinning();
+        }
         if self.solver == Solver::QuasiNewton && self.preconditioner.is_none() {
             self.preconditioner = Some(self.build_preconditioner());
         }
@@ -447,81 +391,33 @@ impl ReducedSim {
         let factorizations = self.factorizations;
         let predicted = &self.z * 2.0 - &self.z_prev;
         let previous = self.z.clone();
-        let mut z = predicted.clone();
         let mut report = StepReport::default();
+        if self.pin_boost != 1.0 {
+            self.relax_pin_springs();
+        }
         self.prepare();
-        self.find_candidates(&predicted);
+        let mut z = self.placed_on_pins(&predicted);
+        self.find_candidates(&z);
         self.find_sticks();
         if self.solver == Solver::QuasiNewton {
-            self.hold_at(&predicted);
+            self.hold_at(&z);
         }
-        let objective = self.step_objective(&predicted, &previous);
-        let mut current = self.evaluate(&z, &objective);
-        // Curvature pairs carry over from the previous steps: the Hessian changes little between
-        // steps, so they make a better start than the rest Hessian alone.
-        let mut history = std::mem::take(&mut self.history);
-        let mut mode = self.solver;
-        let mut budget = self.params.max_iterations;
-        let mut since_refresh = 0;
-        loop {
-            if mode == Solver::QuasiNewton && since_refresh == REFRESH_AFTER_ITERATIONS {
-                // Slow progress: the held Hessian no longer describes the state. Refactor it
-                // here and hold it from now on; pairs measured against the old one would pull
-                // the new one back toward it.
-                self.hold_new(self.smooth_hessian_at(&z), &z);
-                history.clear();
-                since_refresh = 0;
-                report.refreshes += 1;
+        let mut objective = self.step_objective(&predicted, &previous);
+        let mut current = self.solve(&mut z, &objective, &mut report);
+        while self.pin_drift_at(&z) > self.params.pin_tolerance
+            && report.pin_stiffenings < MAX_STIFFENINGS
+        {
+            // A force the pin springs cannot hold: solve the step again with stiffer ones.
+            // Only this step's: stiff springs condition the solve badly.
+            report.pin_stiffenings += 1;
+            self.stiffen_pin_springs(STIFFENING);
+            z = self.placed_on_pins(&predicted);
+            if self.solver == Solver::QuasiNewton {
+                self.hold_at(&z);
             }
-            let gradient = flat(&current.gradient);
-            let mut direction = match mode {
-                Solver::Newton => self.newton_direction(&z, &gradient),
-                Solver::QuasiNewton => self.lbfgs_direction(&gradient, &history),
-            };
-            let mut slope = direction.dot(&gradient);
-            if !is_descent(slope) && mode == Solver::QuasiNewton && !history.is_empty() {
-                history.clear();
-                direction = self.lbfgs_direction(&gradient, &history);
-                slope = direction.dot(&gradient);
-            }
-            report.decrement = slope.abs();
-            if report.decrement < self.decrement_tolerance || !slope.is_finite() {
-                report.converged = slope.is_finite();
-                break;
-            }
-            let searched = if budget > 0 && is_descent(slope) {
-                self.line_search(&z, &direction, slope, &current, &objective)
-            } else {
-                None
-            };
-            let Some((step, next)) = searched else {
-                // Out of iterations or no descent: quasi-Newton hands the step to full Newton
-                // once; Newton itself stops and reports the step as unconverged.
-                if mode == Solver::QuasiNewton {
-                    mode = Solver::Newton;
-                    budget = self.params.max_iterations;
-                    report.fallback = true;
-                    continue;
-                }
-                break;
-            };
-            budget -= 1;
-            since_refresh += 1;
-            report.iterations += 1;
-            if mode == Solver::QuasiNewton {
-                let s = &direction * step;
-                let y = flat(&next.gradient) - &gradient;
-                if s.dot(&y) > 1e-12 * s.norm() * y.norm() {
-                    history.push_back((s, y));
-                    if history.len() > LBFGS_PAIRS {
-                        history.pop_front();
-                    }
-                }
-            }
-            z += unflat(&(&direction * step), self.subspace.handles());
-            current = next;
+            objective = self.step_objective(&predicted, &previous);
+            current = self.solve(&mut z, &objective, &mut report);
         }
-        self.history = history;
         // A step that needed the Newton fallback means the held Hessian no longer describes the
         // state: refactor it at the new state before the next step.
         if self.solver == Solver::QuasiNewton && report.fallback {
@@ -541,6 +437,105 @@ impl ReducedSim {
         report.gravity_energy = -(&self.z * self.subspace.mass_moment()).dot(&self.params.gravity);
         report.seconds = started.elapsed().as_secs_f64();
         report
+    }
+
+    /// Minimizes the step objective from `z` (on the pins), leaving the minimizer in `z` and
+    /// returning its evaluation. Quasi-Newton hands a step it cannot finish to full Newton,
+    /// and so does a step whose pins are locked; a solver still descending when its budget runs
+    /// out gets it again, up to `BUDGET_EXTENSIONS` times, and the report counts them.
+    fn solve(
+        &mut self,
+        z: &mut DMatrix<f64>,
+        objective: &StepObjective,
+        report: &mut StepReport,
+    ) -> Evaluation {
+        let mut current = self.evaluate(z, objective);
+        // Curvature pairs carry over from the previous steps: the Hessian changes little between
+        // steps, so they make a better start than the rest Hessian alone.
+        let mut history = std::mem::take(&mut self.history);
+        let mut mode = self.solver;
+        let mut budget = self.params.max_iterations;
+        let mut extensions = 0;
+        let mut newton_tried = false;
+        let mut since_refresh = 0;
+        // Springs losing their pins show it early: such a solve stops for stiffer springs.
+        let watch_pins = self.pinning.is_some() && report.pin_stiffenings < MAX_STIFFENINGS;
+        loop {
+            if mode == Solver::QuasiNewton && since_refresh == REFRESH_AFTER_ITERATIONS {
+                // Slow progress: the held Hessian no longer describes the state. Refactor it
+                // here and hold it from now on; pairs measured against the old one would pull
+                // the new one back toward it.
+                self.hold_new(self.smooth_hessian_at(z), z);
+                history.clear();
+                since_refresh = 0;
+                report.refreshes += 1;
+            }
+            let gradient = flat(&current.gradient);
+            let mut direction = match mode {
+                Solver::Newton => self.newton_direction(z, &gradient),
+                Solver::QuasiNewton => self.lbfgs_direction(&gradient, &history),
+            };
+            let mut slope = direction.dot(&gradient);
+            if !is_descent(slope) && mode == Solver::QuasiNewton && !history.is_empty() {
+                history.clear();
+                direction = self.lbfgs_direction(&gradient, &history);
+                slope = direction.dot(&gradient);
+            }
+            report.decrement = slope.abs();
+            report.converged = false;
+            if report.decrement < self.decrement_tolerance || !slope.is_finite() {
+                report.converged = slope.is_finite();
+                break;
+            }
+            let searched = if budget > 0 && is_descent(slope) {
+                self.line_search(z, &direction, slope, &current, objective)
+            } else {
+                None
+            };
+            let Some((step, next)) = searched else {
+                // A solver still descending when its budget runs out gets it again, as
+                // L-BFGS over a Hessian refreshed here: in violent steps it converges in a
+                // fraction of Newton's time. Before that, quasi-Newton hands a step it cannot
+                // finish to full Newton once. Otherwise the step ends unconverged.
+                let extend = budget == 0 && (mode == Solver::Newton || extensions > 0);
+                if extend && extensions < BUDGET_EXTENSIONS {
+                    extensions += 1;
+                    budget = self.params.max_iterations;
+                    mode = Solver::QuasiNewton;
+                    since_refresh = REFRESH_AFTER_ITERATIONS;
+                    continue;
+                }
+                if mode == Solver::QuasiNewton && !newton_tried {
+                    newton_tried = true;
+                    mode = Solver::Newton;
+                    budget = self.params.max_iterations;
+                    report.fallback |= self.solver == Solver::QuasiNewton;
+                    continue;
+                }
+                break;
+            };
+            budget -= 1;
+            since_refresh += 1;
+            report.iterations += 1;
+            if mode == Solver::QuasiNewton {
+                let s = &direction * step;
+                let y = flat(&next.gradient) - &gradient;
+                if s.dot(&y) > 1e-12 * s.norm() * y.norm() {
+                    history.push_back((s, y));
+                    if history.len() > LBFGS_PAIRS {
+                        history.pop_front();
+                    }
+                }
+            }
+            *z += unflat(&(&direction * step), self.subspace.handles());
+            current = next;
+            if watch_pins && self.pin_drift_at(z) > STIFFEN_AT_ONCE * self.params.pin_tolerance {
+                break;
+            }
+        }
+        self.history = history;
+        report.budget_extensions += extensions;
+        current
     }
 
     fn line_search(
@@ -602,7 +597,10 @@ impl ReducedSim {
             energy += e;
             gradient += g;
         }
-        let total = &gradient + times_symmetric(z, &objective.quadratic) - &objective.linear;
+        let mut total = &gradient + times_symmetric(z, &objective.quadratic) - &objective.linear;
+        if let Some(pinning) = self.pin_constraint() {
+            pinning.free_part(&mut total);
+        }
         Evaluation {
             nonquadratic: energy,
             elastic,
@@ -616,7 +614,7 @@ impl ReducedSim {
     fn step_objective(&self, predicted: &DMatrix<f64>, previous: &DMatrix<f64>) -> StepObjective {
         let h = self.params.dt;
         let c = self.params.damping;
-        let k = self.params.pin_stiffness;
+        let k = self.pin_stiffness();
         let mass = self.subspace.mass_phi();
         let gravity: DMatrix<f64> = DMatrix::from_fn(3, mass.ncols(), |d, a| {
             self.params.gravity[d] * self.subspace.mass_moment()[a]
@@ -644,11 +642,14 @@ impl ReducedSim {
     fn quadratic_part(&self) -> DMatrix<f64> {
         let h = self.params.dt;
         self.subspace.mass_phi() * (1.0 / (h * h) + self.params.damping / h)
-            + &self.pin_phi * self.params.pin_stiffness
+            + &self.pin_phi * self.pin_stiffness()
     }
 
     fn newton_direction(&mut self, z: &DMatrix<f64>, gradient: &DVector<f64>) -> DVector<f64> {
-        let hessian = self.hessian_at(z);
+        let mut hessian = self.hessian_at(z);
+        if let Some(pinning) = self.pin_constraint() {
+            pinning.restrict_hessian(&mut hessian);
+        }
         self.solve_or_descend(&hessian, gradient)
     }
 
@@ -708,20 +709,6 @@ impl ReducedSim {
             }
         }
         direction
-    }
-
-    /// Energy of the pin springs at the current state (J).
-    fn pin_energy(&self) -> f64 {
-        let k = self.params.pin_stiffness;
-        self.pins
-            .iter()
-            .map(|p| 0.5 * k * p.weight * (p.at(&self.z) - p.target).norm_squared())
-            .sum()
-    }
-
-    /// Deformed positions of the pinned points (for reports and tests).
-    pub fn pinned_positions(&self) -> Vec<Vector3<f64>> {
-        self.pins.iter().map(|p| p.at(&self.z)).collect()
     }
 
     /// Deformed position of a material point given by its rest position.

@@ -1,0 +1,193 @@
+//! The pins of a reduced body: points held at targets (fixed, moved as a group, or where they
+//! are now), as penalty springs whose dominant directions are held exactly (see `pinning`),
+//! stiffened for the steps whose forces they would otherwise lose.
+
+use nalgebra::{DMatrix, Isometry3, Vector3};
+
+use super::pinning::{PinConstraint, DOMINANT_PINS};
+use super::{add_kron_identity, ReducedPoint, ReducedSim};
+use crate::error::{Error, Result};
+
+impl ReducedSim {
+    /// Holds these material points (rest positions, masses in kg) at their rest positions:
+    /// penalty springs, exact along the directions where they dominate the body.
+    pub fn add_pins(&mut self, points: &[Vector3<f64>], masses: &[f64]) {
+        self.add_pin_group(points, masses, 0);
+    }
+
+    /// Pins that move together: `move_pin_group` later carries their targets along a rigid
+    /// motion (an attachment to a robot link). Group 0 is the ordinary pins.
+    pub fn add_pin_group(&mut self, points: &[Vector3<f64>], masses: &[f64], group: u32) {
+        for (phi, (x, m)) in self
+            .subspace
+            .phis(points)
+            .into_iter()
+            .zip(points.iter().zip(masses))
+        {
+            self.pin_phi.ger(*m, &phi, &phi, 1.0);
+            self.pins.push(ReducedPoint {
+                rest: *x,
+                phi,
+                weight: *m,
+                target: *x,
+                group,
+            });
+        }
+        self.pinning_stale = true;
+        self.update_pin_offsets();
+        self.preconditioner = None;
+    }
+
+    /// Moves the targets of a pin group to `motion` applied to their rest positions; returns
+    /// how far the farthest target moved (m).
+    pub fn move_pin_group(&mut self, group: u32, motion: &Isometry3<f64>) -> f64 {
+        let mut moved: f64 = 0.0;
+        for pin in self.pins.iter_mut().filter(|p| p.group == group) {
+            let target = motion.transform_point(&pin.rest.into()).coords;
+            moved = moved.max((target - pin.target).norm());
+            pin.target = target;
+        }
+        if moved > 0.0 {
+            self.update_pin_offsets();
+        }
+        moved
+    }
+
+    /// Pins these material points where they are now (not at rest), e.g. a grasp.
+    pub fn hold(&mut self, points: &[Vector3<f64>], masses: &[f64]) {
+        let first = self.pins.len();
+        self.add_pins(points, masses);
+        for pin in &mut self.pins[first..] {
+            pin.target = pin.at(&self.z);
+        }
+        self.update_pin_offsets();
+    }
+
+    /// Releases the pins whose rest positions lie within `radius` of `center`; returns how many.
+    pub fn release_pins_within(&mut self, center: &Vector3<f64>, radius: f64) -> usize {
+        let before = self.pins.len();
+        self.pins.retain(|p| (p.rest - center).norm() > radius);
+        let released = before - self.pins.len();
+        if released > 0 {
+            self.pin_phi.fill(0.0);
+            for pin in &self.pins {
+                self.pin_phi.ger(pin.weight, &pin.phi, &pin.phi, 1.0);
+            }
+            self.pinning_stale = true;
+            self.update_pin_offsets();
+            self.preconditioner = None;
+        }
+        released
+    }
+
+    /// The number of pinned points.
+    pub fn pin_count(&self) -> usize {
+        self.pins.len()
+    }
+
+    pub(super) fn update_pin_offsets(&mut self) {
+        self.pin_offset.fill(0.0);
+        for pin in &self.pins {
+            let r = pin.rest - pin.target;
+            self.pin_offset += (r * pin.weight) * pin.phi.transpose();
+        }
+        if let Some(pinning) = &mut self.pinning {
+            pinning.hold_for(&self.pin_offset);
+        }
+    }
+
+    /// Finds the pins' directions to hold exactly, against the body at rest: elasticity,
+    /// inertia and damping.
+    pub(super) fn update_pinning(&mut self) {
+        self.pinning_stale = false;
+        self.pinning = None;
+        if self.pins.is_empty() || self.params.pin_stiffness == 0.0 {
+            return;
+        }
+        let h = self.params.dt;
+        let mut body = self.rest_elastic_hessian().clone();
+        let inertia = self.subspace.mass_phi() * (1.0 / (h * h) + self.params.damping / h);
+        add_kron_identity(&mut body, &inertia);
+        let k = self.params.pin_stiffness;
+        self.pinning = PinConstraint::dominant(&self.pin_phi, k, &body, DOMINANT_PINS);
+        self.update_pin_offsets();
+        // Factors made without the constraint solve for the held directions too.
+        self.preconditioner = None;
+    }
+
+    /// Moves the pin targets (one per pinned point, in the order they were added).
+    pub fn set_pin_targets(&mut self, targets: &[Vector3<f64>]) -> Result<()> {
+        if targets.len() != self.pins.len() {
+            return Err(Error::InvalidParameter {
+                name: "pin targets",
+                reason: format!("{} targets for {} pins", targets.len(), self.pins.len()),
+            });
+        }
+        for (pin, t) in self.pins.iter_mut().zip(targets) {
+            pin.target = *t;
+        }
+        self.update_pin_offsets();
+        Ok(())
+    }
+
+    /// Energy of the pin springs at the current state (J).
+    pub(super) fn pin_energy(&self) -> f64 {
+        let k = self.pin_stiffness();
+        self.pins
+            .iter()
+            .map(|p| 0.5 * k * p.weight * (p.at(&self.z) - p.target).norm_squared())
+            .sum()
+    }
+
+    /// The farthest a pinned point is from its target now, m (0 without pins).
+    pub fn pin_drift(&self) -> f64 {
+        self.pin_drift_at(&self.z)
+    }
+
+    pub(super) fn pin_drift_at(&self, z: &DMatrix<f64>) -> f64 {
+        self.pins
+            .iter()
+            .map(|p| (p.at(z) - p.target).norm())
+            .fold(0.0, f64::max)
+    }
+
+    /// The pin constraint: the directions held exactly.
+    pub(super) fn pin_constraint(&self) -> Option<&PinConstraint> {
+        self.pinning.as_ref()
+    }
+
+    /// The pin springs' stiffness this step, 1/s^2.
+    pub(super) fn pin_stiffness(&self) -> f64 {
+        self.params.pin_stiffness * self.pin_boost
+    }
+
+    /// Makes the pin springs `factor` times stiffer for this step. The held matrix includes
+    /// them, so it is made anew, and with it the curvature pairs.
+    pub(super) fn stiffen_pin_springs(&mut self, factor: f64) {
+        self.pin_boost *= factor;
+        self.held = None;
+        self.preconditioner = None;
+        self.factored_contact = None;
+        self.history.clear();
+    }
+
+    /// The pin springs back to `pin_stiffness` after a step that stiffened them.
+    pub(super) fn relax_pin_springs(&mut self) {
+        self.stiffen_pin_springs(1.0 / self.pin_boost);
+        self.pin_boost = 1.0;
+    }
+
+    /// `z` moved onto the pin constraint this step holds.
+    pub(super) fn placed_on_pins(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut placed = z.clone();
+        if let Some(pinning) = self.pin_constraint() {
+            pinning.place(&mut placed);
+        }
+        placed
+    }
+
+    /// Deformed positions of the pinned points (for reports and tests).
+    pub fn pinned_positions(&self) -> Vec<Vector3<f64>> {
+        self.pins.iter().map(|p| p.at(&self.z)).collect()
+    }
+}
