@@ -27,8 +27,9 @@ pub struct SimParams {
     /// Pin penalty, 1/s^2 per unit mass (pinned points act like springs of this squared
     /// angular frequency). Default 1e8.
     pub pin_stiffness: f64,
-    /// How far pinned material may drift from its pin, m: a step whose springs let it go
-    /// farther is solved again with the pins held exactly. Default 1e-3.
+    /// How far pinned material may drift from its pin, m, at least (objects over 1 m long may
+    /// drift a thousandth of their bounding diagonal): a step whose pin springs let it go
+    /// farther is solved again with stiffer springs. Default 1e-3.
     #[serde(default = "default_pin_tolerance")]
     pub pin_tolerance: f64,
     /// Floor penalty, N/m^3 (pressure per metre of penetration). Default 1e7.

@@ -75,7 +75,8 @@ pub struct StepReport {
     #[serde(default)]
     pub budget_extensions: usize,
     /// Times the pin springs were made 10 times stiffer for this step and it was solved again,
-    /// because they let pinned material drift past `pin_tolerance`; 0 for most steps.
+    /// because they let pinned material drift past its tolerance (`SimParams::pin_tolerance`);
+    /// 0 for most steps.
     #[serde(default)]
     pub pin_stiffenings: usize,
     /// Contact points inside an obstacle at the end of the step.
@@ -404,7 +405,7 @@ impl ReducedSim {
         }
         let mut objective = self.step_objective(&predicted, &previous);
         let mut current = self.solve(&mut z, &objective, &mut report);
-        while self.pin_drift_at(&z) > self.params.pin_tolerance
+        while self.pin_drift_at(&z) > self.pin_tolerance()
             && report.pin_stiffenings < MAX_STIFFENINGS
         {
             // A force the pin springs cannot hold: solve the step again with stiffer ones.
@@ -529,7 +530,7 @@ impl ReducedSim {
             }
             *z += unflat(&(&direction * step), self.subspace.handles());
             current = next;
-            if watch_pins && self.pin_drift_at(z) > STIFFEN_AT_ONCE * self.params.pin_tolerance {
+            if watch_pins && self.pin_drift_at(z) > STIFFEN_AT_ONCE * self.pin_tolerance() {
                 break;
             }
         }

@@ -8,6 +8,9 @@ use super::pinning::{PinConstraint, DOMINANT_PINS};
 use super::{add_kron_identity, ReducedPoint, ReducedSim};
 use crate::error::{Error, Result};
 
+/// The drift, as a fraction of the body's bounding diagonal, that pins may always have.
+const PIN_DRIFT_OF_SIZE: f64 = 1e-3;
+
 impl ReducedSim {
     /// Holds these material points (rest positions, masses in kg) at their rest positions:
     /// penalty springs, exact along the directions where they dominate the body.
@@ -154,6 +157,15 @@ impl ReducedSim {
     /// The pin constraint: the directions held exactly.
     pub(super) fn pin_constraint(&self) -> Option<&PinConstraint> {
         self.pinning.as_ref()
+    }
+
+    /// How far pinned material may drift, m: `pin_tolerance`, or a thousandth of the body's
+    /// diagonal if that is more. Pins that hold an object still to a thousandth of its size
+    /// are held; stiffening their springs further would only lock the body near them.
+    pub fn pin_tolerance(&self) -> f64 {
+        self.params
+            .pin_tolerance
+            .max(PIN_DRIFT_OF_SIZE * self.diagonal)
     }
 
     /// The pin springs' stiffness this step, 1/s^2.
