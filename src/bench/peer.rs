@@ -38,10 +38,14 @@ const FEM_CELLS: usize = 16;
 /// MuJoCo's dof variants.
 const MUJOCO_VARIANTS: [&str; 3] = ["full", "trilinear", "quadratic"];
 /// physskin's sizes: (handles with the constant one, cubature points).
-const PHYSSKIN_SIZES: [(usize, usize); 13] = [
+const PHYSSKIN_SIZES: [(usize, usize); 17] = [
     (1, 16),
     (1, 64),
+    (2, 16),
+    (3, 16),
     (3, 64),
+    (4, 16),
+    (5, 20),
     (5, 32),
     (5, 64),
     (5, 256),

@@ -27,7 +27,6 @@ impl ReducedSim {
             .into_iter()
             .zip(points.iter().zip(masses))
         {
-            self.pin_phi.ger(*m, &phi, &phi, 1.0);
             self.pins.push(ReducedPoint {
                 rest: *x,
                 phi,
@@ -36,9 +35,7 @@ impl ReducedSim {
                 group,
             });
         }
-        self.pinning_stale = true;
-        self.update_pin_offsets();
-        self.preconditioner = None;
+        self.pins_changed();
     }
 
     /// Moves the targets of a pin group to `motion` applied to their rest positions; returns
@@ -72,13 +69,7 @@ impl ReducedSim {
         self.pins.retain(|p| (p.rest - center).norm() > radius);
         let released = before - self.pins.len();
         if released > 0 {
-            self.pin_phi.fill(0.0);
-            for pin in &self.pins {
-                self.pin_phi.ger(pin.weight, &pin.phi, &pin.phi, 1.0);
-            }
-            self.pinning_stale = true;
-            self.update_pin_offsets();
-            self.preconditioner = None;
+            self.pins_changed();
         }
         released
     }
@@ -88,12 +79,37 @@ impl ReducedSim {
         self.pins.len()
     }
 
-    pub(super) fn update_pin_offsets(&mut self) {
-        self.pin_offset.fill(0.0);
+    /// Indexes the pins anew after some were added or released: their phis side by side
+    /// (4K x n) and P = sum m phi phi^T; the exact directions are found again before the next
+    /// step.
+    pub(super) fn pins_changed(&mut self) {
+        let rows = self.pin_phi.nrows();
+        self.pin_phis = DMatrix::from_fn(rows, self.pins.len(), |a, i| self.pins[i].phi[a]);
+        self.pin_phi.fill(0.0);
         for pin in &self.pins {
-            let r = pin.rest - pin.target;
-            self.pin_offset += (r * pin.weight) * pin.phi.transpose();
+            self.pin_phi.ger(pin.weight, &pin.phi, &pin.phi, 1.0);
         }
+        self.lightest_pin = self
+            .pins
+            .iter()
+            .map(|p| p.weight)
+            .fold(f64::INFINITY, f64::min);
+        self.pinning_stale = true;
+        self.preconditioner = None;
+        self.update_pin_offsets();
+    }
+
+    /// After the targets moved: the gaps X - T (3 x n) and B = sum m (X - T) phi^T, in two
+    /// products (an attachment moves its pins every step).
+    pub(super) fn update_pin_offsets(&mut self) {
+        self.pin_gaps = DMatrix::from_fn(3, self.pins.len(), |d, i| {
+            self.pins[i].rest[d] - self.pins[i].target[d]
+        });
+        let weighted = DMatrix::from_fn(3, self.pins.len(), |d, i| {
+            self.pin_gaps[(d, i)] * self.pins[i].weight
+        });
+        self.pin_gap_sum = weighted.dot(&self.pin_gaps);
+        self.pin_offset = weighted * self.pin_phis.transpose();
         if let Some(pinning) = &mut self.pinning {
             pinning.hold_for(&self.pin_offset);
         }
@@ -135,11 +151,7 @@ impl ReducedSim {
 
     /// Energy of the pin springs at the current state (J).
     pub(super) fn pin_energy(&self) -> f64 {
-        let k = self.pin_stiffness();
-        self.pins
-            .iter()
-            .map(|p| 0.5 * k * p.weight * (p.at(&self.z) - p.target).norm_squared())
-            .sum()
+        0.5 * self.pin_stiffness() * self.pin_spring_sum(&self.z)
     }
 
     /// The farthest a pinned point is from its target now, m (0 without pins).
@@ -147,11 +159,38 @@ impl ReducedSim {
         self.pin_drift_at(&self.z)
     }
 
-    pub(super) fn pin_drift_at(&self, z: &DMatrix<f64>) -> f64 {
-        self.pins
-            .iter()
-            .map(|p| (p.at(z) - p.target).norm())
+    /// sum m |Z phi + X - T|^2 over the pins, in closed form: tr(Z P Z^T) + 2 <B, Z> + sum m
+    /// |X - T|^2, a few products of the 4K-wide matrices whatever the number of pins.
+    fn pin_spring_sum(&self, z: &DMatrix<f64>) -> f64 {
+        let quadratic = (z * &self.pin_phi).dot(z);
+        (quadratic + 2.0 * self.pin_offset.dot(z) + self.pin_gap_sum).max(0.0)
+    }
+
+    /// Whether every pinned point is within `tolerance` of its target in state `z` (the solvers
+    /// ask every iteration). The closed-form sum bounds the farthest pin, m_min d_max^2 <= sum,
+    /// and answers most calls; only when it cannot are the pins placed one by one.
+    pub(super) fn pins_within(&self, z: &DMatrix<f64>, tolerance: f64) -> bool {
+        if self.pins.is_empty() || self.pin_spring_sum(z) <= self.lightest_pin * tolerance.powi(2) {
+            return true;
+        }
+        self.pin_drift_at(z) <= tolerance
+    }
+
+    /// The farthest a pinned point is from its target in state `z`.
+    fn pin_drift_at(&self, z: &DMatrix<f64>) -> f64 {
+        self.pin_offsets_at(z)
+            .column_iter()
+            .map(|c| c.norm_squared())
             .fold(0.0, f64::max)
+            .sqrt()
+    }
+
+    /// Each pinned point's offset from its target in state `z` (3 x n): Z Phi + (X - T), one
+    /// product instead of a position per pin.
+    fn pin_offsets_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut offsets = z * &self.pin_phis;
+        offsets += &self.pin_gaps;
+        offsets
     }
 
     /// The pin constraint: the directions held exactly.

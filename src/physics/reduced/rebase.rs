@@ -37,10 +37,7 @@ impl ReducedSim {
         next.z_prev = &self.z_prev * projection;
         next.time = self.time;
         next.pins = resampled(&next.subspace, &self.pins);
-        for pin in &next.pins {
-            next.pin_phi.ger(pin.weight, &pin.phi, &pin.phi, 1.0);
-        }
-        next.update_pin_offsets();
+        next.pins_changed();
         next.contacts = if contact_phis.len() == self.contacts.len() {
             (self.contacts.iter().zip(contact_phis))
                 .map(|(p, phi)| ReducedPoint { phi, ..p.clone() })
