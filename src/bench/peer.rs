@@ -38,7 +38,7 @@ const FEM_CELLS: usize = 16;
 /// MuJoCo's dof variants.
 const MUJOCO_VARIANTS: [&str; 3] = ["full", "trilinear", "quadratic"];
 /// physskin's sizes: (handles with the constant one, cubature points).
-const PHYSSKIN_SIZES: [(usize, usize); 17] = [
+const PHYSSKIN_SIZES: [(usize, usize); 20] = [
     (1, 16),
     (1, 64),
     (2, 16),
@@ -51,6 +51,9 @@ const PHYSSKIN_SIZES: [(usize, usize); 17] = [
     (5, 256),
     (9, 64),
     (9, 256),
+    (11, 48),
+    (11, 64),
+    (13, 52),
     (13, 64),
     (13, 128),
     (17, 128),
