@@ -93,7 +93,7 @@ impl ReducedSim {
         for i in 0..matrix.nrows() {
             matrix[(i, i)] += 1e-12 * matrix[(i, i)].abs().max(1e-300);
         }
-        if let Some(pinning) = self.pin_constraint() {
+        if let Some(pinning) = self.pinning.as_ref() {
             pinning.restrict_hessian(&mut matrix);
         }
         DenseCholesky::new(matrix.as_slice(), matrix.nrows())

@@ -110,6 +110,28 @@ struct ReducedPoint {
 }
 
 impl ReducedPoint {
+    /// The material points at `rests` sampled in `subspace`, each with its weight, held at its
+    /// rest position.
+    fn sampled(
+        subspace: &Subspace,
+        rests: &[Vector3<f64>],
+        weights: &[f64],
+        group: u32,
+    ) -> Vec<ReducedPoint> {
+        (subspace
+            .phis(rests)
+            .into_iter()
+            .zip(rests.iter().zip(weights)))
+        .map(|(phi, (x, w))| ReducedPoint {
+            rest: *x,
+            phi,
+            weight: *w,
+            target: *x,
+            group,
+        })
+        .collect()
+    }
+
     /// Where the point is in state `z`: rest + Z phi, summed here without the temporaries a
     /// matrix product would allocate (the broad phase and every evaluation take it per point).
     fn at(&self, z: &DMatrix<f64>) -> Vector3<f64> {
@@ -324,20 +346,8 @@ impl ReducedSim {
 
     /// Surface points (rest positions, the area each stands for) that collide with obstacles.
     pub fn add_contact_points(&mut self, points: &[Vector3<f64>], areas: &[f64]) {
-        for (phi, (x, a)) in self
-            .subspace
-            .phis(points)
-            .into_iter()
-            .zip(points.iter().zip(areas))
-        {
-            self.contacts.push(ReducedPoint {
-                rest: *x,
-                phi,
-                weight: *a,
-                target: *x,
-                group: 0,
-            });
-        }
+        let sampled = ReducedPoint::sampled(&self.subspace, points, areas, 0);
+        self.contacts.extend(sampled);
     }
 
     /// Adds a static obstacle; contact points collide with it.
@@ -405,7 +415,8 @@ impl ReducedSim {
         let previous = self.z.clone();
         let mut report = StepReport::default();
         if self.pin_boost != 1.0 {
-            self.relax_pin_springs();
+            // The springs go back to their own stiffness after a step that stiffened them.
+            self.set_pin_boost(1.0);
         }
         self.prepare();
         let mut z = self.placed_on_pins(&predicted);
@@ -422,7 +433,7 @@ impl ReducedSim {
             // A force the pin springs cannot hold: solve the step again with stiffer ones.
             // Only this step's: stiff springs condition the solve badly.
             report.pin_stiffenings += 1;
-            self.stiffen_pin_springs(STIFFENING);
+            self.set_pin_boost(self.pin_boost * STIFFENING);
             z = self.placed_on_pins(&predicted);
             if self.solver == Solver::QuasiNewton {
                 self.hold_at(&z);
@@ -452,9 +463,9 @@ impl ReducedSim {
     }
 
     /// Minimizes the step objective from `z` (on the pins), leaving the minimizer in `z` and
-    /// returning its evaluation. Quasi-Newton hands a step it cannot finish to full Newton,
-    /// and so does a step whose pins are locked; a solver still descending when its budget runs
-    /// out gets it again, up to `BUDGET_EXTENSIONS` times, and the report counts them.
+    /// returning its evaluation. Quasi-Newton hands a step it cannot finish to full Newton; a
+    /// solver still descending when its budget runs out gets it again, up to
+    /// `BUDGET_EXTENSIONS` times, and the report counts them.
     fn solve(
         &mut self,
         z: &mut DMatrix<f64>,
@@ -470,6 +481,9 @@ impl ReducedSim {
         let mut extensions = 0;
         let mut newton_tried = false;
         let mut since_refresh = 0;
+        // A step solved again (stiffer pin springs) starts unconverged, whatever the last solve
+        // said.
+        report.converged = false;
         // Springs losing their pins show it early: such a solve stops for stiffer springs.
         let watch_pins = self.pinning.is_some() && report.pin_stiffenings < MAX_STIFFENINGS;
         loop {
@@ -494,7 +508,6 @@ impl ReducedSim {
                 slope = direction.dot(&gradient);
             }
             report.decrement = slope.abs();
-            report.converged = false;
             if report.decrement < self.decrement_tolerance || !slope.is_finite() {
                 report.converged = slope.is_finite();
                 break;
@@ -610,7 +623,7 @@ impl ReducedSim {
             gradient += g;
         }
         let mut total = &gradient + times_symmetric(z, &objective.quadratic) - &objective.linear;
-        if let Some(pinning) = self.pin_constraint() {
+        if let Some(pinning) = self.pinning.as_ref() {
             pinning.free_part(&mut total);
         }
         Evaluation {
@@ -659,7 +672,7 @@ impl ReducedSim {
 
     fn newton_direction(&mut self, z: &DMatrix<f64>, gradient: &DVector<f64>) -> DVector<f64> {
         let mut hessian = self.hessian_at(z);
-        if let Some(pinning) = self.pin_constraint() {
+        if let Some(pinning) = self.pinning.as_ref() {
             pinning.restrict_hessian(&mut hessian);
         }
         self.solve_or_descend(&hessian, gradient)

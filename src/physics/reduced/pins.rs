@@ -21,20 +21,8 @@ impl ReducedSim {
     /// Pins that move together: `move_pin_group` later carries their targets along a rigid
     /// motion (an attachment to a robot link). Group 0 is the ordinary pins.
     pub fn add_pin_group(&mut self, points: &[Vector3<f64>], masses: &[f64], group: u32) {
-        for (phi, (x, m)) in self
-            .subspace
-            .phis(points)
-            .into_iter()
-            .zip(points.iter().zip(masses))
-        {
-            self.pins.push(ReducedPoint {
-                rest: *x,
-                phi,
-                weight: *m,
-                target: *x,
-                group,
-            });
-        }
+        let sampled = ReducedPoint::sampled(&self.subspace, points, masses, group);
+        self.pins.extend(sampled);
         self.pins_changed();
     }
 
@@ -130,8 +118,6 @@ impl ReducedSim {
         let k = self.params.pin_stiffness;
         self.pinning = PinConstraint::dominant(&self.pin_phi, k, &body, DOMINANT_PINS);
         self.update_pin_offsets();
-        // Factors made without the constraint solve for the held directions too.
-        self.preconditioner = None;
     }
 
     /// Moves the pin targets (one per pinned point, in the order they were added).
@@ -193,11 +179,6 @@ impl ReducedSim {
         offsets
     }
 
-    /// The pin constraint: the directions held exactly.
-    pub(super) fn pin_constraint(&self) -> Option<&PinConstraint> {
-        self.pinning.as_ref()
-    }
-
     /// How far pinned material may drift, m: `pin_tolerance`, or a thousandth of the body's
     /// diagonal if that is more. Pins that hold an object still to a thousandth of its size
     /// are held; stiffening their springs further would only lock the body near them.
@@ -212,26 +193,20 @@ impl ReducedSim {
         self.params.pin_stiffness * self.pin_boost
     }
 
-    /// Makes the pin springs `factor` times stiffer for this step. The held matrix includes
-    /// them, so it is made anew, and with it the curvature pairs.
-    pub(super) fn stiffen_pin_springs(&mut self, factor: f64) {
-        self.pin_boost *= factor;
+    /// Sets the pin springs' stiffness to `boost` times `pin_stiffness`. The held matrix
+    /// includes them, so it is made anew, and with it the curvature pairs.
+    pub(super) fn set_pin_boost(&mut self, boost: f64) {
+        self.pin_boost = boost;
         self.held = None;
         self.preconditioner = None;
         self.factored_contact = None;
         self.history.clear();
     }
 
-    /// The pin springs back to `pin_stiffness` after a step that stiffened them.
-    pub(super) fn relax_pin_springs(&mut self) {
-        self.stiffen_pin_springs(1.0 / self.pin_boost);
-        self.pin_boost = 1.0;
-    }
-
     /// `z` moved onto the pin constraint this step holds.
     pub(super) fn placed_on_pins(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let mut placed = z.clone();
-        if let Some(pinning) = self.pin_constraint() {
+        if let Some(pinning) = &self.pinning {
             pinning.place(&mut placed);
         }
         placed
