@@ -39,8 +39,9 @@ pub enum Solver {
     /// every iteration.
     Newton,
     /// L-BFGS (8 pairs, kept across steps) over a held, factored Hessian: the rest-state one
-    /// at first, refactored at the current state whenever a step has taken 8 iterations; a step
-    /// it cannot finish is handed to full Newton.
+    /// at first, refactored at the current state whenever a step has taken 8 iterations. A step
+    /// still descending when its budget runs out gets it again over a refreshed Hessian; one it
+    /// cannot descend in, or still cannot finish, is handed to full Newton.
     QuasiNewton,
 }
 
@@ -61,7 +62,8 @@ pub struct StepReport {
     pub iterations: usize,
     /// Whether the decrement |dz . g| fell below the convergence threshold.
     pub converged: bool,
-    /// The quasi-Newton solver ran out of iterations and full Newton finished the step.
+    /// The quasi-Newton solver found no descent, or ran out of its budget and every extension
+    /// of it, and full Newton finished the step.
     pub fallback: bool,
     /// Times the quasi-Newton solver refactored its held Hessian during the step.
     pub refreshes: usize,
@@ -519,11 +521,12 @@ impl ReducedSim {
             };
             let Some((step, next)) = searched else {
                 // A solver still descending when its budget runs out gets it again, as
-                // L-BFGS over a Hessian refreshed here: in violent steps it converges in a
-                // fraction of Newton's time. Before that, quasi-Newton hands a step it cannot
-                // finish to full Newton once. Otherwise the step ends unconverged.
-                let extend = budget == 0 && (mode == Solver::Newton || extensions > 0);
-                if extend && extensions < BUDGET_EXTENSIONS {
+                // L-BFGS over a Hessian refreshed here: it converges in a few iterations after
+                // the refresh, where full Newton would assemble a Hessian for each of its own
+                // (a plate's impact took 36 ms that way). Quasi-Newton hands a step it cannot
+                // descend in, or still cannot finish, to full Newton once. Otherwise the step
+                // ends unconverged.
+                if budget == 0 && extensions < BUDGET_EXTENSIONS {
                     extensions += 1;
                     budget = self.params.max_iterations;
                     mode = Solver::QuasiNewton;
