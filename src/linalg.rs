@@ -198,6 +198,24 @@ impl SparseCholesky {
     }
 }
 
+/// `a b` for nalgebra matrices, by faer's matrix product on the calling thread. nalgebra's own
+/// product of a 3-row matrix by a wide one runs column by column: for a body's thousand contact
+/// points it cost more than the rest of the step.
+pub fn product(a: &nalgebra::DMatrix<f64>, b: &nalgebra::DMatrix<f64>) -> nalgebra::DMatrix<f64> {
+    assert_eq!(a.ncols(), b.nrows(), "inner dimensions of a product");
+    let mut out = nalgebra::DMatrix::zeros(a.nrows(), b.ncols());
+    let (rows, cols) = out.shape();
+    faer::linalg::matmul::matmul(
+        MatMut::from_column_major_slice_mut(out.as_mut_slice(), rows, cols),
+        faer::Accum::Replace,
+        faer::MatRef::from_column_major_slice(a.as_slice(), a.nrows(), a.ncols()),
+        faer::MatRef::from_column_major_slice(b.as_slice(), b.nrows(), b.ncols()),
+        1.0,
+        Par::Seq,
+    );
+    out
+}
+
 /// Dense LL^T of a symmetric positive definite matrix (column-major, n x n): faer's blocked
 /// factorization, run on the calling thread. At the reduced sizes (a few hundred) thread
 /// hand-offs cost more than they save, and it is about five times faster than an unblocked one:

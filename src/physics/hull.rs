@@ -84,6 +84,17 @@ impl ConvexHull {
         (self.lo - m, self.hi + m)
     }
 
+    /// Whether `p` is inside or may be within `margin` of the hull: false only when a face's
+    /// plane has it farther outside than that (the distance to a convex solid is at least the
+    /// largest distance outside one of its face planes).
+    pub fn is_within(&self, p: &Vector3<f64>, margin: f64) -> bool {
+        !self.planes.is_empty()
+            && self
+                .planes
+                .iter()
+                .all(|(normal, offset)| normal.dot(p) - offset < margin)
+    }
+
     /// How deep `p` is inside (m) and the outward normal of the nearest face; None outside.
     pub fn penetration(&self, p: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
         if self.planes.is_empty() {

@@ -82,6 +82,23 @@ impl Obstacle {
         }
     }
 
+    /// Whether `p` is inside the obstacle or may be within `margin` of it: the broad phase's
+    /// exact test, once per point and step, so that the solver's evaluations test only the
+    /// points that can touch. A gripper's or a bin's bounding box holds every point of what it
+    /// holds, and testing all of them against the mesh in every evaluation was most of a
+    /// step's time.
+    pub fn is_within(&self, p: &Vector3<f64>, margin: f64) -> bool {
+        match self {
+            Obstacle::Plane { normal, offset } => offset - normal.dot(p) > -margin,
+            Obstacle::Hull(hull) => hull.is_within(p, margin),
+            Obstacle::Shape { shape, pose } => {
+                let point = Vector::new(p.x as f32, p.y as f32, p.z as f32);
+                let projection = shape.project_point(pose, point, false);
+                projection.is_inside || ((projection.point - point).length() as f64) < margin
+            }
+        }
+    }
+
     /// Where a point at `p` fixed to this obstacle is when the obstacle has moved to `to`: how
     /// a link carries what it grips. `p` itself when `to` is not this obstacle moved (another
     /// kind of obstacle, or a plane turned).

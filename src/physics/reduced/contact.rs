@@ -3,7 +3,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::ReducedSim;
+use super::{ReducedPoint, ReducedSim};
+use crate::linalg::product;
 use crate::physics::obstacle::{carried_by, Obstacle, Stick};
 use crate::physics::rolling::{RollingStick, ROLL_SLIP};
 
@@ -21,49 +22,59 @@ pub(super) struct ContactSignature {
 }
 
 impl ReducedSim {
+    /// Surface points (rest positions, the area each stands for) that collide with obstacles.
+    pub fn add_contact_points(&mut self, points: &[Vector3<f64>], areas: &[f64]) {
+        let sampled = ReducedPoint::sampled(&self.subspace, points, areas, 0);
+        self.contacts.extend(sampled);
+        self.contacts_changed();
+    }
+
+    /// Where the contact points are now (world), in the order they were added.
+    pub fn contact_positions(&self) -> Vec<Vector3<f64>> {
+        let positions = self.contact_positions_at(&self.z);
+        positions
+            .column_iter()
+            .map(|x| Vector3::new(x[0], x[1], x[2]))
+            .collect()
+    }
+
+    /// Indexes the contact points anew after some were added or resampled.
+    pub(super) fn contacts_changed(&mut self) {
+        let (rows, n) = (4 * self.subspace.handles(), self.contacts.len());
+        self.contact_phis = DMatrix::from_fn(rows, n, |a, i| self.contacts[i].phi[a]);
+        self.contact_rests = DMatrix::from_fn(3, n, |d, i| self.contacts[i].rest[d]);
+    }
+
+    /// Every contact point's position at `z` (3 x n), in one product: point by point, the
+    /// broad phase of a body with a thousand contact points cost more than its solve.
+    fn contact_positions_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
+        &self.contact_rests + product(z, &self.contact_phis)
+    }
+
     /// The broad phase: the (contact, obstacle) pairs to test during a step from state `z`.
-    /// A point farther from an obstacle's bounding box (or a floor) than a tenth of the
-    /// object's size plus twice its predicted move is taken not to reach it within the step.
+    /// A point farther from an obstacle (a floor, a hull's face planes, a mesh) than a tenth of
+    /// the object's size plus twice its predicted move is taken not to reach it within the
+    /// step. Boxes first, then the exact test once per point: a gripper's or a bin's box holds
+    /// everything it holds, and testing all of it in every evaluation was most of a step.
     pub(super) fn find_candidates(&mut self, z: &DMatrix<f64>) {
         self.candidates.clear();
         if self.contacts.is_empty() {
             return;
         }
-        let step = z - &self.z;
-        let reach = self
-            .contacts
-            .iter()
-            .map(|c| c.moved_by(&step).norm())
-            .fold(0.0, f64::max);
+        let moved = product(&(z - &self.z), &self.contact_phis);
+        let reach = moved.column_iter().map(|d| d.norm()).fold(0.0, f64::max);
         let margin = 0.1 * self.diagonal + 2.0 * reach;
-        let mut positions: Option<Vec<Vector3<f64>>> = None;
+        let positions = self.contact_positions_at(z);
         let mut candidates = std::mem::take(&mut self.candidates);
         for o in 0..self.obstacles.len() + self.colliders.len() {
-            match self.obstacle(o) {
-                // A floor is near only the points within the margin above it: testing all of
-                // an object's surface against it every evaluation would cost more than the
-                // rest of the step. A point's height is n.X + (Z^T n).phi, a third of its
-                // position's cost.
-                Obstacle::Plane { normal, offset } => {
-                    let lift = z.tr_mul(normal);
-                    for (c, contact) in self.contacts.iter().enumerate() {
-                        let height = normal.dot(&contact.rest) + lift.dot(&contact.phi);
-                        if offset - height > -margin {
-                            candidates.push((c, o));
-                        }
-                    }
-                }
-                obstacle => {
-                    let positions = positions
-                        .get_or_insert_with(|| self.contacts.iter().map(|c| c.at(z)).collect());
-                    let bounds = obstacle.bounds(margin);
-                    for (c, x) in positions.iter().enumerate() {
-                        let near = bounds
-                            .is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));
-                        if near {
-                            candidates.push((c, o));
-                        }
-                    }
+            let obstacle = self.obstacle(o);
+            let bounds = obstacle.bounds(margin);
+            for (c, x) in positions.column_iter().enumerate() {
+                let x = Vector3::new(x[0], x[1], x[2]);
+                let boxed =
+                    bounds.is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));
+                if boxed && obstacle.is_within(&x, margin) {
+                    candidates.push((c, o));
                 }
             }
         }

@@ -27,7 +27,7 @@ use super::rolling::{RollAnchors, RollingStick};
 use super::scene::{Poke, SimParams};
 use super::subspace::Subspace;
 use crate::error::Result;
-use crate::linalg::DenseCholesky;
+use crate::linalg::{product, DenseCholesky};
 use contact::ContactSignature;
 use pinning::PinConstraint;
 
@@ -208,6 +208,10 @@ pub struct ReducedSim {
     pin_boost: f64,
     pinning_stale: bool,
     contacts: Vec<ReducedPoint>,
+    /// The contact points' phis side by side (4K x n) and rest positions (3 x n): where they
+    /// all are, X + Z Phi, is one product.
+    contact_phis: DMatrix<f64>,
+    contact_rests: DMatrix<f64>,
     obstacles: Vec<Obstacle>,
     /// Obstacles that move (robot links), replaced before each step.
     colliders: Vec<Obstacle>,
@@ -275,6 +279,8 @@ impl ReducedSim {
             pin_boost: 1.0,
             pinning_stale: true,
             contacts: Vec::new(),
+            contact_phis: DMatrix::zeros(4 * k, 0),
+            contact_rests: DMatrix::zeros(3, 0),
             obstacles: Vec::new(),
             colliders: Vec::new(),
             colliders_before: Vec::new(),
@@ -346,12 +352,6 @@ impl ReducedSim {
         })
     }
 
-    /// Surface points (rest positions, the area each stands for) that collide with obstacles.
-    pub fn add_contact_points(&mut self, points: &[Vector3<f64>], areas: &[f64]) {
-        let sampled = ReducedPoint::sampled(&self.subspace, points, areas, 0);
-        self.contacts.extend(sampled);
-    }
-
     /// Adds a static obstacle; contact points collide with it.
     pub fn add_obstacle(&mut self, obstacle: Obstacle) {
         self.obstacles.push(obstacle);
@@ -375,11 +375,6 @@ impl ReducedSim {
     /// Whether a poke acts now or will later (its window has not ended).
     pub fn has_active_pokes(&self) -> bool {
         self.pokes.iter().any(|(_, p)| p.end > self.time)
-    }
-
-    /// Where the contact points are now (world), in the order they were added.
-    pub fn contact_positions(&self) -> Vec<Vector3<f64>> {
-        self.contacts.iter().map(|c| c.at(&self.z)).collect()
     }
 
     /// Whether contact points were added.
@@ -751,10 +746,9 @@ fn quadratic(x: &DMatrix<f64>, m: &DMatrix<f64>) -> f64 {
     times_symmetric(x, m).dot(x)
 }
 
-/// X M for a 3 x n matrix X and a symmetric M, computed as (M X^T)^T: nalgebra's product walks
-/// the columns of its left factor, which are 3 long for X but n long for M.
+/// X M for a 3 x n matrix X and a symmetric M.
 fn times_symmetric(x: &DMatrix<f64>, m: &DMatrix<f64>) -> DMatrix<f64> {
-    (m * x.transpose()).transpose()
+    product(x, m)
 }
 
 /// Flat z (column-major) of a 3 x 4K matrix.

@@ -7,6 +7,7 @@ use nalgebra::{DMatrix, Isometry3, Vector3};
 use super::pinning::{PinConstraint, DOMINANT_PINS};
 use super::{add_kron_identity, ReducedPoint, ReducedSim};
 use crate::error::{Error, Result};
+use crate::linalg::product;
 
 /// The drift, as a fraction of the body's bounding diagonal, that pins may always have.
 const PIN_DRIFT_OF_SIZE: f64 = 1e-3;
@@ -148,7 +149,7 @@ impl ReducedSim {
     /// sum m |Z phi + X - T|^2 over the pins, in closed form: tr(Z P Z^T) + 2 <B, Z> + sum m
     /// |X - T|^2, a few products of the 4K-wide matrices whatever the number of pins.
     fn pin_spring_sum(&self, z: &DMatrix<f64>) -> f64 {
-        let quadratic = (z * &self.pin_phi).dot(z);
+        let quadratic = product(z, &self.pin_phi).dot(z);
         (quadratic + 2.0 * self.pin_offset.dot(z) + self.pin_gap_sum).max(0.0)
     }
 
@@ -174,7 +175,7 @@ impl ReducedSim {
     /// Each pinned point's offset from its target in state `z` (3 x n): Z Phi + (X - T), one
     /// product instead of a position per pin.
     fn pin_offsets_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
-        let mut offsets = z * &self.pin_phis;
+        let mut offsets = product(z, &self.pin_phis);
         offsets += &self.pin_gaps;
         offsets
     }

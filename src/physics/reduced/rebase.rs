@@ -45,6 +45,7 @@ impl ReducedSim {
         } else {
             resampled(&next.subspace, &self.contacts)
         };
+        next.contacts_changed();
         let pokes: Vec<_> = self.pokes.iter().map(|(_, poke)| *poke).collect();
         let phis = next
             .subspace
