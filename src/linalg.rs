@@ -198,11 +198,18 @@ impl SparseCholesky {
     }
 }
 
+/// Multiply-adds below which `product` is nalgebra's: a one-handle body's 3 x 4 by 4 x 4.
+const SMALL_PRODUCT: usize = 1024;
+
 /// `a b` for nalgebra matrices, by faer's matrix product on the calling thread. nalgebra's own
 /// product of a 3-row matrix by a wide one runs column by column: for a body's thousand contact
-/// points it cost more than the rest of the step.
+/// points it cost more than the rest of the step. Below `SMALL_PRODUCT` multiply-adds, where
+/// faer's dispatch would cost more than the product, nalgebra's.
 pub fn product(a: &nalgebra::DMatrix<f64>, b: &nalgebra::DMatrix<f64>) -> nalgebra::DMatrix<f64> {
     assert_eq!(a.ncols(), b.nrows(), "inner dimensions of a product");
+    if a.nrows() * a.ncols() * b.ncols() < SMALL_PRODUCT {
+        return a * b;
+    }
     let mut out = nalgebra::DMatrix::zeros(a.nrows(), b.ncols());
     let (rows, cols) = out.shape();
     faer::linalg::matmul::matmul(

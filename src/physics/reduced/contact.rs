@@ -64,17 +64,32 @@ impl ReducedSim {
         let moved = product(&(z - &self.z), &self.contact_phis);
         let reach = moved.column_iter().map(|d| d.norm()).fold(0.0, f64::max);
         let margin = 0.1 * self.diagonal + 2.0 * reach;
-        let positions = self.contact_positions_at(z);
+        let mut positions: Option<DMatrix<f64>> = None;
         let mut candidates = std::mem::take(&mut self.candidates);
         for o in 0..self.obstacles.len() + self.colliders.len() {
-            let obstacle = self.obstacle(o);
-            let bounds = obstacle.bounds(margin);
-            for (c, x) in positions.column_iter().enumerate() {
-                let x = Vector3::new(x[0], x[1], x[2]);
-                let boxed =
-                    bounds.is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));
-                if boxed && obstacle.is_within(&x, margin) {
-                    candidates.push((c, o));
+            match self.obstacle(o) {
+                // A floor is near only the points within the margin above it. A point's height
+                // is n.X + (Z^T n).phi, a third of its position's cost.
+                Obstacle::Plane { normal, offset } => {
+                    let lift = z.tr_mul(normal);
+                    for (c, contact) in self.contacts.iter().enumerate() {
+                        let height = normal.dot(&contact.rest) + lift.dot(&contact.phi);
+                        if offset - height > -margin {
+                            candidates.push((c, o));
+                        }
+                    }
+                }
+                obstacle => {
+                    let positions = positions.get_or_insert_with(|| self.contact_positions_at(z));
+                    let bounds = obstacle.bounds(margin);
+                    for (c, x) in positions.column_iter().enumerate() {
+                        let x = Vector3::new(x[0], x[1], x[2]);
+                        let boxed = bounds
+                            .is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));
+                        if boxed && obstacle.is_within(&x, margin) {
+                            candidates.push((c, o));
+                        }
+                    }
                 }
             }
         }
