@@ -529,7 +529,7 @@ fn publish_step_of(
     if report.pin_stiffenings > 0 {
         let message = format!(
             "a force past what the pin springs hold: made {}x stiffer for this step",
-            10f64.powi(report.pin_stiffenings as i32)
+            report.pin_spring_boost()
         );
         outputs.report(Status::INFO, id, "pin_springs_stiffened", message);
     }

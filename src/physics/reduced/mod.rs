@@ -78,7 +78,7 @@ pub struct StepReport {
     pub budget_extensions: usize,
     /// Times the pin springs were made 10 times stiffer for this step and it was solved again,
     /// because they let pinned material drift past its tolerance (`SimParams::pin_tolerance`);
-    /// 0 for most steps.
+    /// 0 for most steps. `pin_spring_boost` gives the stiffness it ended with.
     #[serde(default)]
     pub pin_stiffenings: usize,
     /// Contact points inside an obstacle at the end of the step.
@@ -97,6 +97,13 @@ pub struct StepReport {
     pub constraint_energy: f64,
     /// Wall-clock time of the step, s.
     pub seconds: f64,
+}
+
+impl StepReport {
+    /// How many times stiffer than `pin_stiffness` the pin springs ended the step.
+    pub fn pin_spring_boost(&self) -> f64 {
+        STIFFENING.powi(self.pin_stiffenings as i32)
+    }
 }
 
 /// A material point of the object expressed in the subspace.
@@ -419,11 +426,7 @@ impl ReducedSim {
         let mut z = self.placed_on_pins(&predicted);
         self.find_candidates(&z);
         self.find_sticks();
-        if self.solver == Solver::QuasiNewton {
-            self.hold_at(&z);
-        }
-        let mut objective = self.step_objective(&predicted, &previous);
-        let mut current = self.solve(&mut z, &objective, &mut report);
+        let mut current = self.solve_from(&mut z, &predicted, &previous, &mut report);
         while !self.pins_within(&z, self.pin_tolerance())
             && report.pin_stiffenings < MAX_STIFFENINGS
         {
@@ -432,11 +435,7 @@ impl ReducedSim {
             report.pin_stiffenings += 1;
             self.set_pin_boost(self.pin_boost * STIFFENING);
             z = self.placed_on_pins(&predicted);
-            if self.solver == Solver::QuasiNewton {
-                self.hold_at(&z);
-            }
-            objective = self.step_objective(&predicted, &previous);
-            current = self.solve(&mut z, &objective, &mut report);
+            current = self.solve_from(&mut z, &predicted, &previous, &mut report);
         }
         // A step that needed the Newton fallback means the held Hessian no longer describes the
         // state: refactor it at the new state before the next step.
@@ -457,6 +456,22 @@ impl ReducedSim {
         report.gravity_energy = -(&self.z * self.subspace.mass_moment()).dot(&self.params.gravity);
         report.seconds = started.elapsed().as_secs_f64();
         report
+    }
+
+    /// Solves the step from `z` (placed on the pins) with the springs as they are now: the
+    /// preconditioner held at `z`, this step's objective, then `solve`.
+    fn solve_from(
+        &mut self,
+        z: &mut DMatrix<f64>,
+        predicted: &DMatrix<f64>,
+        previous: &DMatrix<f64>,
+        report: &mut StepReport,
+    ) -> Evaluation {
+        if self.solver == Solver::QuasiNewton {
+            self.hold_at(z);
+        }
+        let objective = self.step_objective(predicted, previous);
+        self.solve(z, &objective, report)
     }
 
     /// Minimizes the step objective from `z` (on the pins), leaving the minimizer in `z` and
