@@ -607,7 +607,7 @@ fn subspace_field_and_lifting_agree_with_the_field() {
 #[test]
 fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
     use nalgebra::DVector;
-    use physskin::physics::{Material, Matrix9, Precision};
+    use physskin::physics::{Material, Matrix9};
     let f = bar();
     let k = f.subspace.handles();
     // A large, non-symmetric deformation, so every term of J_F matters.
@@ -625,7 +625,7 @@ fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
             .iter()
             .map(|fp| material.stress_derivative(fp, false))
             .collect();
-        let hessian = f.subspace.elastic_hessian(&hessians, Precision::Double);
+        let hessian = f.subspace.elastic_hessian(&hessians);
         for trial in 0..4 {
             let direction = DMatrix::from_fn(3, 4 * k, |d, a| {
                 ((7 * d + 11 * a + 13 * trial) as f64).cos()

@@ -18,4 +18,4 @@ pub use material::{Material, MaterialModel, Matrix9};
 pub use obstacle::{Obstacle, Penetration, Stick, STICK_SLIP};
 pub use reduced::{state_projection, ReducedSim, Solver, StepReport};
 pub use scene::{Poke, SimParams};
-pub use subspace::{phi_of, sample, Precision, Subspace};
+pub use subspace::{phi_of, sample, Subspace};

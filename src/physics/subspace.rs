@@ -32,8 +32,6 @@ pub struct Subspace {
     /// G of every cubature point side by side: (4K) rows x (3 Np) columns, row-major, so that
     /// F = I + Z G is a sweep of long contiguous rows.
     g_all: Vec<f64>,
-    /// `g_all` rounded to f32, for Hessians assembled in single precision.
-    g_all_single: Vec<f32>,
     /// sum_p rho v_p phi_p phi_p^T (4K x 4K); the reduced mass is this (x) I_3.
     mass_phi: DMatrix<f64>,
     /// sum_p rho v_p phi_p (4K); gravity's reduced force is this (x) g.
@@ -87,7 +85,6 @@ impl Subspace {
             handles: k,
             normalization,
             volumes: cubature.volumes.clone(),
-            g_all_single: g_all.iter().map(|&x| x as f32).collect(),
             g_all,
             mass_phi,
             mass_moment,
@@ -280,16 +277,11 @@ impl Subspace {
     /// H[(a, d), (b, f)] = sum_p G_p C_p^{df} G_p^T with C_p^{df}[e, g] = v_p dP/dF[d + 3e, f + 3g],
     /// G_all C^{df} G_all^T, and only six blocks thanks to symmetry: a sixth of the work of
     /// multiplying out J_p, whose entries are two-thirds zeros. The six are one product
-    /// (4K x 3Np) (3Np x 6 4K) in faer, in `precision`: at 4K = 68 and Np = 1024 the six
-    /// nalgebra products took 2.95-3.46 ms on 2 cores, this one 0.8-1.3 ms in f32 (printed).
-    pub fn elastic_hessian(&self, hessians: &[Matrix9], precision: Precision) -> DMatrix<f64> {
+    /// (4K x 3Np) (3Np x 6 4K) in faer: at 4K = 68 and Np = 1024 the six nalgebra products
+    /// took 2.95-3.46 ms on 2 cores, this one 1.1-1.5 ms (printed).
+    pub fn elastic_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
         let n4 = 4 * self.handles;
-        let blocks = match precision {
-            Precision::Double => self.hessian_blocks(hessians, &self.g_all, |x| x),
-            Precision::Single => self
-                .hessian_blocks(hessians, &self.g_all_single, |x| x as f32)
-                .map(f64::from),
-        };
+        let blocks = self.hessian_blocks(hessians);
         let mut hessian = DMatrix::zeros(3 * n4, 3 * n4);
         for (k, &(d, f)) in HESSIAN_BLOCKS.iter().enumerate() {
             for b in 0..n4 {
@@ -303,37 +295,33 @@ impl Subspace {
         hessian
     }
 
-    /// The six blocks side by side (4K x 6 4K): G_all^T (given as `g`, in T) times the six
-    /// weighted right factors, in one product per run of points. Each thread takes a share of
-    /// the points and a small scratch matrix that stays in cache: the whole right factor
-    /// (3Np x 6 4K) would be megabytes, freshly mapped pages on every assembly.
-    fn hessian_blocks<T, To>(&self, hessians: &[Matrix9], g: &[T], to: To) -> DMatrix<T>
-    where
-        T: faer::traits::ComplexField + nalgebra::Scalar + Copy + Send + Sync,
-        To: Fn(f64) -> T + Copy + Sync,
-    {
+    /// The six blocks side by side (4K x 6 4K): G_all times the six weighted right factors,
+    /// one product per run of points. Each thread takes a share of the points and a small
+    /// scratch matrix that stays in cache: the whole right factor (3Np x 6 4K) would be ten
+    /// megabytes of freshly mapped pages on every assembly.
+    fn hessian_blocks(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
         let n4 = 4 * self.handles;
         let np = self.cubature_len();
         let width = HESSIAN_BLOCKS.len() * n4;
         let share = |points: std::ops::Range<usize>| {
-            let mut blocks = DMatrix::from_element(n4, width, to(0.0));
-            let mut weighted = vec![to(0.0); 3 * HESSIAN_RUN * width];
+            let mut blocks = DMatrix::zeros(n4, width);
+            let mut weighted = vec![0.0; 3 * HESSIAN_RUN * width];
             for start in points.clone().step_by(HESSIAN_RUN) {
                 let len = HESSIAN_RUN.min(points.end - start);
                 let rows = &mut weighted[..3 * len * width];
                 for (local, point_rows) in rows.chunks_mut(3 * width).enumerate() {
                     let p = start + local;
-                    self.weigh_point(p, &hessians[p], point_rows, to);
+                    self.weigh_point(p, &hessians[p], point_rows);
                 }
                 faer::linalg::matmul::matmul(
                     MatMut::from_column_major_slice_mut(blocks.as_mut_slice(), n4, width),
                     faer::Accum::Add,
                     // G_all^T as a column-major (3Np x 4K) matrix is g_all's row-major storage.
-                    MatRef::from_column_major_slice(g, 3 * np, n4)
+                    MatRef::from_column_major_slice(&self.g_all, 3 * np, n4)
                         .subrows(3 * start, 3 * len)
                         .transpose(),
                     MatRef::from_row_major_slice(rows, 3 * len, width),
-                    to(1.0),
+                    1.0,
                     Par::Seq,
                 );
             }
@@ -352,7 +340,7 @@ impl Subspace {
 
     /// Point p's rows of the weighted right factors: rows[e][k 4K + a] = sum_g C_p^{df}[e, g]
     /// G_p[a, g] for the k-th block (d, f).
-    fn weigh_point<T: Copy>(&self, p: usize, h: &Matrix9, rows: &mut [T], to: impl Fn(f64) -> T) {
+    fn weigh_point(&self, p: usize, h: &Matrix9, rows: &mut [f64]) {
         let n4 = 4 * self.handles;
         let width = HESSIAN_BLOCKS.len() * n4;
         let columns = 3 * self.cubature_len();
@@ -370,21 +358,11 @@ impl Subspace {
             for (e, ce) in ck.iter().enumerate() {
                 let out = &mut rows[e * width + k * n4..e * width + (k + 1) * n4];
                 for (o, g) in out.iter_mut().zip(&gp) {
-                    *o = to(ce[0] * g[0] + ce[1] * g[1] + ce[2] * g[2]);
+                    *o = ce[0] * g[0] + ce[1] * g[1] + ce[2] * g[2];
                 }
             }
         }
     }
-}
-
-/// How `Subspace::elastic_hessian` multiplies. Single precision halves the product's time and
-/// its relative error (about 1e-7) is far below what a preconditioner needs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Precision {
-    /// f64 throughout: Newton's own Hessian, and the finite-difference checks.
-    Double,
-    /// The product in f32: the quasi-Newton solver's held matrix.
-    Single,
 }
 
 /// Cubature points weighed and multiplied at a time in `Subspace::hessian_blocks`.

@@ -6,7 +6,6 @@ use std::collections::VecDeque;
 use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::contact::ContactSignature;
-use super::Precision;
 use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
 
@@ -80,7 +79,7 @@ impl ReducedSim {
                 add_kron_identity(&mut matrix, &self.quadratic_part());
                 matrix
             } else {
-                self.smooth_hessian_at(&self.z, Precision::Single)
+                self.smooth_hessian_at(&self.z)
             };
             self.held_rotation = self.subspace.mean_rotation(&self.z);
             self.held = Some(matrix);

@@ -25,7 +25,7 @@ use super::material::{Material, Matrix9};
 use super::obstacle::{Anchors, Obstacle, Stick};
 use super::rolling::{RollAnchors, RollingStick};
 use super::scene::{Poke, SimParams};
-use super::subspace::{Precision, Subspace};
+use super::subspace::Subspace;
 use crate::error::Result;
 use crate::linalg::{product, DenseCholesky};
 use contact::ContactSignature;
@@ -355,7 +355,7 @@ impl ReducedSim {
         let (material, subspace) = (&self.material, &self.subspace);
         self.rest_hessian.get_or_insert_with(|| {
             let h = material.stress_derivative(&Matrix3::identity(), true);
-            subspace.elastic_hessian(&vec![h; subspace.cubature_len()], Precision::Single)
+            subspace.elastic_hessian(&vec![h; subspace.cubature_len()])
         })
     }
 
@@ -503,7 +503,7 @@ impl ReducedSim {
                 // Slow progress: the held Hessian no longer describes the state. Refactor it
                 // here and hold it from now on; pairs measured against the old one would pull
                 // the new one back toward it.
-                self.hold_new(self.smooth_hessian_at(z, Precision::Single), z);
+                self.hold_new(self.smooth_hessian_at(z), z);
                 history.clear();
                 since_refresh = 0;
                 report.refreshes += 1;
@@ -693,7 +693,7 @@ impl ReducedSim {
 
     /// The Hessian of the step objective at `z` (see `smooth_hessian_at`) with contact.
     fn hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
-        let mut hessian = self.smooth_hessian_at(z, Precision::Double);
+        let mut hessian = self.smooth_hessian_at(z);
         if let Some(contact) = self.contact_curvature(z) {
             hessian += contact;
         }
@@ -705,21 +705,16 @@ impl ReducedSim {
     /// PSD-projected. Inertia keeps the exact one definite in most states, and there Newton
     /// converges quadratically; with the projection it converges only linearly wherever the
     /// material is compressed (a rod's poke took 4.0 Newton iterations a step, 2.4 without).
-    fn smooth_hessian_at(&self, z: &DMatrix<f64>, precision: Precision) -> DMatrix<f64> {
+    fn smooth_hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let gradients = self.subspace.deformation_gradients(z);
-        let exact = self.assembled_smooth_hessian(&gradients, false, precision);
+        let exact = self.assembled_smooth_hessian(&gradients, false);
         if DenseCholesky::new(exact.as_slice(), exact.nrows()).is_ok() {
             return exact;
         }
-        self.assembled_smooth_hessian(&gradients, true, precision)
+        self.assembled_smooth_hessian(&gradients, true)
     }
 
-    fn assembled_smooth_hessian(
-        &self,
-        gradients: &[Matrix3<f64>],
-        project: bool,
-        precision: Precision,
-    ) -> DMatrix<f64> {
+    fn assembled_smooth_hessian(&self, gradients: &[Matrix3<f64>], project: bool) -> DMatrix<f64> {
         let material = self.material;
         let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, project);
         let hessians: Vec<Matrix9> = if self.subspace.worth_parallel() {
@@ -727,7 +722,7 @@ impl ReducedSim {
         } else {
             gradients.iter().map(hessian_of).collect()
         };
-        let mut hessian = self.subspace.elastic_hessian(&hessians, precision);
+        let mut hessian = self.subspace.elastic_hessian(&hessians);
         add_kron_identity(&mut hessian, &self.quadratic_part());
         hessian
     }
