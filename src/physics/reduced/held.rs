@@ -12,6 +12,9 @@ use crate::linalg::DenseCholesky;
 /// A turn of the body (largest entry of the rotation's change) past which the preconditioner
 /// is turned with it.
 const TURN_TOLERANCE: f64 = 1e-3;
+/// The share of the held contact springs that may change during a solve before the
+/// preconditioner is refactored with those acting.
+const CONTACT_CHANGE: f64 = 0.1;
 
 impl ReducedSim {
     /// Refactors the preconditioner for the state `z` when the body has turned or the contact
@@ -46,6 +49,20 @@ impl ReducedSim {
         self.factored_turn = turn;
         self.preconditioner = Some(self.factor_hessian(matrix));
         self.factorizations += 1;
+    }
+
+    /// Whether the contact springs acting (`touching`) differ from those the preconditioner
+    /// holds by more than `CONTACT_CHANGE` of them (and at least two): a body landing gains a
+    /// hundred stiff springs within one step, and L-BFGS over a factor without them needs
+    /// many iterations to find their curvature.
+    pub(super) fn contacts_moved(&self, touching: &[(usize, usize)]) -> bool {
+        let Some(factored) = self.factored_contact.as_ref() else {
+            return false;
+        };
+        let held: std::collections::HashSet<_> = factored.touching.iter().collect();
+        let kept = touching.iter().filter(|pair| held.contains(pair)).count();
+        let changed = (touching.len() - kept) + (held.len() - kept);
+        changed >= 2 && changed as f64 > CONTACT_CHANGE * held.len() as f64
     }
 
     /// The quasi-Newton initial Hessian, factored: at rest the rest-state Hessian plus inertia

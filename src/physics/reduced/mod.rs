@@ -170,8 +170,8 @@ struct Evaluation {
     elastic: f64,
     nonquadratic_gradient: DMatrix<f64>,
     gradient: DMatrix<f64>,
-    /// Contact points inside an obstacle.
-    touching: usize,
+    /// (contact, obstacle) pairs in touch.
+    touching: Vec<(usize, usize)>,
 }
 
 const LBFGS_PAIRS: usize = 8;
@@ -449,7 +449,7 @@ impl ReducedSim {
         self.time += self.params.dt;
         report.elastic_energy = current.elastic;
         report.constraint_energy = current.nonquadratic - current.elastic + self.pin_energy();
-        report.contacts = current.touching;
+        report.contacts = current.touching.len();
         report.factorizations = self.factorizations - factorizations;
         let velocity = self.velocity();
         report.kinetic_energy = 0.5 * quadratic(&velocity, self.subspace.mass_phi());
@@ -567,6 +567,11 @@ impl ReducedSim {
             }
             *z += unflat(&(&direction * step), self.subspace.handles());
             current = next;
+            // A landing: springs the factor lacks (or holds in vain) would cost iterations.
+            if mode == Solver::QuasiNewton && self.contacts_moved(&current.touching) {
+                self.hold_at(z);
+                history.clear();
+            }
             if watch_pins && !self.pins_within(z, STIFFEN_AT_ONCE * self.pin_tolerance()) {
                 break;
             }
@@ -612,7 +617,7 @@ impl ReducedSim {
     fn evaluate(&self, z: &DMatrix<f64>, objective: &StepObjective) -> Evaluation {
         let (elastic, mut gradient) = self.subspace.elastic_forces(z, &self.material);
         let mut energy = elastic;
-        let mut touching = 0;
+        let mut touching = Vec::new();
         let kc = self.params.contact_stiffness;
         for &(c, o) in &self.candidates {
             let contact = &self.contacts[c];
@@ -621,7 +626,7 @@ impl ReducedSim {
                 // In place: an outer product per touching point would allocate, and a resting
                 // body has hundreds of them in every evaluation.
                 gradient.ger(-kc * contact.weight * p.depth, &p.normal, &contact.phi, 1.0);
-                touching += 1;
+                touching.push((c, o));
             }
         }
         for stick in &self.sticks {
