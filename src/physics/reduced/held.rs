@@ -42,6 +42,7 @@ impl ReducedSim {
         }
         let held = self.held.as_ref().expect("made above");
         let mut matrix = turn_blocks(held, &turn);
+        add_kron_identity(&mut matrix, &self.quadratic_part());
         if let Some(contact) = self.contact_curvature(z) {
             matrix += contact;
         }
@@ -65,19 +66,20 @@ impl ReducedSim {
         changed >= 2 && changed as f64 > CONTACT_CHANGE * held.len() as f64
     }
 
-    /// The quasi-Newton initial Hessian, factored: at rest the rest-state Hessian plus inertia
-    /// and pins; after a hard step, the full Hessian at the current state, held for the steps
-    /// that follow until another hard step.
+    /// The quasi-Newton initial Hessian, factored: the held elastic Hessian (at rest the
+    /// rest-state one; after a hard step, the one at that state, held for the steps that
+    /// follow until another hard step) plus inertia, damping and the pins as they are now.
     pub(super) fn build_preconditioner(&mut self) -> DenseCholesky {
-        let matrix = self.held_matrix().clone();
+        let mut matrix = self.held_matrix().clone();
+        add_kron_identity(&mut matrix, &self.quadratic_part());
         self.factored_contact = Some(ContactSignature::default());
         self.factored_turn = Matrix3::identity();
         self.factorizations += 1;
         self.factor_hessian(matrix)
     }
 
-    /// Holds `matrix`, the Hessian without contact at `z`, and factors it with the contact
-    /// curvature at `z`.
+    /// Holds `matrix`, the elastic Hessian at `z`, and factors it with inertia, damping, pins
+    /// and the contact curvature at `z`.
     pub(super) fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
         self.held = Some(matrix);
         self.held_rotation = self.subspace.mean_rotation(z);
@@ -87,21 +89,28 @@ impl ReducedSim {
         self.hold_at(z);
     }
 
-    /// The held matrix, made on first use: at rest the rest-state elasticity plus inertia
-    /// and pins, otherwise the Hessian without contact at the current state.
+    /// The held matrix, made on first use: the elastic Hessian, at rest the rest-state one,
+    /// otherwise the one at the current state. Inertia, damping and pins are added when it is
+    /// factored, so that pins added or stiffened later count at once and cost no reassembly.
     pub(super) fn held_matrix(&mut self) -> &DMatrix<f64> {
         if self.held.is_none() {
             let matrix = if self.z.amax() == 0.0 {
-                let mut matrix = self.rest_elastic_hessian().clone();
-                add_kron_identity(&mut matrix, &self.quadratic_part());
-                matrix
+                self.rest_elastic_hessian().clone()
             } else {
-                self.smooth_hessian_at(&self.z)
+                self.held_elastic_at(&self.z)
             };
             self.held_rotation = self.subspace.mean_rotation(&self.z);
             self.held = Some(matrix);
         }
         self.held.as_ref().expect("made above")
+    }
+
+    /// The elastic Hessian at `z` to hold: exact where inertia, damping and the pins at their
+    /// own stiffness make it definite. Stiffening the pins for a step keeps it definite;
+    /// releasing pins drops it.
+    pub(super) fn held_elastic_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
+        let base = self.inertia_part() + &self.pin_phi * self.params.pin_stiffness;
+        self.smooth_elastic_at(z, &base)
     }
 
     pub(super) fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {

@@ -10,18 +10,18 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 mod contact;
 mod held;
+mod hessian;
 mod pinning;
 mod pins;
 mod rebase;
 
 pub use rebase::state_projection;
 
-use super::material::{Material, Matrix9};
+use super::material::Material;
 use super::obstacle::{Anchors, Obstacle, Stick};
 use super::rolling::{RollAnchors, RollingStick};
 use super::scene::{Poke, SimParams};
@@ -503,7 +503,7 @@ impl ReducedSim {
                 // Slow progress: the held Hessian no longer describes the state. Refactor it
                 // here and hold it from now on; pairs measured against the old one would pull
                 // the new one back toward it.
-                self.hold_new(self.smooth_hessian_at(z), z);
+                self.hold_new(self.held_elastic_at(z), z);
                 history.clear();
                 since_refresh = 0;
                 report.refreshes += 1;
@@ -683,75 +683,13 @@ impl ReducedSim {
 
     /// Inertia, damping and pins: the quadratic part, (4K x 4K) to be taken (x) I_3.
     fn quadratic_part(&self) -> DMatrix<f64> {
+        self.inertia_part() + &self.pin_phi * self.pin_stiffness()
+    }
+
+    /// Inertia and damping: the part of `quadratic_part` that pins never change.
+    fn inertia_part(&self) -> DMatrix<f64> {
         let h = self.params.dt;
         self.subspace.mass_phi() * (1.0 / (h * h) + self.params.damping / h)
-            + &self.pin_phi * self.pin_stiffness()
-    }
-
-    fn newton_direction(&mut self, z: &DMatrix<f64>, gradient: &DVector<f64>) -> DVector<f64> {
-        let mut hessian = self.hessian_at(z);
-        if let Some(pinning) = self.pinning.as_ref() {
-            pinning.restrict_hessian(&mut hessian);
-        }
-        self.solve_or_descend(&hessian, gradient)
-    }
-
-    /// The Hessian of the step objective at `z` (see `smooth_hessian_at`) with contact.
-    fn hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
-        let mut hessian = self.smooth_hessian_at(z);
-        if let Some(contact) = self.contact_curvature(z) {
-            hessian += contact;
-        }
-        hessian
-    }
-
-    /// The Hessian of the step objective at `z` without contact (elasticity, inertia, damping,
-    /// pins): the exact one where it is positive definite, else with the elasticity's
-    /// PSD-projected. Inertia keeps the exact one definite in most states, and there Newton
-    /// converges quadratically; with the projection it converges only linearly wherever the
-    /// material is compressed (a rod's poke took 4.0 Newton iterations a step, 2.4 without).
-    fn smooth_hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
-        let gradients = self.subspace.deformation_gradients(z);
-        let exact = self.assembled_smooth_hessian(&gradients, false);
-        if DenseCholesky::new(exact.as_slice(), exact.nrows()).is_ok() {
-            return exact;
-        }
-        self.assembled_smooth_hessian(&gradients, true)
-    }
-
-    fn assembled_smooth_hessian(&self, gradients: &[Matrix3<f64>], project: bool) -> DMatrix<f64> {
-        let material = self.material;
-        let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, project);
-        let hessians: Vec<Matrix9> = if self.subspace.worth_parallel() {
-            gradients.par_iter().map(hessian_of).collect()
-        } else {
-            gradients.iter().map(hessian_of).collect()
-        };
-        let mut hessian = self.subspace.elastic_hessian(&hessians);
-        add_kron_identity(&mut hessian, &self.quadratic_part());
-        hessian
-    }
-
-    /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive
-    /// definite, which a Hessian made definite before contact (PSD) is added should never be.
-    fn solve_or_descend(
-        &mut self,
-        hessian: &DMatrix<f64>,
-        gradient: &DVector<f64>,
-    ) -> DVector<f64> {
-        let mut direction = -gradient.clone();
-        match DenseCholesky::new(hessian.as_slice(), hessian.nrows()) {
-            Ok(chol) => chol.solve(direction.as_mut_slice()),
-            Err(_) => {
-                if self.preconditioner.is_none() {
-                    self.preconditioner = Some(self.build_preconditioner());
-                }
-                if let Some(p) = &self.preconditioner {
-                    p.solve(direction.as_mut_slice());
-                }
-            }
-        }
-        direction
     }
 
     /// Deformed position of a material point given by its rest position.

@@ -58,6 +58,8 @@ impl ReducedSim {
         self.pins.retain(|p| (p.rest - center).norm() > radius);
         let released = before - self.pins.len();
         if released > 0 {
+            // The held elastic Hessian may be definite only with the springs just released.
+            self.held = None;
             self.pins_changed();
         }
         released
@@ -194,11 +196,11 @@ impl ReducedSim {
         self.params.pin_stiffness * self.pin_boost
     }
 
-    /// Sets the pin springs' stiffness to `boost` times `pin_stiffness`. The held matrix
-    /// includes them, so it is made anew, and with it the curvature pairs.
+    /// Sets the pin springs' stiffness to `boost` times `pin_stiffness`. The factored
+    /// preconditioner includes them, so it is factored anew (the held elastic Hessian stays),
+    /// and the curvature pairs measured with the old springs go.
     pub(super) fn set_pin_boost(&mut self, boost: f64) {
         self.pin_boost = boost;
-        self.held = None;
         self.preconditioner = None;
         self.factored_contact = None;
         self.history.clear();
