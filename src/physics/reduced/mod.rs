@@ -567,8 +567,8 @@ impl ReducedSim {
             }
             *z += unflat(&(&direction * step), self.subspace.handles());
             current = next;
-            // A landing: springs the factor lacks (or holds in vain) would cost iterations.
-            if mode == Solver::QuasiNewton && self.contacts_moved(&current.touching) {
+            // A landing: springs the factor lacks would cost many iterations.
+            if mode == Solver::QuasiNewton && self.contacts_gained(&current.touching) {
                 self.hold_at(z);
                 history.clear();
             }
