@@ -306,12 +306,13 @@ impl Subspace {
         let share = |points: std::ops::Range<usize>| {
             let mut blocks = DMatrix::zeros(n4, width);
             let mut weighted = vec![0.0; 3 * HESSIAN_RUN * width];
+            let mut gathered = vec![[0.0; 3]; n4];
             for start in points.clone().step_by(HESSIAN_RUN) {
                 let len = HESSIAN_RUN.min(points.end - start);
                 let rows = &mut weighted[..3 * len * width];
                 for (local, point_rows) in rows.chunks_mut(3 * width).enumerate() {
                     let p = start + local;
-                    self.weigh_point(p, &hessians[p], point_rows);
+                    self.weigh_point(p, &hessians[p], &mut gathered, point_rows);
                 }
                 faer::linalg::matmul::matmul(
                     MatMut::from_column_major_slice_mut(blocks.as_mut_slice(), n4, width),
@@ -339,8 +340,8 @@ impl Subspace {
     }
 
     /// Point p's rows of the weighted right factors: rows[e][k 4K + a] = sum_g C_p^{df}[e, g]
-    /// G_p[a, g] for the k-th block (d, f).
-    fn weigh_point(&self, p: usize, h: &Matrix9, rows: &mut [f64]) {
+    /// G_p[a, g] for the k-th block (d, f). `gp` (4K entries) is scratch for G_p.
+    fn weigh_point(&self, p: usize, h: &Matrix9, gp: &mut [[f64; 3]], rows: &mut [f64]) {
         let n4 = 4 * self.handles;
         let width = HESSIAN_BLOCKS.len() * n4;
         let columns = 3 * self.cubature_len();
@@ -350,14 +351,13 @@ impl Subspace {
             std::array::from_fn(|e| std::array::from_fn(|g| v * h[(d + 3 * e, f + 3 * g)]))
         });
         // G_p gathered into three contiguous rows, so that the loops below run over a.
-        let mut gp = vec![[0.0; 3]; n4];
         for (a, gpa) in gp.iter_mut().enumerate() {
             gpa.copy_from_slice(&self.g_all[a * columns + 3 * p..a * columns + 3 * p + 3]);
         }
         for (k, ck) in c.iter().enumerate() {
             for (e, ce) in ck.iter().enumerate() {
                 let out = &mut rows[e * width + k * n4..e * width + (k + 1) * n4];
-                for (o, g) in out.iter_mut().zip(&gp) {
+                for (o, g) in out.iter_mut().zip(gp.iter()) {
                     *o = ce[0] * g[0] + ce[1] * g[1] + ce[2] * g[2];
                 }
             }
