@@ -60,6 +60,11 @@ fn total_energy(r: &StepReport) -> f64 {
     r.kinetic_energy + r.elastic_energy + r.gravity_energy
 }
 
+/// A reduced simulation of the fixture's subspace.
+fn simulation(f: &Fixture, params: &SimParams, solver: Solver) -> ReducedSim {
+    ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap()
+}
+
 fn pin_left_end(sim: &mut ReducedSim, f: &Fixture, params: &SimParams) {
     let masses = f.mesh.lumped_volumes();
     let left: Vec<usize> = (0..f.mesh.vertices.len())
@@ -78,8 +83,7 @@ fn rest_stays_at_rest() {
             gravity: Vector3::zeros(),
             ..Default::default()
         };
-        let mut sim =
-            ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap();
+        let mut sim = simulation(&f, &params, solver);
         pin_left_end(&mut sim, &f, &params);
         for _ in 0..10 {
             let r = sim.step();
@@ -145,8 +149,7 @@ fn rigid_motions_are_exact_and_cost_no_elastic_energy() {
             model,
             ..Default::default()
         };
-        let mut sim =
-            ReducedSim::new(f.subspace.clone(), params, Solver::Newton, f.diagonal).unwrap();
+        let mut sim = simulation(&f, &params, Solver::Newton);
         let previous = rigid_state(&f, &rotation, &(translation - Vector3::new(0.01, 0.0, 0.0)));
         sim.set_state(z.clone(), Some(previous));
         let r = sim.step();
@@ -171,8 +174,7 @@ fn free_fall_matches_the_closed_form() {
         let params = SimParams::default();
         let h = params.dt;
         let g = params.gravity.z;
-        let mut sim =
-            ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap();
+        let mut sim = simulation(&f, &params, solver);
         let steps = 30;
         for _ in 0..steps {
             assert!(sim.step().converged);
@@ -261,8 +263,7 @@ fn a_pull_past_what_the_pin_springs_hold_stiffens_them() {
             pin_tolerance,
             ..Default::default()
         };
-        let mut sim =
-            ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap();
+        let mut sim = simulation(&f, &params, solver);
         pin_left_end(&mut sim, &f, &params);
         pull(&mut sim);
         let (mut drift, mut locked): (f64, usize) = (0.0, 0);
@@ -297,8 +298,7 @@ fn hanging_bar_loses_energy_and_keeps_its_pins() {
             young: 1e6,
             ..Default::default()
         };
-        let mut sim =
-            ReducedSim::new(f.subspace.clone(), params.clone(), solver, f.diagonal).unwrap();
+        let mut sim = simulation(&f, &params, solver);
         pin_left_end(&mut sim, &f, &params);
         let mut worst: f64 = 0.0;
         for _ in 0..60 {
@@ -334,8 +334,7 @@ fn drop_onto_the_floor_comes_to_rest_above_it() {
         damping: 2.0,
         ..Default::default()
     };
-    let mut sim =
-        ReducedSim::new(f.subspace.clone(), params, Solver::QuasiNewton, f.diagonal).unwrap();
+    let mut sim = simulation(&f, &params, Solver::QuasiNewton);
     let points: Vec<_> = f
         .mesh
         .boundary_vertices
@@ -447,9 +446,7 @@ fn hard_cases_stay_finite_and_bounded() {
     for case in hard_cases() {
         let f = fixture(case.size, case.resolution, 8, 256, case.params.density);
         for solver in [Solver::Newton, Solver::QuasiNewton] {
-            let mut sim =
-                ReducedSim::new(f.subspace.clone(), case.params.clone(), solver, f.diagonal)
-                    .unwrap();
+            let mut sim = simulation(&f, &case.params, solver);
             pin_left_end(&mut sim, &f, &case.params);
             if case.inverted {
                 // Every point starts mirrored through the x = 0 plane: det F = -1 everywhere.
@@ -494,13 +491,7 @@ fn an_unconverged_step_is_reported() {
         tolerance: 1e-20,
         ..Default::default()
     };
-    let mut sim = ReducedSim::new(
-        f.subspace.clone(),
-        params.clone(),
-        Solver::QuasiNewton,
-        f.diagonal,
-    )
-    .unwrap();
+    let mut sim = simulation(&f, &params, Solver::QuasiNewton);
     pin_left_end(&mut sim, &f, &params);
     let reports: Vec<_> = (0..5).map(|_| sim.step()).collect();
     assert!(
@@ -513,13 +504,7 @@ fn an_unconverged_step_is_reported() {
         .iter()
         .all(|r| r.iterations <= 2 + r.budget_extensions && r.budget_extensions <= 10));
     assert!(reports.iter().filter(|r| !r.converged).all(|r| r.fallback));
-    let mut newton = ReducedSim::new(
-        f.subspace.clone(),
-        params.clone(),
-        Solver::Newton,
-        f.diagonal,
-    )
-    .unwrap();
+    let mut newton = simulation(&f, &params, Solver::Newton);
     pin_left_end(&mut newton, &f, &params);
     let reports: Vec<_> = (0..5).map(|_| newton.step()).collect();
     assert!(reports.iter().any(|r| !r.converged));
@@ -661,13 +646,7 @@ fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
 fn pins_added_after_prepare_count_in_the_preconditioner_at_once() {
     let f = bar();
     let params = SimParams::default();
-    let mut sim = ReducedSim::new(
-        f.subspace.clone(),
-        params.clone(),
-        Solver::QuasiNewton,
-        f.diagonal,
-    )
-    .unwrap();
+    let mut sim = simulation(&f, &params, Solver::QuasiNewton);
     sim.prepare();
     pin_left_end(&mut sim, &f, &params);
     for step in 0..5 {
