@@ -114,9 +114,8 @@ impl ReducedSim {
         if self.pins.is_empty() || self.params.pin_stiffness == 0.0 {
             return;
         }
-        let h = self.params.dt;
+        let inertia = self.inertia_part();
         let mut body = self.rest_elastic_hessian().clone();
-        let inertia = self.subspace.mass_phi() * (1.0 / (h * h) + self.params.damping / h);
         add_kron_identity(&mut body, &inertia);
         let k = self.params.pin_stiffness;
         self.pinning = PinConstraint::dominant(&self.pin_phi, k, &body, DOMINANT_PINS);
