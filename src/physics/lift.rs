@@ -117,11 +117,14 @@ fn lift_block(
     rest: &[[f32; LANES]; 3],
     out: &mut [f32],
 ) {
+    // One row of the blend at a time, over all handles: its 8 lanes stay in one register.
+    // Accumulating all twelve rows per handle was vectorized with gathers and scatters
+    // (AVX-512 on this machine's EPYC) and took 6.6 ms for 100k points instead of 0.53 ms.
     let mut blend = [[0.0f32; LANES]; 12];
-    for (w, h) in weights.iter().zip(handles) {
-        for j in 0..12 {
+    for (j, row) in blend.iter_mut().enumerate() {
+        for (w, h) in weights.iter().zip(handles) {
             for lane in 0..LANES {
-                blend[j][lane] += w[lane] * h[j];
+                row[lane] += w[lane] * h[j];
             }
         }
     }
