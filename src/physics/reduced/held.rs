@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::contact::ContactSignature;
-use super::{add_kron_identity, ReducedSim};
+use super::{add_kron_identity, ReducedSim, REFRESH_AFTER_ITERATIONS, REFRESH_GRACE};
 use crate::linalg::DenseCholesky;
 
 /// A turn of the body (largest entry of the rotation's change) past which the preconditioner
@@ -151,6 +151,29 @@ impl ReducedSim {
         }
         q
     }
+}
+
+/// Whether a quasi-Newton solve `since` iterations after its last refresh should refresh the
+/// held Hessian now: after `REFRESH_AFTER_ITERATIONS`, unless its decrements (one per
+/// iteration since the refresh) fall fast enough to reach `tolerance` within `REFRESH_GRACE`
+/// more; after the grace in any case. A poked rod's steps reached the refresh with the
+/// decrement a few times above the tolerance and falling tenfold an iteration: the refresh
+/// (an assembly, 1.1-1.5 ms) cost more than the one or two iterations it saved.
+pub(super) fn refresh_due(since: usize, decrements: &[f64], tolerance: f64) -> bool {
+    if since == REFRESH_AFTER_ITERATIONS + REFRESH_GRACE {
+        return true;
+    }
+    since == REFRESH_AFTER_ITERATIONS && !converging_within(decrements, tolerance, REFRESH_GRACE)
+}
+
+/// Whether the decrements, falling at their rate over the last two iterations, reach
+/// `tolerance` within `iterations` more.
+fn converging_within(decrements: &[f64], tolerance: f64, iterations: usize) -> bool {
+    let [.., older, _, last] = decrements else {
+        return false;
+    };
+    let rate = (last / older).sqrt();
+    rate < 1.0 && last * rate.powi(iterations as i32) < tolerance
 }
 
 /// (I (x) R) H (I (x) R^T) in flat z order: every 3 x 3 block of H turned by R.

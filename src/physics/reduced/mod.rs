@@ -29,6 +29,7 @@ use super::subspace::Subspace;
 use crate::error::Result;
 use crate::linalg::{product, DenseCholesky};
 use contact::ContactSignature;
+use held::refresh_due;
 use pinning::PinConstraint;
 
 /// How each implicit step is solved.
@@ -175,8 +176,10 @@ struct Evaluation {
 }
 
 const LBFGS_PAIRS: usize = 8;
-/// After this many quasi-Newton iterations in one step, the held Hessian is refreshed.
+/// After this many quasi-Newton iterations in one step, the held Hessian is refreshed, unless
+/// the solve is converging fast enough to finish within `REFRESH_GRACE` more.
 const REFRESH_AFTER_ITERATIONS: usize = 8;
+const REFRESH_GRACE: usize = 2;
 const ARMIJO: f64 = 1e-4;
 /// How many times a step's last solver may get its budget again while it still descends.
 const BUDGET_EXTENSIONS: usize = 10;
@@ -493,19 +496,24 @@ impl ReducedSim {
         let mut extensions = 0;
         let mut newton_tried = false;
         let mut since_refresh = 0;
+        // The decrements since the last refresh: whether a slow solve is nearly done.
+        let mut decrements = Vec::new();
         // A step solved again (stiffer pin springs) starts unconverged, whatever the last solve
         // said.
         report.converged = false;
         // Springs losing their pins show it early: such a solve stops for stiffer springs.
         let watch_pins = self.pinning.is_some() && report.pin_stiffenings < MAX_STIFFENINGS;
         loop {
-            if mode == Solver::QuasiNewton && since_refresh == REFRESH_AFTER_ITERATIONS {
+            if mode == Solver::QuasiNewton
+                && refresh_due(since_refresh, &decrements, self.decrement_tolerance)
+            {
                 // Slow progress: the held Hessian no longer describes the state. Refactor it
                 // here and hold it from now on; pairs measured against the old one would pull
                 // the new one back toward it.
                 self.hold_new(self.held_elastic_at(z), z);
                 history.clear();
                 since_refresh = 0;
+                decrements.clear();
                 report.refreshes += 1;
             }
             let gradient = flat(&current.gradient);
@@ -520,6 +528,7 @@ impl ReducedSim {
                 slope = direction.dot(&gradient);
             }
             report.decrement = slope.abs();
+            decrements.push(report.decrement);
             if report.decrement < self.decrement_tolerance || !slope.is_finite() {
                 report.converged = slope.is_finite();
                 break;
@@ -540,7 +549,9 @@ impl ReducedSim {
                     extensions += 1;
                     budget = self.params.max_iterations;
                     mode = Solver::QuasiNewton;
+                    // Refreshed at once: no decrements say it is nearly done.
                     since_refresh = REFRESH_AFTER_ITERATIONS;
+                    decrements.clear();
                     continue;
                 }
                 if mode == Solver::QuasiNewton && !newton_tried {

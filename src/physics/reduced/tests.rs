@@ -91,3 +91,27 @@ fn turned_blocks_are_the_rotated_quadratic_form() {
     let (original, rotated) = (v.dot(&(&h * &v)), rv.dot(&(&turned * &rv)));
     assert!((original - rotated).abs() <= 1e-12 * original.abs());
 }
+
+/// The refresh waits at most `REFRESH_GRACE` iterations, and only for a solve whose decrement
+/// falls fast enough to reach the tolerance in that many.
+#[test]
+fn refresh_waits_only_for_a_solve_about_to_converge() {
+    use super::held::refresh_due;
+    use super::{REFRESH_AFTER_ITERATIONS as AFTER, REFRESH_GRACE as GRACE};
+    let tolerance = 1e-5;
+    // Tenfold an iteration from 2.7e-4: 2.7e-6 after one more.
+    let fast: Vec<f64> = (0..AFTER)
+        .map(|i| 2.7e-4 * 10f64.powi((AFTER - 1 - i) as i32))
+        .collect();
+    // Halving from 0.1: 7.8e-4 now, about 20 times the tolerance after two more.
+    let slow: Vec<f64> = (0..AFTER).map(|i| 0.1 / 2f64.powi(i as i32)).collect();
+    assert!(!refresh_due(AFTER, &fast, tolerance));
+    assert!(refresh_due(AFTER, &slow, tolerance));
+    assert!(refresh_due(AFTER, &[], tolerance), "no decrements: refresh");
+    assert!(!refresh_due(AFTER - 1, &slow, tolerance));
+    assert!(
+        refresh_due(AFTER + GRACE, &fast, tolerance),
+        "the grace ends"
+    );
+    assert!(!refresh_due(AFTER + GRACE - 1, &fast, tolerance));
+}
