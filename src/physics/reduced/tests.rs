@@ -1,4 +1,4 @@
-//! Unit tests of the reduced solver's contact curvature and held-matrix turn.
+//! Unit tests of the reduced solver's contact curvature, held-matrix turn and refresh rule.
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
@@ -99,7 +99,7 @@ fn refresh_waits_only_for_a_solve_about_to_converge() {
     use super::held::refresh_due;
     use super::{REFRESH_AFTER_ITERATIONS as AFTER, REFRESH_GRACE as GRACE};
     let tolerance = 1e-5;
-    // Tenfold an iteration from 2.7e-4: 2.7e-6 after one more.
+    // Falling tenfold an iteration to 2.7e-4: 2.7e-6 after two more.
     let fast: Vec<f64> = (0..AFTER)
         .map(|i| 2.7e-4 * 10f64.powi((AFTER - 1 - i) as i32))
         .collect();
