@@ -62,6 +62,28 @@ impl Material {
         self.energy_and_first_piola(f).1
     }
 
+    /// sum_p v_p Psi(F_p) over a run of points given entry by entry (`f[3 d + e][p]`), each
+    /// F overwritten with v_p P(F_p): `energy_and_first_piola` written out per entry, so that
+    /// the loop over points vectorizes (point by point, as 3 x 3 matrices, it did not).
+    pub(crate) fn weigh_stresses(&self, f: &mut [Vec<f64>; 9], volumes: &[f64]) -> f64 {
+        let len = volumes.len();
+        let mut energies = vec![0.0; len];
+        let mut entries = f.each_mut().map(|entry| &mut entry[..len]);
+        for (p, energy) in energies.iter_mut().enumerate() {
+            let a: [f64; 9] = std::array::from_fn(|k| entries[k][p]);
+            let (psi, stress) = match self.form() {
+                Form::SmallStrain(m) => m.entrywise(&a),
+                Form::NeoHookean(m) => m.entrywise(&a),
+            };
+            *energy = volumes[p] * psi;
+            for (entry, s) in entries.iter_mut().zip(stress) {
+                entry[p] = volumes[p] * s;
+            }
+        }
+        // Summed after the loop: a running sum would chain every point to the last.
+        energies.iter().sum()
+    }
+
     /// `(Psi(F), P(F))`, sharing the work between the two.
     pub fn energy_and_first_piola(&self, f: &Matrix3<f64>) -> (f64, Matrix3<f64>) {
         match self.form() {
@@ -130,6 +152,19 @@ impl SmallStrain {
         (energy, stress)
     }
 
+    /// `energy_and_first_piola` on F's entries, row by row (`a[3 d + e]`).
+    fn entrywise(self, a: &[f64; 9]) -> (f64, [f64; 9]) {
+        let eps: [f64; 9] =
+            std::array::from_fn(|k| 0.5 * (a[k] + a[3 * (k % 3) + k / 3]) - f64::from(k % 4 == 0));
+        let trace = eps[0] + eps[4] + eps[8];
+        let norm: f64 = eps.iter().map(|e| e * e).sum();
+        let energy = self.mu * norm + 0.5 * self.lambda * trace * trace;
+        let stress = std::array::from_fn(|k| {
+            2.0 * self.mu * eps[k] + if k % 4 == 0 { self.lambda * trace } else { 0.0 }
+        });
+        (energy, stress)
+    }
+
     /// `P = mu (F + F^T) + lambda tr(F) I + const`, so `dP/dF = mu (I9 + T) + lambda vec(I) vec(I)^T`
     /// with `T` the permutation taking `vec(F)` to `vec(F^T)`.
     fn hessian(self) -> Matrix9 {
@@ -166,6 +201,29 @@ impl NeoHookeanForm {
         let energy = 0.5 * self.mu * (f.norm_squared() - 3.0) - self.mu * (j - 1.0)
             + 0.5 * self.kappa * (j - 1.0).powi(2);
         (energy, f * self.mu + cof * self.d_energy_d_j(j))
+    }
+
+    /// `energy_and_first_piola` on F's entries, row by row (`a[3 d + e]`).
+    fn entrywise(self, a: &[f64; 9]) -> (f64, [f64; 9]) {
+        let [f00, f01, f02, f10, f11, f12, f20, f21, f22] = *a;
+        // cof F, row by row: column e is the cross product of F's other two columns.
+        let cof = [
+            f11 * f22 - f21 * f12,
+            f12 * f20 - f22 * f10,
+            f10 * f21 - f20 * f11,
+            f21 * f02 - f01 * f22,
+            f22 * f00 - f02 * f20,
+            f20 * f01 - f00 * f21,
+            f01 * f12 - f11 * f02,
+            f02 * f10 - f12 * f00,
+            f00 * f11 - f10 * f01,
+        ];
+        let j = f00 * cof[0] + f10 * cof[3] + f20 * cof[6];
+        let norm: f64 = a.iter().map(|x| x * x).sum();
+        let energy = 0.5 * self.mu * (norm - 3.0) - self.mu * (j - 1.0)
+            + 0.5 * self.kappa * (j - 1.0) * (j - 1.0);
+        let h = self.d_energy_d_j(j);
+        (energy, std::array::from_fn(|k| self.mu * a[k] + h * cof[k]))
     }
 
     /// `mu I9 + kappa vec(cof) vec(cof)^T + dPsi/dJ * d vec(cof)/d vec(F)`.
@@ -455,6 +513,27 @@ mod tests {
             assert!(err < 1e-8, "PSD Hessian changed by {err:e}: {context}");
         }
         indefinite
+    }
+
+    #[test]
+    fn stresses_entry_by_entry_match_the_matrix_form() {
+        for m in materials() {
+            let cases = deformations();
+            let mut entries: [Vec<f64>; 9] =
+                std::array::from_fn(|k| cases.iter().map(|(_, f)| f[(k / 3, k % 3)]).collect());
+            let volumes: Vec<f64> = (0..cases.len()).map(|p| 1.0 + p as f64).collect();
+            let energy = m.weigh_stresses(&mut entries, &volumes);
+            let mut expected = 0.0;
+            for (p, (name, f)) in cases.iter().enumerate() {
+                let (psi, piola) = m.energy_and_first_piola(f);
+                expected += volumes[p] * psi;
+                let got = Matrix3::from_fn(|d, e| entries[3 * d + e][p] / volumes[p]);
+                let err = rel_err(&got, &piola, stress_floor(&m));
+                assert!(err < 1e-12, "{:?} {name}: stress off by {err:e}", m.model);
+            }
+            let err = (energy - expected).abs() / expected.abs().max(1e-300);
+            assert!(err < 1e-12, "{:?}: energy off by {err:e}", m.model);
+        }
     }
 
     #[test]

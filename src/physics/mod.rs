@@ -1,6 +1,7 @@
 //! Physics: materials, the reduced subspace and its implicit integrator, lifting, obstacles, and
 //! the full-space FEM reference.
 
+mod assembly;
 mod fem;
 mod hull;
 mod lift;
@@ -9,6 +10,7 @@ mod obstacle;
 mod reduced;
 mod rolling;
 mod scene;
+mod strain;
 mod subspace;
 
 pub use fem::FemSim;

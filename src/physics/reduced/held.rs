@@ -41,7 +41,13 @@ impl ReducedSim {
             return;
         }
         let held = self.held.as_ref().expect("made above");
-        let mut matrix = turn_blocks(held, &turn);
+        // A pinned body's held matrix is factored as it is: turning it by the identity would
+        // cost a 3 x 3 product per block.
+        let mut matrix = if turn == Matrix3::identity() {
+            held.clone()
+        } else {
+            turn_blocks(held, &turn)
+        };
         add_kron_identity(&mut matrix, &self.quadratic_part());
         if let Some(contact) = self.contact_curvature(z) {
             matrix += contact;
