@@ -42,6 +42,9 @@ pub struct Material {
     pub lambda: f64,
 }
 
+/// Points whose energies `Material::weigh_stresses` holds at a time.
+const WEIGHED_AT_ONCE: usize = 128;
+
 impl Material {
     /// Converts Young's modulus and Poisson's ratio to Lamé parameters.
     pub fn from_young_poisson(model: MaterialModel, young: f64, poisson: f64) -> Self {
@@ -66,22 +69,29 @@ impl Material {
     /// F overwritten with v_p P(F_p): `energy_and_first_piola` written out per entry, so that
     /// the loop over points vectorizes (point by point, as 3 x 3 matrices, it did not).
     pub(crate) fn weigh_stresses(&self, f: &mut [Vec<f64>; 9], volumes: &[f64]) -> f64 {
-        let len = volumes.len();
-        let mut energies = vec![0.0; len];
-        let mut entries = f.each_mut().map(|entry| &mut entry[..len]);
-        for (p, energy) in energies.iter_mut().enumerate() {
-            let a: [f64; 9] = std::array::from_fn(|k| entries[k][p]);
-            let (psi, stress) = match self.form() {
-                Form::SmallStrain(m) => m.entrywise(&a),
-                Form::NeoHookean(m) => m.entrywise(&a),
-            };
-            *energy = volumes[p] * psi;
-            for (entry, s) in entries.iter_mut().zip(stress) {
-                entry[p] = volumes[p] * s;
+        let mut total = 0.0;
+        // A run at a time, its energies on the stack: this runs for every block of points in
+        // every force evaluation, and a small body's evaluation takes microseconds.
+        let mut energies = [0.0; WEIGHED_AT_ONCE];
+        for (run, run_volumes) in volumes.chunks(WEIGHED_AT_ONCE).enumerate() {
+            let points = run * WEIGHED_AT_ONCE..run * WEIGHED_AT_ONCE + run_volumes.len();
+            let mut entries = f.each_mut().map(|entry| &mut entry[points.clone()]);
+            let energies = &mut energies[..run_volumes.len()];
+            for (p, energy) in energies.iter_mut().enumerate() {
+                let a: [f64; 9] = std::array::from_fn(|k| entries[k][p]);
+                let (psi, stress) = match self.form() {
+                    Form::SmallStrain(m) => m.entrywise(&a),
+                    Form::NeoHookean(m) => m.entrywise(&a),
+                };
+                *energy = run_volumes[p] * psi;
+                for (entry, s) in entries.iter_mut().zip(stress) {
+                    entry[p] = run_volumes[p] * s;
+                }
             }
+            // Summed after the loop: a running sum would chain every point to the last.
+            total += energies.iter().sum::<f64>();
         }
-        // Summed after the loop: a running sum would chain every point to the last.
-        energies.iter().sum()
+        total
     }
 
     /// `(Psi(F), P(F))`, sharing the work between the two.

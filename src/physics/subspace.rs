@@ -86,7 +86,12 @@ impl Subspace {
                 &cubature.points,
                 &cubature.volumes,
             ),
-            assembly: HessianAssembly::new(4 * k, cubature.volumes.clone(), g_all),
+            assembly: HessianAssembly::new(
+                4 * k,
+                cubature.volumes.clone(),
+                g_all,
+                &cubature.points,
+            ),
             volumes: cubature.volumes.clone(),
             field,
             handles: k,
@@ -182,6 +187,12 @@ impl Subspace {
     /// `HessianAssembly::elastic_hessian`).
     pub fn elastic_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
         self.assembly.elastic_hessian(hessians)
+    }
+
+    /// `elastic_hessian` with the digits a preconditioner needs (see
+    /// `HessianAssembly::preconditioning_hessian`).
+    pub(crate) fn preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
+        self.assembly.preconditioning_hessian(hessians)
     }
 
     /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).

@@ -6,6 +6,7 @@ use std::collections::VecDeque;
 use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::contact::ContactSignature;
+use super::hessian::HessianUse;
 use super::{add_kron_identity, ReducedSim, REFRESH_AFTER_ITERATIONS, REFRESH_GRACE};
 use crate::linalg::DenseCholesky;
 
@@ -117,7 +118,7 @@ impl ReducedSim {
     /// releasing pins drops it.
     pub(super) fn held_elastic_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let base = self.inertia_part() + &self.pin_phi * self.params.pin_stiffness;
-        self.smooth_elastic_at(z, &base)
+        self.smooth_elastic_at(z, &base, HessianUse::Preconditioner)
     }
 
     pub(super) fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {

@@ -9,6 +9,15 @@ use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
 use crate::physics::material::Matrix9;
 
+/// What an elastic Hessian is for, which decides the digits it is summed with.
+#[derive(Clone, Copy)]
+pub(super) enum HessianUse {
+    /// The Newton system: f64.
+    Newton,
+    /// The quasi-Newton preconditioner: f32 where that keeps its digits.
+    Preconditioner,
+}
+
 impl ReducedSim {
     /// Newton's direction at `z`: -H^-1 g with the step objective's Hessian, restricted to the
     /// directions the pins leave free.
@@ -28,7 +37,7 @@ impl ReducedSim {
     /// inertia, damping, pins and contact.
     fn hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let quadratic = self.quadratic_part();
-        let mut hessian = self.smooth_elastic_at(z, &quadratic);
+        let mut hessian = self.smooth_elastic_at(z, &quadratic, HessianUse::Newton);
         add_kron_identity(&mut hessian, &quadratic);
         if let Some(contact) = self.contact_curvature(z) {
             hessian += contact;
@@ -45,18 +54,24 @@ impl ReducedSim {
         &self,
         z: &DMatrix<f64>,
         quadratic: &DMatrix<f64>,
+        usage: HessianUse,
     ) -> DMatrix<f64> {
         let gradients = self.subspace.deformation_gradients(z);
-        let exact = self.elastic_hessian_of(&gradients, false);
+        let exact = self.elastic_hessian_of(&gradients, false, usage);
         let mut total = exact.clone();
         add_kron_identity(&mut total, quadratic);
         if DenseCholesky::new(total.as_slice(), total.nrows()).is_ok() {
             return exact;
         }
-        self.elastic_hessian_of(&gradients, true)
+        self.elastic_hessian_of(&gradients, true, usage)
     }
 
-    fn elastic_hessian_of(&self, gradients: &[Matrix3<f64>], project: bool) -> DMatrix<f64> {
+    fn elastic_hessian_of(
+        &self,
+        gradients: &[Matrix3<f64>],
+        project: bool,
+        usage: HessianUse,
+    ) -> DMatrix<f64> {
         let material = self.material;
         let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, project);
         let hessians: Vec<Matrix9> = if self.subspace.worth_parallel() {
@@ -64,7 +79,10 @@ impl ReducedSim {
         } else {
             gradients.iter().map(hessian_of).collect()
         };
-        self.subspace.elastic_hessian(&hessians)
+        match usage {
+            HessianUse::Newton => self.subspace.elastic_hessian(&hessians),
+            HessianUse::Preconditioner => self.subspace.preconditioning_hessian(&hessians),
+        }
     }
 
     /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive
