@@ -68,6 +68,11 @@ impl FieldSamples {
         self.volumes.len()
     }
 
+    /// Cubature volumes, m^3.
+    pub(crate) fn volumes(&self) -> &[f64] {
+        &self.volumes
+    }
+
     /// F = I + Z G at the points `points`, entry by entry.
     pub(crate) fn deformation(
         &self,

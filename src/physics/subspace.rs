@@ -26,8 +26,6 @@ pub struct Subspace {
     normalization: Normalization,
     /// The field at the cubature points: deformation gradients and elastic forces.
     samples: FieldSamples,
-    /// Cubature volumes, m^3.
-    volumes: Vec<f64>,
     /// G at the cubature points: the elastic Hessian.
     assembly: HessianAssembly,
     /// sum_p rho v_p phi_p phi_p^T (4K x 4K); the reduced mass is this (x) I_3.
@@ -92,7 +90,6 @@ impl Subspace {
                 g_all,
                 &cubature.points,
             ),
-            volumes: cubature.volumes.clone(),
             field,
             handles: k,
             normalization,
@@ -138,11 +135,11 @@ impl Subspace {
     }
     /// The number of cubature points.
     pub fn cubature_len(&self) -> usize {
-        self.volumes.len()
+        self.samples.len()
     }
     /// The cubature volumes, m^3.
     pub fn volumes(&self) -> &[f64] {
-        &self.volumes
+        self.samples.volumes()
     }
     /// The body's mass, kg: density times the cubature's total volume.
     pub fn total_mass(&self) -> f64 {
