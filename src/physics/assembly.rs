@@ -158,9 +158,9 @@ impl HessianAssembly {
     }
 
     /// The six blocks side by side (4K x 6 4K, column-major): G_all times the six weighted
-    /// right factors, one product per run of points. Each thread takes a share of the points and a small
-    /// scratch matrix that stays in cache: the whole right factor (3Np x 6 4K) would be ten
-    /// megabytes of freshly mapped pages on every assembly.
+    /// right factors, one product per run of points. Each thread takes a share of the points
+    /// and a small scratch matrix that stays in cache: the whole right factor (3Np x 6 4K)
+    /// would be ten megabytes of freshly mapped pages on every assembly.
     fn hessian_blocks<T: Precision>(&self, hessians: &[Matrix9]) -> Vec<T> {
         let n4 = self.rows;
         let np = self.len();
