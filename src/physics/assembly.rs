@@ -115,8 +115,8 @@ impl HessianAssembly {
 
     /// `elastic_hessian` for a preconditioner: summed in f32 unless the body is too far from
     /// the origin. A preconditioner needs no more digits, and the product runs faster: for
-    /// the rod's poke (1024 points, 17 handles) this function took 1.9-2.0 ms a refresh against
-    /// 2.5-2.9 ms in f64 (printed, session 17's machine).
+    /// the rod's poke (1024 points, 17 handles) this function took 1.96-2.02 ms a refresh
+    /// against 2.85-2.92 ms in f64 (printed, session 17's machine).
     pub(crate) fn preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
         if self.g_all_f32.is_some() {
             self.assembled::<f32>(hessians)
