@@ -244,8 +244,8 @@ pub(crate) fn tangents(normal: &Vector3<f64>) -> [Vector3<f64>; 2] {
 /// A hasher for the small integer keys of ties (indices of points, obstacles and bodies):
 /// a multiply and a rotate per word. The default SipHash, made to resist crafted keys, which
 /// indices are not, took a tenth of a small body's step (a 12-unknown block landing).
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct IndexHasher(u64);
+#[derive(Clone, Debug, Default)]
+struct IndexHasher(u64);
 
 impl Hasher for IndexHasher {
     fn finish(&self) -> u64 {

@@ -72,6 +72,7 @@ impl ReducedSim {
         // Both lists follow the sorted broad phase: a binary search, where a hash set of the
         // held pairs cost an allocation and a hash per pair in every iteration.
         let held = &factored.touching;
+        debug_assert!(held.windows(2).all(|w| w[0] < w[1]), "held pairs sorted");
         let gained = touching
             .iter()
             .filter(|pair| held.binary_search(pair).is_err())
