@@ -13,6 +13,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 mod contact;
+mod guess;
 mod held;
 mod hessian;
 mod pinning;
@@ -198,6 +199,10 @@ pub struct ReducedSim {
     solver: Solver,
     z: DMatrix<f64>,
     z_prev: DMatrix<f64>,
+    /// The state before `z_prev`, for the solve's starting guess; None after the state is set.
+    z_before: Option<DMatrix<f64>>,
+    /// Steps since the last that needed more than its budget.
+    calm_steps: usize,
     time: f64,
     pins: Vec<ReducedPoint>,
     /// The pin energy is quadratic in Z, so it is kept in closed form whatever the number of
@@ -277,6 +282,8 @@ impl ReducedSim {
             decrement_tolerance: subspace.total_mass() * length * length / (params.dt * params.dt),
             z: DMatrix::zeros(3, 4 * k),
             z_prev: DMatrix::zeros(3, 4 * k),
+            z_before: None,
+            calm_steps: 0,
             time: 0.0,
             pins: Vec::new(),
             pin_phi: DMatrix::zeros(4 * k, 4 * k),
@@ -344,12 +351,14 @@ impl ReducedSim {
     pub fn set_state(&mut self, z: DMatrix<f64>, previous: Option<DMatrix<f64>>) {
         self.z_prev = previous.unwrap_or_else(|| z.clone());
         self.z = z;
+        self.z_before = None;
     }
 
     /// Back to the rest pose, at rest, at time 0.
     pub fn reset(&mut self) {
         self.z.fill(0.0);
         self.z_prev.fill(0.0);
+        self.z_before = None;
         self.time = 0.0;
     }
 
@@ -429,7 +438,10 @@ impl ReducedSim {
         let mut z = self.placed_on_pins(&predicted);
         self.find_candidates(&z);
         self.find_sticks();
-        let mut current = self.solve_from(&mut z, &predicted, &previous, &mut report);
+        let trend = self
+            .trend_guess(&predicted)
+            .map(|g| self.placed_on_pins(&g));
+        let mut current = self.solve_from(&mut z, trend, &predicted, &previous, &mut report);
         while !self.pins_within(&z, self.pin_tolerance())
             && report.pin_stiffenings < MAX_STIFFENINGS
         {
@@ -438,7 +450,7 @@ impl ReducedSim {
             report.pin_stiffenings += 1;
             self.set_pin_boost(self.pin_boost * STIFFENING);
             z = self.placed_on_pins(&predicted);
-            current = self.solve_from(&mut z, &predicted, &previous, &mut report);
+            current = self.solve_from(&mut z, None, &predicted, &previous, &mut report);
         }
         // A step that needed the Newton fallback means the held Hessian no longer describes the
         // state: refactor it at the new state before the next step.
@@ -447,7 +459,14 @@ impl ReducedSim {
             self.held = None;
             self.history.clear();
         }
-        self.z_prev = std::mem::replace(&mut self.z, z);
+        let before = std::mem::replace(&mut self.z_prev, std::mem::replace(&mut self.z, z));
+        // A step that needed more than its budget met an impulse (a landing, a poke's start):
+        // the changes of velocity around it are no trend. Carried into the next steps' guesses
+        // they cost the demo's creature a second hard step (28 iterations, then 21 two steps
+        // on), so the guess goes back to constant velocity for a few steps.
+        let hard = report.budget_extensions > 0 || report.fallback;
+        self.calm_steps = if hard { 0 } else { self.calm_steps + 1 };
+        self.z_before = Some(before);
         self.colliders_before = self.colliders.clone();
         self.time += self.params.dt;
         report.elastic_energy = current.elastic;
@@ -466,6 +485,7 @@ impl ReducedSim {
     fn solve_from(
         &mut self,
         z: &mut DMatrix<f64>,
+        alternative: Option<DMatrix<f64>>,
         predicted: &DMatrix<f64>,
         previous: &DMatrix<f64>,
         report: &mut StepReport,
@@ -474,7 +494,8 @@ impl ReducedSim {
             self.hold_at(z);
         }
         let objective = self.step_objective(predicted, previous);
-        self.solve(z, &objective, report)
+        let start = self.better_start(z, alternative, &objective);
+        self.solve(z, &objective, start, report)
     }
 
     /// Minimizes the step objective from `z` (on the pins), leaving the minimizer in `z` and
@@ -485,9 +506,10 @@ impl ReducedSim {
         &mut self,
         z: &mut DMatrix<f64>,
         objective: &StepObjective,
+        start: Evaluation,
         report: &mut StepReport,
     ) -> Evaluation {
-        let mut current = self.evaluate(z, objective);
+        let mut current = start;
         // Curvature pairs carry over from the previous steps: the Hessian changes little between
         // steps, so they make a better start than the rest Hessian alone.
         let mut history = std::mem::take(&mut self.history);
