@@ -203,6 +203,8 @@ pub struct ReducedSim {
     z_before: Option<DMatrix<f64>>,
     /// Steps since the last that needed more than its budget.
     calm_steps: usize,
+    /// Iterations the last step took.
+    last_iterations: usize,
     time: f64,
     pins: Vec<ReducedPoint>,
     /// The pin energy is quadratic in Z, so it is kept in closed form whatever the number of
@@ -284,6 +286,7 @@ impl ReducedSim {
             z_prev: DMatrix::zeros(3, 4 * k),
             z_before: None,
             calm_steps: 0,
+            last_iterations: 0,
             time: 0.0,
             pins: Vec::new(),
             pin_phi: DMatrix::zeros(4 * k, 4 * k),
@@ -466,6 +469,7 @@ impl ReducedSim {
         // on), so the guess goes back to constant velocity for a few steps.
         let hard = report.budget_extensions > 0 || report.fallback;
         self.calm_steps = if hard { 0 } else { self.calm_steps + 1 };
+        self.last_iterations = report.iterations;
         self.z_before = Some(before);
         self.colliders_before = self.colliders.clone();
         self.time += self.params.dt;
