@@ -3,11 +3,11 @@
 
 use nalgebra::DMatrix;
 
-use super::{quadratic, Evaluation, ReducedSim, StepObjective};
+use super::{quadratic_change, Evaluation, ReducedSim, StepObjective};
 
 /// Steps after one that needed more than its budget before the solve's guess carries the
 /// change of velocity again (see `trend_guess`).
-pub(super) const CALM_STEPS: usize = 3;
+const CALM_STEPS: usize = 3;
 /// The trend is tried only after a step that took this many iterations or more: it costs an
 /// evaluation, which a body whose steps converge at once cannot win back. Without this gate
 /// `bench peer`'s block of 11 handles and 48 points, poked (1 to 2 iterations a step), took
@@ -31,8 +31,8 @@ impl ReducedSim {
             .then(|| predicted + (&self.z - &self.z_prev * 2.0 + before))
     }
 
-    /// Evaluates the start `z` and, given one, `alternative`; leaves in `z` the one where the
-    /// step objective is lower, and returns its evaluation.
+    /// Evaluates the start `z` and, given one, `alternative` (both on the pins); leaves in `z`
+    /// the one where the step objective is lower, and returns its evaluation.
     pub(super) fn better_start(
         &self,
         z: &mut DMatrix<f64>,
@@ -44,10 +44,11 @@ impl ReducedSim {
             return at_z;
         };
         let at_other = self.evaluate(&other, objective);
-        let value = |z: &DMatrix<f64>, at: &Evaluation| {
-            at.nonquadratic + 0.5 * quadratic(z, &objective.quadratic) - objective.linear.dot(z)
-        };
-        if value(&other, &at_other) < value(z, &at_z) {
+        // Compared as the line search compares: the quadratic part's change exactly, not its
+        // values, which hold the pin springs' 1e8 J.
+        let (linear, curvature) = quadratic_change(&at_z, &(&other - &*z), objective);
+        let change = at_other.nonquadratic - at_z.nonquadratic + linear + 0.5 * curvature;
+        if change < 0.0 {
             *z = other;
             return at_other;
         }

@@ -627,12 +627,7 @@ impl ReducedSim {
         objective: &StepObjective,
     ) -> Option<(f64, Evaluation)> {
         let step_matrix = unflat(direction, self.subspace.handles());
-        // The quadratic part's change along the step is exact: alpha <g_q, D> + alpha^2/2 <D Q, D>.
-        // Differencing its absolute values instead would cancel terms of the size of the pin
-        // springs (1e8 J and more) and drown the last Newton decrements in round-off.
-        let quadratic_gradient = &current.gradient - &current.nonquadratic_gradient;
-        let linear_change = quadratic_gradient.dot(&step_matrix);
-        let curvature = times_symmetric(&step_matrix, &objective.quadratic).dot(&step_matrix);
+        let (linear_change, curvature) = quadratic_change(current, &step_matrix, objective);
         let mut step = 1.0;
         for _ in 0..40 {
             let trial = z + &step_matrix * step;
@@ -734,6 +729,19 @@ impl ReducedSim {
         let phi = self.subspace.phis(&[*rest]).remove(0);
         rest + &self.z * phi
     }
+}
+
+/// The step objective's quadratic part along `d` from the state evaluated in `at`, exactly:
+/// (<g_q, D>, <D Q, D>), its change over alpha D being alpha first + alpha^2/2 second.
+/// Differencing its absolute values instead would cancel terms of the size of the pin springs
+/// (1e8 J and more) and drown the last Newton decrements in round-off. `d` must keep the pins
+/// (the gradient in `at` is restricted to the free directions).
+fn quadratic_change(at: &Evaluation, d: &DMatrix<f64>, objective: &StepObjective) -> (f64, f64) {
+    let quadratic_gradient = &at.gradient - &at.nonquadratic_gradient;
+    (
+        quadratic_gradient.dot(d),
+        times_symmetric(d, &objective.quadratic).dot(d),
+    )
 }
 
 /// x^T M x summed over the three rows of a 3 x 4K matrix: tr(X M X^T).
