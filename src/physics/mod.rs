@@ -8,6 +8,7 @@ mod lift;
 mod material;
 mod obstacle;
 mod reduced;
+mod regions;
 mod rolling;
 mod scene;
 mod strain;
