@@ -65,9 +65,6 @@ impl Precision for f32 {
     }
 }
 
-/// A part of the cubature (see `HessianAssembly::subset`) with dP/dF at each of its points.
-pub(crate) type Part<'a> = (&'a HessianAssembly, Vec<Matrix9>);
-
 /// Volumes and G of the cubature points.
 pub(crate) struct HessianAssembly {
     /// 4K: the rows of every G.
@@ -105,67 +102,6 @@ impl HessianAssembly {
         }
     }
 
-    /// The assembly over the points `chosen` only, their G gathered: a region's share of the
-    /// Hessian. Its preconditioner is summed in f32 where the whole body's is: the rounding
-    /// that matters is that of the shares' sum, which follows the body's distance from the
-    /// origin, not a region's.
-    pub(crate) fn subset(&self, chosen: &[usize]) -> HessianAssembly {
-        let columns = 3 * self.len();
-        let mut g_all = Vec::with_capacity(self.rows * 3 * chosen.len());
-        for row in self.g_all.chunks_exact(columns) {
-            for &p in chosen {
-                g_all.extend_from_slice(&row[3 * p..3 * p + 3]);
-            }
-        }
-        let single = self
-            .g_all_f32
-            .is_some()
-            .then(|| g_all.iter().map(|&g| g as f32).collect());
-        HessianAssembly {
-            rows: self.rows,
-            volumes: chosen.iter().map(|&p| self.volumes[p]).collect(),
-            g_all,
-            g_all_f32: single,
-        }
-    }
-
-    /// The elastic Hessian of each of `parts` (assemblies made by `subset`, `hessians` indexed
-    /// as theirs) for a preconditioner: summed in f32 unless the body lies too far from the
-    /// origin (see `new`). A preconditioner needs no more digits, and the product runs faster:
-    /// for the rod's poke (1024 points, 17 handles) the whole Hessian took 1.96-2.02 ms in f32
-    /// against 2.85-2.92 ms in f64 (printed, session 17's machine). The parts are spread over
-    /// the threads, each thread reusing one scratch.
-    pub(crate) fn preconditioning_parts(parts: &[Part]) -> Vec<DMatrix<f64>> {
-        fn each<T: Precision>(parts: &[Part]) -> Vec<DMatrix<f64>> {
-            parts
-                .par_iter()
-                .map_init(Scratch::<T>::default, |scratch, (part, hessians)| {
-                    part.laid_out(&part.blocks_over(hessians, 0..part.len(), scratch))
-                })
-                .collect()
-        }
-        if parts.iter().all(|(p, _)| p.g_all_f32.is_some()) {
-            each::<f32>(parts)
-        } else {
-            each::<f64>(parts)
-        }
-    }
-
-    /// sum_p v_p G_p / sum_p v_p (4K x 3): I + Z times it is the points' mean F.
-    pub(crate) fn mean_gradient(&self) -> DMatrix<f64> {
-        let columns = 3 * self.len();
-        let total: f64 = self.volumes.iter().sum::<f64>().max(1e-300);
-        DMatrix::from_fn(self.rows, 3, |row, e| {
-            let g = &self.g_all[row * columns..(row + 1) * columns];
-            self.volumes
-                .iter()
-                .enumerate()
-                .map(|(p, v)| v * g[3 * p + e])
-                .sum::<f64>()
-                / total
-        })
-    }
-
     /// The number of points.
     pub(crate) fn len(&self) -> usize {
         self.volumes.len()
@@ -175,6 +111,18 @@ impl HessianAssembly {
     /// [`PARALLEL_WORK`] the wake-up of another thread costs more than it saves.
     pub(crate) fn worth_parallel(&self) -> bool {
         self.len() * self.rows >= PARALLEL_WORK
+    }
+
+    /// `elastic_hessian` for a preconditioner: summed in f32 unless the body is too far from
+    /// the origin. A preconditioner needs no more digits, and the product runs faster: for
+    /// the rod's poke (1024 points, 17 handles) this function took 1.96-2.02 ms a refresh
+    /// against 2.85-2.92 ms in f64 (printed, session 17's machine).
+    pub(crate) fn preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
+        if self.g_all_f32.is_some() {
+            self.assembled::<f32>(hessians)
+        } else {
+            self.assembled::<f64>(hessians)
+        }
     }
 
     /// The elastic Hessian (see `assembled`) summed in f64.
@@ -192,12 +140,8 @@ impl HessianAssembly {
     /// (4K x 3Np) (3Np x 6 4K) in faer: at 4K = 68 and Np = 1024 the six nalgebra products
     /// took 2.95-3.46 ms on 2 cores, this one 1.1-1.5 ms (printed).
     fn assembled<T: Precision>(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
-        self.laid_out(&self.hessian_blocks::<T>(hessians))
-    }
-
-    /// The Hessian (12K x 12K) from its six blocks.
-    fn laid_out<T: Precision>(&self, blocks: &[T]) -> DMatrix<f64> {
         let n4 = self.rows;
+        let blocks = self.hessian_blocks::<T>(hessians);
         let mut hessian = DMatrix::zeros(3 * n4, 3 * n4);
         for (k, &(d, f)) in HESSIAN_BLOCKS.iter().enumerate() {
             for b in 0..n4 {
@@ -218,74 +162,62 @@ impl HessianAssembly {
     /// and a small scratch matrix that stays in cache: the whole right factor (3Np x 6 4K)
     /// would be ten megabytes of freshly mapped pages on every assembly.
     fn hessian_blocks<T: Precision>(&self, hessians: &[Matrix9]) -> Vec<T> {
+        let n4 = self.rows;
         let np = self.len();
+        let width = HESSIAN_BLOCKS.len() * n4;
+        // G_all^T as a column-major (3Np x 4K) matrix is g_all's row-major storage.
+        let g_all = MatRef::from_column_major_slice(T::g_all(self), 3 * np, n4);
+        let share = |points: std::ops::Range<usize>| {
+            let mut blocks = vec![T::of(0.0); n4 * width];
+            let mut weighted = vec![T::of(0.0); 3 * HESSIAN_RUN * width];
+            let mut gathered = vec![[0.0; 3]; n4];
+            for start in points.clone().step_by(HESSIAN_RUN) {
+                let len = HESSIAN_RUN.min(points.end - start);
+                let rows = &mut weighted[..3 * len * width];
+                for (local, point_rows) in rows.chunks_mut(3 * width).enumerate() {
+                    let p = start + local;
+                    self.weigh_point(p, &hessians[p], &mut gathered, point_rows);
+                }
+                let left = g_all.subrows(3 * start, 3 * len).transpose();
+                let right = MatRef::from_row_major_slice(rows, 3 * len, width);
+                let mut out = MatMut::from_column_major_slice_mut(&mut blocks, n4, width);
+                for k in 0..DIAGONAL_BLOCKS {
+                    triangular::matmul(
+                        out.as_mut().subcols_mut(k * n4, n4),
+                        BlockStructure::TriangularLower,
+                        Accum::Add,
+                        left,
+                        BlockStructure::Rectangular,
+                        right.subcols(k * n4, n4),
+                        BlockStructure::Rectangular,
+                        T::of(1.0),
+                        Par::Seq,
+                    );
+                }
+                let rest = DIAGONAL_BLOCKS * n4;
+                faer::linalg::matmul::matmul(
+                    out.subcols_mut(rest, width - rest),
+                    Accum::Add,
+                    left,
+                    right.subcols(rest, width - rest),
+                    T::of(1.0),
+                    Par::Seq,
+                );
+            }
+            blocks
+        };
         if !self.worth_parallel() {
-            return self.blocks_over(hessians, 0..np, &mut Scratch::default());
+            return share(0..np);
         }
         let per_run = np.div_ceil(rayon::current_num_threads().max(1)).max(1);
         (0..np.div_ceil(per_run))
             .into_par_iter()
-            .map(|run| {
-                let points = run * per_run..((run + 1) * per_run).min(np);
-                self.blocks_over(hessians, points, &mut Scratch::default())
-            })
+            .map(|run| share(run * per_run..((run + 1) * per_run).min(np)))
             .reduce_with(|mut a, b| {
                 a.iter_mut().zip(b).for_each(|(a, b)| *a += b);
                 a
             })
             .expect("at least one cubature point")
-    }
-
-    /// The six blocks (see `hessian_blocks`) summed over `points` only, with the weighted
-    /// right factors made in `scratch`.
-    fn blocks_over<T: Precision>(
-        &self,
-        hessians: &[Matrix9],
-        points: std::ops::Range<usize>,
-        scratch: &mut Scratch<T>,
-    ) -> Vec<T> {
-        let n4 = self.rows;
-        let width = HESSIAN_BLOCKS.len() * n4;
-        // G_all^T as a column-major (3Np x 4K) matrix is g_all's row-major storage.
-        let g_all = MatRef::from_column_major_slice(T::g_all(self), 3 * self.len(), n4);
-        let mut blocks = vec![T::of(0.0); n4 * width];
-        let run = HESSIAN_RUN.min(points.len());
-        scratch.weighted.resize(3 * run * width, T::of(0.0));
-        scratch.gathered.resize(n4, [0.0; 3]);
-        for start in points.clone().step_by(HESSIAN_RUN) {
-            let len = HESSIAN_RUN.min(points.end - start);
-            let rows = &mut scratch.weighted[..3 * len * width];
-            for (local, point_rows) in rows.chunks_mut(3 * width).enumerate() {
-                let p = start + local;
-                self.weigh_point(p, &hessians[p], &mut scratch.gathered, point_rows);
-            }
-            let left = g_all.subrows(3 * start, 3 * len).transpose();
-            let right = MatRef::from_row_major_slice(rows, 3 * len, width);
-            let mut out = MatMut::from_column_major_slice_mut(&mut blocks, n4, width);
-            for k in 0..DIAGONAL_BLOCKS {
-                triangular::matmul(
-                    out.as_mut().subcols_mut(k * n4, n4),
-                    BlockStructure::TriangularLower,
-                    Accum::Add,
-                    left,
-                    BlockStructure::Rectangular,
-                    right.subcols(k * n4, n4),
-                    BlockStructure::Rectangular,
-                    T::of(1.0),
-                    Par::Seq,
-                );
-            }
-            let rest = DIAGONAL_BLOCKS * n4;
-            faer::linalg::matmul::matmul(
-                out.subcols_mut(rest, width - rest),
-                Accum::Add,
-                left,
-                right.subcols(rest, width - rest),
-                T::of(1.0),
-                Par::Seq,
-            );
-        }
-        blocks
     }
 
     /// Point p's rows of the weighted right factors: rows[e][k 4K + a] = sum_g C_p^{df}[e, g]
@@ -316,23 +248,6 @@ impl HessianAssembly {
                     *o = T::of(ce[0] * g[0] + ce[1] * g[1] + ce[2] * g[2]);
                 }
             }
-        }
-    }
-}
-
-/// Buffers for one thread's assembly: the weighted right factors of a run of points (hundreds
-/// of kilobytes, which freshly allocated for each region cost more than the product) and one
-/// point's G.
-struct Scratch<T> {
-    weighted: Vec<T>,
-    gathered: Vec<[f64; 3]>,
-}
-
-impl<T> Default for Scratch<T> {
-    fn default() -> Self {
-        Self {
-            weighted: Vec::new(),
-            gathered: Vec::new(),
         }
     }
 }
@@ -406,32 +321,6 @@ mod tests {
     }
 
     /// An object in a map frame, far from the origin, keeps f64: its G's entries cancel.
-    #[test]
-    fn the_parts_of_a_split_sum_to_the_whole() {
-        let (assembly, hessians) = made_up();
-        let expected = multiplied_out(&assembly, &hessians);
-        let split: Vec<Vec<usize>> =
-            vec![(0..300).step_by(2).collect(), (1..300).step_by(2).collect()];
-        let subsets: Vec<HessianAssembly> = split.iter().map(|c| assembly.subset(c)).collect();
-        let parts: Vec<Part> = subsets
-            .iter()
-            .zip(&split)
-            .map(|(s, c)| (s, c.iter().map(|&p| hessians[p]).collect()))
-            .collect();
-        let summed = HessianAssembly::preconditioning_parts(&parts)
-            .into_iter()
-            .fold(
-                DMatrix::zeros(expected.nrows(), expected.ncols()),
-                |a, b| a + b,
-            );
-        let relative = (&summed - &expected).norm() / expected.norm();
-        // made_up's points lie near the origin, so the parts are summed in f32.
-        assert!(subsets.iter().all(|s| s.g_all_f32.is_some()));
-        assert!(relative < 1e-5, "{relative:e}");
-        let mean = subsets[0].mean_gradient();
-        assert_eq!(mean.shape(), (8, 3));
-    }
-
     #[test]
     fn only_a_body_near_the_origin_is_preconditioned_in_f32() {
         let ball = |centre: Vector3<f64>| -> Vec<Vector3<f64>> {

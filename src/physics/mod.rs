@@ -8,7 +8,6 @@ mod lift;
 mod material;
 mod obstacle;
 mod reduced;
-mod regions;
 mod rolling;
 mod scene;
 mod strain;

@@ -14,7 +14,6 @@ use rayon::prelude::*;
 
 use super::assembly::HessianAssembly;
 use super::material::{polar_rotation, Material, Matrix9};
-use super::regions::Regions;
 use super::strain::FieldSamples;
 
 use crate::geometry::{Cubature, Normalization};
@@ -36,8 +35,6 @@ pub struct Subspace {
     /// The volume-weighted mean of G (4K x 3): the body's mean deformation gradient is
     /// I + Z times this.
     mean_gradient: DMatrix<f64>,
-    /// The cubature split into regions that turn as one (the held Hessian's turning).
-    regions: Regions,
     total_mass: f64,
     density: f64,
 }
@@ -77,11 +74,9 @@ impl Subspace {
             mass_phi.ger(m, &phi, &phi, 1.0);
             mass_moment.axpy(m, &phi, 1.0);
         }
-        let assembly =
-            HessianAssembly::new(4 * k, cubature.volumes.clone(), g_all, &cubature.points);
+        let mean_gradient = mean_gradient(&g_all, &cubature.volumes, 4 * k);
         Self {
-            mean_gradient: assembly.mean_gradient(),
-            regions: Regions::new(&assembly, &cubature.points),
+            mean_gradient,
             samples: FieldSamples::new(
                 k,
                 &weights,
@@ -89,7 +84,12 @@ impl Subspace {
                 &cubature.points,
                 &cubature.volumes,
             ),
-            assembly,
+            assembly: HessianAssembly::new(
+                4 * k,
+                cubature.volumes.clone(),
+                g_all,
+                &cubature.points,
+            ),
             field,
             handles: k,
             normalization,
@@ -174,17 +174,6 @@ impl Subspace {
         polar_rotation(&f).unwrap_or_else(Matrix3::identity)
     }
 
-    /// The rotation of each region of the cubature at `z` (see [`Regions`]).
-    pub(crate) fn region_rotations(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
-        self.regions.rotations(z)
-    }
-
-    /// Each region's share of the elastic Hessian for dP/dF `hessians` at every point: they
-    /// sum to `elastic_hessian(hessians)`.
-    pub(crate) fn region_hessians(&self, hessians: &[Matrix9]) -> Vec<DMatrix<f64>> {
-        self.regions.hessians(hessians)
-    }
-
     /// Deformation gradients at every cubature point for the handle matrix `z` (3 x 4K), as
     /// 3 x 3 matrices.
     pub fn deformation_gradients(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
@@ -195,6 +184,12 @@ impl Subspace {
     /// `HessianAssembly::elastic_hessian`).
     pub fn elastic_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
         self.assembly.elastic_hessian(hessians)
+    }
+
+    /// `elastic_hessian` with the digits a preconditioner needs (see
+    /// `HessianAssembly::preconditioning_hessian`).
+    pub(crate) fn preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
+        self.assembly.preconditioning_hessian(hessians)
     }
 
     /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).
@@ -223,6 +218,21 @@ impl Subspace {
     pub fn worth_parallel(&self) -> bool {
         self.assembly.worth_parallel()
     }
+}
+
+/// sum_p v_p G_p / sum_p v_p from G laid out as in `Subspace::g_all`.
+fn mean_gradient(g_all: &[f64], volumes: &[f64], rows: usize) -> DMatrix<f64> {
+    let columns = 3 * volumes.len();
+    let total: f64 = volumes.iter().sum::<f64>().max(1e-300);
+    DMatrix::from_fn(rows, 3, |row, e| {
+        let g = &g_all[row * columns..(row + 1) * columns];
+        volumes
+            .iter()
+            .enumerate()
+            .map(|(p, v)| v * g[3 * p + e])
+            .sum::<f64>()
+            / total
+    })
 }
 
 /// phi = w (x) [X; 1] for one point.

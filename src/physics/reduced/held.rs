@@ -4,85 +4,59 @@
 use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Matrix3};
-use rayon::prelude::*;
 
 use super::contact::ContactSignature;
-use super::turned::TurnedHessian;
+use super::hessian::HessianUse;
 use super::{add_kron_identity, ReducedSim, REFRESH_AFTER_ITERATIONS, REFRESH_GRACE};
 use crate::linalg::DenseCholesky;
 
 /// A turn of the body (largest entry of the rotation's change) past which the preconditioner
 /// is turned with it.
 const TURN_TOLERANCE: f64 = 1e-3;
-/// A turn of a region within a slow solve (largest entry of its rotation's change) past which
-/// the held Hessian is renewed by turning its shares rather than assembled again. A body
-/// landing bends without turning: its slow solves need the Hessian assembled, and turning it
-/// first cost the demo two steps of more than their budget.
-const RENEW_BY_TURNING: f64 = 1e-2;
 /// New contact springs, as a share of those the preconditioner holds, past which a solve
 /// refactors it with those acting.
 const CONTACT_GAIN: f64 = 0.5;
 
 impl ReducedSim {
-    /// Refactors the preconditioner for the state `z` when a region of the body has turned or
-    /// the contact springs acting (the pairs in touch, friction) differ from those it was
-    /// factored with. Elasticity is invariant under rotation, so a region that turns as a rigid
-    /// piece turns its share of the held Hessian by the same rotation: the turned shares follow
-    /// a tumbling, swinging or bending body without reassembling the Hessian (see
-    /// [`TurnedHessian`]). Contact curvature changes from one step to the next and is added
-    /// exactly. Both cost a few small products and one 12K x 12K factorization, a fraction of
-    /// the elastic Hessian's assembly. A body resting on the same points keeps its factor: the
-    /// curvature changes only with which springs act.
+    /// Refactors the preconditioner for the state `z` when the body has turned or the contact
+    /// springs acting (the pairs in touch, friction) differ from those it was factored with.
+    /// Elasticity is invariant under a rotation of the whole body, so the held elastic Hessian
+    /// turned by that rotation is the Hessian of the turned state: a tumbling body keeps an
+    /// accurate preconditioner without reassembling it. Contact curvature changes from one step
+    /// to the next and is added exactly. Both cost a few small products and one 12K x 12K
+    /// factorization, a fraction of the elastic Hessian's assembly; without them, a falling or
+    /// landing body costs many iterations and a refresh of the whole Hessian. A body resting on
+    /// the same points keeps its factor: the curvature changes only with which springs act.
     pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) {
         let signature = self.contact_signature(z);
         self.held_matrix();
-        let rotations = self.subspace.region_rotations(z);
-        let turned = TurnedHessian::moved(&self.factored_rotations, &rotations, TURN_TOLERANCE);
+        // A pinned body does not turn as a whole: its mean rotation is bending, which turning
+        // the held matrix would misdescribe.
+        let turn = if self.pins.is_empty() {
+            self.subspace.mean_rotation(z) * self.held_rotation.transpose()
+        } else {
+            Matrix3::identity()
+        };
+        let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
         if self.factored_contact.as_ref() == Some(&signature) && !turned {
             return;
         }
         let held = self.held.as_ref().expect("made above");
-        let quadratic = self.quadratic_part();
-        let contact = self.contact_curvature(z);
-        let with_rest = |mut matrix: DMatrix<f64>| {
-            add_kron_identity(&mut matrix, &quadratic);
-            if let Some(contact) = contact.as_ref() {
-                matrix += contact;
-            }
-            matrix
+        // A pinned body's held matrix is factored as it is: turning it by the identity would
+        // cost a 3 x 3 product per block.
+        let mut matrix = if turn == Matrix3::identity() {
+            held.clone()
+        } else {
+            turn_blocks(held, &turn)
         };
-        // Shares held at a strained state may turn apart into an indefinite sum: then the
-        // unturned one, definite as it was checked, is factored instead.
-        let factor = self
-            .try_factor(with_rest(held.turned(&rotations)))
-            .unwrap_or_else(|| self.factor_hessian(with_rest(held.unturned().clone())));
-        self.factored_contact = Some(signature);
-        self.factored_rotations = rotations;
-        self.preconditioner = Some(factor);
-        self.factorizations += 1;
-    }
-
-    /// Renews the held Hessian within a slow solve, which shows it no longer describes the
-    /// state: first its regions' shares are turned to where they are at `z` (a swinging,
-    /// bending body: a few tenths of a millisecond); if that was done already since the last
-    /// assembly (`turned_already`), or nothing turned, it is assembled again at `z` and held
-    /// from now on. Returns whether it was assembled.
-    pub(super) fn renew_held(&mut self, z: &DMatrix<f64>, turned_already: bool) -> bool {
-        if !turned_already && self.regions_turned(z) {
-            self.hold_at(z);
-            return false;
+        add_kron_identity(&mut matrix, &self.quadratic_part());
+        if let Some(contact) = self.contact_curvature(z) {
+            matrix += contact;
         }
-        let old = self.held.take();
-        let held = self.held_elastic_at(z, old);
-        self.hold_new(held, z);
-        true
-    }
-
-    /// Whether a region has turned at `z`, since the preconditioner was factored, by more
-    /// than `RENEW_BY_TURNING` (an entry of its rotation).
-    pub(super) fn regions_turned(&self, z: &DMatrix<f64>) -> bool {
-        let rotations = self.subspace.region_rotations(z);
-        TurnedHessian::moved(&self.factored_rotations, &rotations, RENEW_BY_TURNING)
+        self.factored_contact = Some(signature);
+        self.factored_turn = turn;
+        self.preconditioner = Some(self.factor_hessian(matrix));
+        self.factorizations += 1;
     }
 
     /// Whether the contact springs acting (`touching`) include more that the preconditioner
@@ -110,81 +84,47 @@ impl ReducedSim {
     /// rest-state one; after a hard step, the one at that state, held for the steps that
     /// follow until another hard step) plus inertia, damping and the pins as they are now.
     pub(super) fn build_preconditioner(&mut self) -> DenseCholesky {
-        let held = self.held_matrix();
-        let mut matrix = held.unturned().clone();
-        self.factored_rotations = held.assembled_at().to_vec();
+        let mut matrix = self.held_matrix().clone();
         add_kron_identity(&mut matrix, &self.quadratic_part());
         self.factored_contact = Some(ContactSignature::default());
+        self.factored_turn = Matrix3::identity();
         self.factorizations += 1;
         self.factor_hessian(matrix)
     }
 
     /// Holds `matrix`, the elastic Hessian at `z`, and factors it with inertia, damping, pins
     /// and the contact curvature at `z`.
-    pub(super) fn hold_new(&mut self, held: TurnedHessian, z: &DMatrix<f64>) {
-        self.held = Some(held);
+    pub(super) fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
+        self.held = Some(matrix);
+        self.held_rotation = self.subspace.mean_rotation(z);
         // The factor in place belongs to the old matrix: `hold_at` refactors whatever touches.
         self.factored_contact = None;
-        self.factored_rotations.clear();
+        self.factored_turn = Matrix3::identity();
         self.hold_at(z);
     }
 
-    /// The held elastic Hessian, made on first use: at rest the rest-state one, otherwise the
-    /// one at the current state. Inertia, damping and pins are added when it is factored, so
-    /// that pins added or stiffened later count at once and cost no reassembly.
-    pub(super) fn held_matrix(&mut self) -> &TurnedHessian {
+    /// The held matrix, made on first use: the elastic Hessian, at rest the rest-state one,
+    /// otherwise the one at the current state. Inertia, damping and pins are added when it is
+    /// factored, so that pins added or stiffened later count at once and cost no reassembly.
+    pub(super) fn held_matrix(&mut self) -> &DMatrix<f64> {
         if self.held.is_none() {
-            let held = if self.z.amax() == 0.0 {
-                let rest = self.material.stress_derivative(&Matrix3::identity(), true);
-                let shares = self
-                    .subspace
-                    .region_hessians(&vec![rest; self.subspace.cubature_len()]);
-                TurnedHessian::new(&shares, self.subspace.region_rotations(&self.z), None)
+            let matrix = if self.z.amax() == 0.0 {
+                self.rest_elastic_hessian().clone()
             } else {
-                self.held_elastic_at(&self.z, None)
+                self.held_elastic_at(&self.z)
             };
-            self.held = Some(held);
+            self.held_rotation = self.subspace.mean_rotation(&self.z);
+            self.held = Some(matrix);
         }
         self.held.as_ref().expect("made above")
     }
 
-    /// The elastic Hessian at `z` to hold, as its regions' shares: exact where inertia,
-    /// damping and the pins at their own stiffness make it definite (on the directions the pins
-    /// leave free), else PSD-projected. Stiffening the pins for a step keeps it definite;
-    /// releasing pins drops it. `reuse` lends its storage (see `TurnedHessian::new`).
-    pub(super) fn held_elastic_at(
-        &self,
-        z: &DMatrix<f64>,
-        reuse: Option<TurnedHessian>,
-    ) -> TurnedHessian {
+    /// The elastic Hessian at `z` to hold: exact where inertia, damping and the pins at their
+    /// own stiffness make it definite. Stiffening the pins for a step keeps it definite;
+    /// releasing pins drops it.
+    pub(super) fn held_elastic_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let base = self.inertia_part() + &self.pin_phi * self.params.pin_stiffness;
-        let gradients = self.subspace.deformation_gradients(z);
-        let rotations = self.subspace.region_rotations(z);
-        let shares_of = |project: bool, reuse: Option<TurnedHessian>| {
-            let hessians: Vec<_> = gradients
-                .par_iter()
-                .map(|f| self.material.stress_derivative(f, project))
-                .collect();
-            let shares = self.subspace.region_hessians(&hessians);
-            TurnedHessian::new(&shares, rotations.clone(), reuse)
-        };
-        let exact = shares_of(false, reuse);
-        if self.factorable(exact.unturned(), &base, true) {
-            return exact;
-        }
-        shares_of(true, Some(exact))
-    }
-
-    /// The Cholesky factor of `matrix` as the preconditioner is factored (see
-    /// `factor_hessian`), or None where it is not positive definite.
-    fn try_factor(&self, mut matrix: DMatrix<f64>) -> Option<DenseCholesky> {
-        for i in 0..matrix.nrows() {
-            matrix[(i, i)] += 1e-12 * matrix[(i, i)].abs().max(1e-300);
-        }
-        if let Some(pinning) = self.pinning.as_ref() {
-            pinning.restrict_hessian(&mut matrix);
-        }
-        DenseCholesky::new(matrix.as_slice(), matrix.nrows()).ok()
+        self.smooth_elastic_at(z, &base, HessianUse::Preconditioner)
     }
 
     pub(super) fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {
@@ -247,4 +187,18 @@ fn converging_within(decrements: &[f64], tolerance: f64, iterations: usize) -> b
     };
     let rate = (last / older).sqrt();
     rate < 1.0 && last * rate.powi(iterations as i32) < tolerance
+}
+
+/// (I (x) R) H (I (x) R^T) in flat z order: every 3 x 3 block of H turned by R.
+pub(super) fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
+    let blocks = h.nrows() / 3;
+    let mut out = DMatrix::zeros(h.nrows(), h.ncols());
+    for b in 0..blocks {
+        for a in 0..blocks {
+            let block: Matrix3<f64> = h.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
+            out.fixed_view_mut::<3, 3>(3 * a, 3 * b)
+                .copy_from(&(r * block * r.transpose()));
+        }
+    }
+    out
 }

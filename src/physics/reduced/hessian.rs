@@ -9,6 +9,15 @@ use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
 use crate::physics::material::Matrix9;
 
+/// What an elastic Hessian is for, which decides the digits it is summed with.
+#[derive(Clone, Copy)]
+pub(super) enum HessianUse {
+    /// The Newton system: f64.
+    Newton,
+    /// The quasi-Newton preconditioner: f32 where that keeps its digits.
+    Preconditioner,
+}
+
 impl ReducedSim {
     /// Newton's direction at `z`: -H^-1 g with the step objective's Hessian, restricted to the
     /// directions the pins leave free.
@@ -28,7 +37,7 @@ impl ReducedSim {
     /// inertia, damping, pins and contact.
     fn hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let quadratic = self.quadratic_part();
-        let mut hessian = self.smooth_elastic_at(z, &quadratic);
+        let mut hessian = self.smooth_elastic_at(z, &quadratic, HessianUse::Newton);
         add_kron_identity(&mut hessian, &quadratic);
         if let Some(contact) = self.contact_curvature(z) {
             hessian += contact;
@@ -41,18 +50,36 @@ impl ReducedSim {
     /// exact one definite in most states, and there Newton converges quadratically; with the
     /// projection it converges only linearly wherever the material is compressed (a rod's poke
     /// took 4.0 Newton iterations a step, 2.4 without).
-    fn smooth_elastic_at(&self, z: &DMatrix<f64>, quadratic: &DMatrix<f64>) -> DMatrix<f64> {
+    ///
+    /// A preconditioner's, summed in f32, is kept only where it can be factored as the held
+    /// matrix is (pinned directions restricted away: their stiff springs would hide the rest),
+    /// else it is summed again in f64: f32's rounding, about 1e-7 of the stiffest entries, can
+    /// outweigh the inertia of a stiff, light body's softest directions.
+    pub(super) fn smooth_elastic_at(
+        &self,
+        z: &DMatrix<f64>,
+        quadratic: &DMatrix<f64>,
+        usage: HessianUse,
+    ) -> DMatrix<f64> {
         let gradients = self.subspace.deformation_gradients(z);
-        let exact = self.elastic_hessian_of(&gradients, false);
+        if let HessianUse::Preconditioner = usage {
+            for project in [false, true] {
+                let single = self.elastic_hessian_of(&gradients, project, usage);
+                if self.factorable(&single, quadratic, true) {
+                    return single;
+                }
+            }
+        }
+        let exact = self.elastic_hessian_of(&gradients, false, HessianUse::Newton);
         if self.factorable(&exact, quadratic, false) {
             return exact;
         }
-        self.elastic_hessian_of(&gradients, true)
+        self.elastic_hessian_of(&gradients, true, HessianUse::Newton)
     }
 
     /// Whether `elastic` plus `quadratic` (x) I_3 is positive definite, on the free directions
     /// only when `restricted`.
-    pub(super) fn factorable(
+    fn factorable(
         &self,
         elastic: &DMatrix<f64>,
         quadratic: &DMatrix<f64>,
@@ -66,7 +93,12 @@ impl ReducedSim {
         DenseCholesky::new(total.as_slice(), total.nrows()).is_ok()
     }
 
-    fn elastic_hessian_of(&self, gradients: &[Matrix3<f64>], project: bool) -> DMatrix<f64> {
+    fn elastic_hessian_of(
+        &self,
+        gradients: &[Matrix3<f64>],
+        project: bool,
+        usage: HessianUse,
+    ) -> DMatrix<f64> {
         let material = self.material;
         let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, project);
         let hessians: Vec<Matrix9> = if self.subspace.worth_parallel() {
@@ -74,7 +106,10 @@ impl ReducedSim {
         } else {
             gradients.iter().map(hessian_of).collect()
         };
-        self.subspace.elastic_hessian(&hessians)
+        match usage {
+            HessianUse::Newton => self.subspace.elastic_hessian(&hessians),
+            HessianUse::Preconditioner => self.subspace.preconditioning_hessian(&hessians),
+        }
     }
 
     /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive

@@ -19,7 +19,6 @@ mod hessian;
 mod pinning;
 mod pins;
 mod rebase;
-mod turned;
 
 pub use rebase::state_projection;
 
@@ -182,10 +181,6 @@ const LBFGS_PAIRS: usize = 8;
 /// the solve is converging fast enough to finish within `REFRESH_GRACE` more.
 const REFRESH_AFTER_ITERATIONS: usize = 8;
 const REFRESH_GRACE: usize = 2;
-/// Iterations a solve's count since its last renewal starts from after the held Hessian was
-/// renewed by turning it (see `renew_held`): the next renewal, an assembly, comes this many
-/// iterations sooner.
-const TURNED_HEAD_START: usize = 4;
 const ARMIJO: f64 = 1e-4;
 /// How many times a step's last solver may get its budget again while it still descends.
 const BUDGET_EXTENSIONS: usize = 10;
@@ -254,15 +249,16 @@ pub struct ReducedSim {
     diagonal: f64,
     pokes: Vec<(DVector<f64>, Poke)>,
     rest_hessian: Option<DMatrix<f64>>,
-    /// The elastic Hessian the quasi-Newton preconditioner holds (at rest, or at the state of
-    /// the last refresh), as its regions' shares; inertia, damping, pins and contact are added
-    /// when it is factored.
-    held: Option<turned::TurnedHessian>,
+    /// What the quasi-Newton preconditioner holds besides contact: elasticity (at rest, or at
+    /// the state of the last refresh) plus inertia, damping and pins.
+    held: Option<DMatrix<f64>>,
+    /// The body's mean rotation where `held` was assembled.
+    held_rotation: Matrix3<f64>,
     /// The contact the factored preconditioner includes; None when the factor does not match
     /// the held matrix and must be redone.
     factored_contact: Option<ContactSignature>,
-    /// The regions' rotations the factored preconditioner's shares were turned to.
-    factored_rotations: Vec<Matrix3<f64>>,
+    /// The rotation, from `held_rotation`, that the factored preconditioner was turned by.
+    factored_turn: Matrix3<f64>,
     history: VecDeque<(DVector<f64>, DVector<f64>)>,
     preconditioner: Option<DenseCholesky>,
     /// Convergence threshold on |dz . g| (J), from the tolerance and the object's size.
@@ -317,8 +313,9 @@ impl ReducedSim {
             pokes: Vec::new(),
             rest_hessian: None,
             held: None,
+            held_rotation: Matrix3::identity(),
             factored_contact: None,
-            factored_rotations: Vec::new(),
+            factored_turn: Matrix3::identity(),
             history: VecDeque::new(),
             preconditioner: None,
             subspace,
@@ -525,8 +522,6 @@ impl ReducedSim {
         let mut extensions = 0;
         let mut newton_tried = false;
         let mut since_refresh = 0;
-        // Whether the held shares were turned within this solve since its last refresh.
-        let mut turned_again = false;
         // The decrements since the last refresh: whether a slow solve is nearly done.
         let mut decrements = Vec::new();
         // A step solved again (stiffer pin springs) starts unconverged, whatever the last solve
@@ -538,17 +533,14 @@ impl ReducedSim {
             if mode == Solver::QuasiNewton
                 && refresh_due(since_refresh, &decrements, self.decrement_tolerance)
             {
-                // Slow progress: the held Hessian no longer describes the state. Pairs measured
-                // against the old one would pull the renewed one back toward it.
-                let assembled = self.renew_held(z, turned_again);
-                report.refreshes += usize::from(assembled);
-                turned_again = !assembled;
+                // Slow progress: the held Hessian no longer describes the state. Refactor it
+                // here and hold it from now on; pairs measured against the old one would pull
+                // the new one back toward it.
+                self.hold_new(self.held_elastic_at(z), z);
                 history.clear();
-                // A turn that did not help is soon followed by an assembly: a body bending
-                // under a poke's first push or a landing needs it, and waiting the full count
-                // again cost the demo steps of more than their budget.
-                since_refresh = if assembled { 0 } else { TURNED_HEAD_START };
+                since_refresh = 0;
                 decrements.clear();
+                report.refreshes += 1;
             }
             let gradient = flat(&current.gradient);
             let mut direction = match mode {

@@ -7,7 +7,6 @@
 //! Directions where the spring is comparable to the body (pinned points that the subspace
 //! cannot hold still without locking the body) keep the penalty.
 
-use crate::linalg::product;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// A direction is held exactly in every step when its pin spring is this many times stiffer
@@ -103,17 +102,14 @@ impl PinConstraint {
         let n = hessian.nrows();
         let scale = hessian.trace() / n as f64;
         let w = &self.flat_basis;
-        // P H P = H - W (HW)^T - (HW) W^T + W (W^T H W) W^T + scale W W^T
-        //       = H + V W^T + W V^T with V = W (W^T H W / 2 + scale / 2) - HW,
-        // two products where nalgebra's four wide ones cost as much as the factorization.
-        let hw = product(hessian, w);
-        let mut inner = product(&w.transpose(), &hw) * 0.5;
-        for i in 0..inner.nrows() {
-            inner[(i, i)] += 0.5 * scale;
-        }
-        let v = product(w, &inner) - hw;
-        let vw = product(&v, &w.transpose());
-        *hessian += &vw + vw.transpose();
+        let hw = &*hessian * w;
+        let whw = w.transpose() * &hw;
+        // P H P = H - W (HW)^T - (HW) W^T + W (W^T H W) W^T
+        hessian.gemm(-1.0, w, &hw.transpose(), 1.0);
+        hessian.gemm(-1.0, &hw, &w.transpose(), 1.0);
+        let w_whw = w * whw;
+        hessian.gemm(1.0, &w_whw, &w.transpose(), 1.0);
+        hessian.gemm(scale, w, &w.transpose(), 1.0);
     }
 
     /// How many directions of the 4K are held exactly.
