@@ -3,7 +3,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{quadratic_change, Evaluation, ReducedSim, StepObjective};
+use super::{objective_change, quadratic_change, Evaluation, ReducedSim, StepObjective};
 
 /// Steps after one that needed more than its budget before the solve's guess carries the
 /// change of velocity again (see `trend_guess`).
@@ -44,11 +44,10 @@ impl ReducedSim {
             return at_z;
         };
         let at_other = self.evaluate(&other, objective);
-        // Compared as the line search compares: the quadratic part's change exactly, not its
-        // values, which hold the pin springs' 1e8 J.
-        let (linear, curvature) = quadratic_change(&at_z, &(&other - &*z), objective);
-        let change = at_other.nonquadratic - at_z.nonquadratic + linear + 0.5 * curvature;
-        if change < 0.0 {
+        // Compared as the line search compares (`objective_change`): the quadratic part's
+        // change exactly, not its values, which hold the pin springs' 1e8 J.
+        let quadratic = quadratic_change(&at_z, &(&other - &*z), objective);
+        if objective_change(&at_z, &at_other, 1.0, quadratic) < 0.0 {
             *z = other;
             return at_other;
         }

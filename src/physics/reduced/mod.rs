@@ -632,9 +632,7 @@ impl ReducedSim {
         for _ in 0..40 {
             let trial = z + &step_matrix * step;
             let next = self.evaluate(&trial, objective);
-            let change = next.nonquadratic - current.nonquadratic
-                + step * linear_change
-                + 0.5 * step * step * curvature;
+            let change = objective_change(current, &next, step, (linear_change, curvature));
             if change.is_finite() && change <= ARMIJO * step * slope {
                 return Some((step, next));
             }
@@ -742,6 +740,17 @@ fn quadratic_change(at: &Evaluation, d: &DMatrix<f64>, objective: &StepObjective
         quadratic_gradient.dot(d),
         times_symmetric(d, &objective.quadratic).dot(d),
     )
+}
+
+/// The step objective's change from `from` to `to`, a step `alpha` along the direction whose
+/// `quadratic_change` from `from` is (linear, curvature).
+fn objective_change(
+    from: &Evaluation,
+    to: &Evaluation,
+    alpha: f64,
+    (linear, curvature): (f64, f64),
+) -> f64 {
+    to.nonquadratic - from.nonquadratic + alpha * linear + 0.5 * alpha * alpha * curvature
 }
 
 /// x^T M x summed over the three rows of a 3 x 4K matrix: tr(X M X^T).
