@@ -2,12 +2,15 @@
 //! whose inside test leaves a thin shell, a small fraction of the object's mass. When a cloud
 //! is such a view (its image bins hold one surface, not a front and a back), what lies behind
 //! the observed surface along the view rays is filled up to a prior on the hidden side: the
-//! observed surface reflected through the object's estimated centre (the rim's centroid, at
-//! least half the patch's narrower side deep), which is exact for centrally symmetric objects.
+//! observed surface reflected through the object's estimated centre, which is exact for
+//! centrally symmetric objects. The centre is the rim's centroid; a long object's is moved
+//! along its axis to the middle of its outline, and taken as deep behind the surface as the
+//! object is wide there (round across its axis); a compact object's at least half its breadth
+//! deep behind the nearer of its nearest point and the surface in front of the centre.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
-use nalgebra::{Matrix2, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::Serialize;
 
 use super::point_index::neighbour_distance;
@@ -24,6 +27,18 @@ const FLAT_PATCH: f64 = 0.08;
 /// Fill points per longest side of the completed surface: two per voxel at the inside test's
 /// default resolution (64).
 const FILL_STEPS_PER_SIDE: f64 = 128.0;
+/// The outline's extremes are taken at this quantile of the points and its complement, so
+/// that a few stray pixels do not move them.
+const OUTLINE_QUANTILE: f64 = 0.005;
+/// The longest axis must be this close to the image plane (the cosine between them) to move
+/// the centre along it.
+const MIN_AXIS_TILT: f64 = 0.3;
+/// Half the width, as a fraction of the patch's length across the view, of the band through
+/// the centre where its width and the surface in front of it are read.
+const CENTRE_BAND: f64 = 0.05;
+/// A patch at least this many times longer than it is broad across the view is a long object,
+/// taken to be round across its axis.
+const LONG_OBJECT: f64 = 2.0;
 /// The name of the method, as reported.
 pub const METHOD: &str = "reflected_through_centre";
 
@@ -275,24 +290,89 @@ fn patch_width_and_thickness(points: &[Vector3<f64>]) -> (f64, f64) {
     (middle, smallest)
 }
 
-/// The narrower principal extent of the points across the view: the prior on their depth.
-fn lateral_width(points: &[Vector3<f64>], view: &ViewFrame) -> f64 {
-    let across: Vec<Vector2<f64>> = points
+/// The patch seen along the view: its coordinates across it and its principal axes there.
+struct Outline {
+    across: Vec<Vector2<f64>>,
+    long: Vector2<f64>,
+    short: Vector2<f64>,
+    length: f64,
+    breadth: f64,
+}
+
+impl Outline {
+    fn new(points: &[Vector3<f64>], view: &ViewFrame) -> Self {
+        let across = across_view(points, view);
+        let axes = principal_axes(&across);
+        let spread = |a: usize| extent(across.iter().map(|q| q.dot(&axes.column(a))));
+        let (long, short) = if spread(0) >= spread(1) {
+            (0, 1)
+        } else {
+            (1, 0)
+        };
+        Self {
+            long: axes.column(long).into_owned(),
+            short: axes.column(short).into_owned(),
+            length: spread(long),
+            breadth: spread(short),
+            across,
+        }
+    }
+
+    /// A long object (a rod, a bottle) is taken to be round across its axis.
+    fn is_long(&self) -> bool {
+        self.length >= LONG_OBJECT * self.breadth
+    }
+}
+
+/// The least depth of the object's centre. A compact object is at least half its breadth deep
+/// behind its nearest point, or behind the surface in front of `centre` if that is less (an
+/// animal seen from the side is shallower than it is tall). A long object is as deep as it is
+/// wide through `centre`, behind the surface in front of it: the rim alone puts a thin round
+/// object's centre in front of its axis, as no pixel falls exactly on its outline.
+fn depth_prior(outline: &Outline, depths: &[f64], view: &ViewFrame, centre: &Vector3<f64>) -> f64 {
+    let nearest = depths.iter().cloned().fold(f64::INFINITY, f64::min);
+    let overall = nearest + outline.breadth / 2.0;
+    let middle = across_view(std::slice::from_ref(centre), view)[0];
+    let band = CENTRE_BAND * outline.length;
+    let offset = |i: usize, axis: &Vector2<f64>| (outline.across[i] - middle).dot(axis).abs();
+    let strip: Vec<usize> = (0..depths.len())
+        .filter(|&i| offset(i, &outline.long) <= band)
+        .collect();
+    let width = extent(strip.iter().map(|&i| outline.across[i].dot(&outline.short)));
+    let in_front = strip
+        .iter()
+        .filter(|&&i| offset(i, &outline.short) <= band)
+        .map(|&i| depths[i])
+        .fold(f64::INFINITY, f64::min);
+    let local = in_front + width / 2.0;
+    if !local.is_finite() {
+        overall
+    } else if outline.is_long() {
+        local
+    } else {
+        overall.min(local)
+    }
+}
+
+/// The points' coordinates across the view (along `right` and `up`).
+fn across_view(points: &[Vector3<f64>], view: &ViewFrame) -> Vec<Vector2<f64>> {
+    points
         .iter()
         .map(|p| {
             let d = p - view.viewpoint;
             Vector2::new(d.dot(&view.right), d.dot(&view.up))
         })
-        .collect();
-    let mean = across.iter().sum::<Vector2<f64>>() / across.len() as f64;
-    let covariance = across
+        .collect()
+}
+
+/// The principal axes of planar points, as the columns of a rotation.
+fn principal_axes(points: &[Vector2<f64>]) -> Matrix2<f64> {
+    let mean = points.iter().sum::<Vector2<f64>>() / points.len() as f64;
+    let covariance = points
         .iter()
         .map(|q| (q - mean) * (q - mean).transpose())
         .sum::<Matrix2<f64>>();
-    let axes = nalgebra::SymmetricEigen::new(covariance).eigenvectors;
-    (0..2)
-        .map(|a| extent(across.iter().map(|q| q.dot(&axes.column(a)))))
-        .fold(f64::INFINITY, f64::min)
+    nalgebra::SymmetricEigen::new(covariance).eigenvectors
 }
 
 fn extent(values: impl Iterator<Item = f64>) -> f64 {
@@ -323,10 +403,50 @@ fn estimated_centre(
         })
         .collect();
     let centroid = rim.iter().map(|&i| points[i]).sum::<Vector3<f64>>() / rim.len().max(1) as f64;
-    let front = depths.iter().cloned().fold(f64::INFINITY, f64::min);
-    let at_least = front + lateral_width(points, view) / 2.0;
+    let outline = Outline::new(points, view);
+    let centroid = if outline.is_long() {
+        along_long_axis(points, view, &centroid)
+    } else {
+        centroid
+    };
+    let at_least = depth_prior(&outline, depths, view, &centroid);
     let depth = view.depth(&centroid).max(at_least);
     view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid))
+}
+
+/// `centre` moved along the patch's longest axis to the middle of the patch's outline across
+/// the view: a centrally symmetric object's outline is symmetric about its centre, seen along
+/// any direction across the view. The rim's centroid leans towards where perspective puts more
+/// points, a long object's near end; moving along the object's own axis keeps it on that axis.
+/// Unmoved when that axis points nearly at the camera.
+fn along_long_axis(
+    points: &[Vector3<f64>],
+    view: &ViewFrame,
+    centre: &Vector3<f64>,
+) -> Vector3<f64> {
+    let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let covariance = points
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<Matrix3<f64>>();
+    let eigen = nalgebra::SymmetricEigen::new(covariance);
+    let longest = eigen.eigenvalues.imax();
+    let axis = eigen.eigenvectors.column(longest).into_owned();
+    let Some(across) = (axis - view.forward * axis.dot(&view.forward)).try_normalize(1e-9) else {
+        return *centre;
+    };
+    let tilt = axis.dot(&across);
+    if tilt < MIN_AXIS_TILT {
+        return *centre;
+    }
+    let mut along: Vec<f64> = points
+        .iter()
+        .map(|p| (p - view.viewpoint).dot(&across))
+        .collect();
+    along.sort_by(f64::total_cmp);
+    let at = |q: f64| along[((along.len() - 1) as f64 * q).round() as usize];
+    let middle = (at(OUTLINE_QUANTILE) + at(1.0 - OUTLINE_QUANTILE)) / 2.0;
+    centre + axis * ((middle - (centre - view.viewpoint).dot(&across)) / tilt)
 }
 
 /// Per observed point, where its ray leaves the object on the hidden side: the deepest point,
