@@ -133,6 +133,12 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// One camera's view of seven shapes from six sides, completed: volume and overlap
+    /// against the whole mesh's solid (geometry only).
+    Views {
+        #[arg(long)]
+        json: bool,
+    },
     /// The same soft block in MuJoCo (flexcomp: full, trilinear and quadratic dofs) and in
     /// physskin, dropped and poked, each against our FEM: step time next to error.
     Peer {
@@ -267,6 +273,7 @@ fn main() -> ExitCode {
             BenchCommand::Basis(args) => cli::basis::run(args),
             BenchCommand::Contact { json } => run_bench_contact(json),
             BenchCommand::Real { json } => run_bench_real(json),
+            BenchCommand::Views { json } => run_bench_views(json),
             BenchCommand::Peer {
                 json,
                 python,
@@ -376,6 +383,35 @@ fn run_bench_real(json: bool) -> physskin::Result<()> {
     println!(
         "worst: volume off by {:.1} %, error {:.2}x the whole mesh's, step {:.3} ms",
         r.worst_volume_error_pct, r.worst_error_ratio, r.worst_step_ms
+    );
+    Ok(())
+}
+
+fn run_bench_views(json: bool) -> physskin::Result<()> {
+    let r = crate::bench::run_views_bench(|line| eprintln!("{line}"))?;
+    if json {
+        cli::print_json(&r);
+        return Ok(());
+    }
+    println!("| shape | image | camera from | points | outcome | volume / true | overlap | centroid off / diagonal |");
+    println!("|---|---|---|---:|---|---:|---:|---:|");
+    for r in &r.rows {
+        println!(
+            "| {} | {}x{} | {:?} | {} | {} | {:.3} | {:.3} | {:.3} |",
+            r.shape,
+            r.image[0],
+            r.image[1],
+            r.direction,
+            r.points,
+            r.outcome,
+            r.volume_ratio,
+            r.overlap,
+            r.centroid_offset
+        );
+    }
+    println!(
+        "{} of {} completed scans within 30 % of the volume; mean overlap {:.3}; worst volume factor {:.3}",
+        r.within_30_pct, r.completed, r.mean_overlap, r.worst_volume_factor
     );
     Ok(())
 }

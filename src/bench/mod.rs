@@ -17,6 +17,7 @@ mod soft_contact;
 mod stats;
 mod stress;
 mod transport;
+mod views;
 
 pub use basis::{basis_plot, run_basis_bench, BasisOptions, BasisReport};
 pub use contact::run_contact_bench;
@@ -34,3 +35,4 @@ pub use sim::{
 pub use soak::{run_soak, SoakOptions};
 pub use stress::{run_stress, stress_cases};
 pub use transport::run_transport_bench;
+pub use views::run_views_bench;
