@@ -9,6 +9,7 @@
 #   contact            bench contact                          (resting balls, the grasp)
 #   stress             bench stress                           (numerical stress table)
 #   real               bench real                             (camera scans against the FEM)
+#   views              bench views                            (camera scans' completed volumes)
 #   sim-solver-quick   bench sim --quick, 16 handles, 1024 cubature points
 #   latency            benches/latency.sh                     (node latency and jitter)
 #   latency-refine-off benches/latency.sh, --refine off       (the same, no refinement thread)
@@ -29,7 +30,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real sim-solver-quick latency latency-refine-off replay transport scene eval basis peer)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay transport scene eval basis peer)
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
@@ -39,6 +40,7 @@ for name in "${names[@]}"; do
         contact) benches/record.sh contact $bin bench contact --json ;;
         stress) benches/record.sh stress $bin bench stress --json ;;
         real) benches/record.sh real $bin bench real --json ;;
+        views) benches/record.sh views $bin bench views --json ;;
         sim-solver-quick)
             benches/record.sh sim-solver-quick $bin bench sim --quick --json \
                 --scenario hanging,drop,poke --handles 16 --cubature 1024 \
