@@ -1,4 +1,5 @@
-//! The binary as a user runs it: the README's main command and the quick simulation bench.
+//! The binary as a user runs it: the README's main command, the quick simulation bench and the
+//! view completion bench.
 
 use std::process::{Command, Output};
 
@@ -380,4 +381,41 @@ fn the_demo_runs_from_a_moved_binary() {
         "wrote into its working directory"
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn views_bench_compares_every_scan_with_the_whole_solid() {
+    let out = succeeded(physskin().args(["bench", "views", "--json"]));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let rows = report["rows"].as_array().expect("rows");
+    // Seven shapes, six sides, two image sizes.
+    assert_eq!(rows.len(), 84);
+    let completed: Vec<_> = rows
+        .iter()
+        .filter(|r| r["outcome"] == "completed")
+        .collect();
+    assert_eq!(report["completed"].as_u64(), Some(completed.len() as u64));
+    let within = report["within_30_pct"].as_u64().unwrap() as usize;
+    assert!(within <= completed.len());
+    let mut real_sides = 0;
+    for row in &completed {
+        let overlap = row["overlap"].as_f64().unwrap();
+        assert!(overlap > 0.0 && overlap <= 1.0, "{row}");
+        // The sphere is centrally symmetric: every side completes it.
+        if row["shape"] == "sphere" {
+            assert!(overlap > 0.8, "{row}");
+        }
+        // `bench real`'s sides complete the shapes it simulates within the target.
+        let real_side =
+            ["[1.0,0.6,0.8]", "[-0.7,1.0,0.5]"].contains(&row["direction"].to_string().as_str());
+        if real_side
+            && ["sphere", "box", "creature", "rod"].contains(&row["shape"].as_str().unwrap())
+        {
+            let ratio = row["volume_ratio"].as_f64().unwrap();
+            assert!((ratio - 1.0).abs() <= 0.3, "{row}");
+            real_sides += 1;
+        }
+    }
+    // Four shapes, two sides, two image sizes.
+    assert_eq!(real_sides, 16);
 }
