@@ -3,12 +3,10 @@
 //! is such a view (its image bins hold one surface, not a front and a back), what lies behind
 //! the observed surface along the view rays is filled up to a prior on the hidden side: the
 //! observed surface reflected through the object's estimated centre, which is exact for
-//! centrally symmetric objects. The centre is the rim's centroid, deepened by what the rim's
-//! pixels fall short of the outline; a long object's is moved along its axis to the middle of
-//! its outline, and is at least as deep behind the surface as the object is wide there (round
-//! across its axis); a compact object's at least half its breadth deep behind the nearer of
-//! its nearest point and the surface in front of the centre. Each ray's far end is read from
-//! bins of two point spacings, or of three where no reflected point fell behind it.
+//! centrally symmetric objects. The centre is the rim's centroid; a long object's is moved
+//! along its axis to the middle of its outline, and taken as deep behind the surface as the
+//! object is wide there (round across its axis); a compact object's at least half its breadth
+//! deep behind the nearer of its nearest point and the surface in front of the centre.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
@@ -41,9 +39,6 @@ const CENTRE_BAND: f64 = 0.05;
 /// A patch at least this many times longer than it is broad across the view is a long object,
 /// taken to be round across its axis.
 const LONG_OBJECT: f64 = 2.0;
-/// The hidden side is read first from bins of this many point spacings across (in the image
-/// plane), finer than the examination's three.
-const HIDDEN_SIDE_BIN: f64 = 2.0;
 /// The name of the method, as reported.
 pub const METHOD: &str = "reflected_through_centre";
 
@@ -175,47 +170,6 @@ impl ImageBins {
         i + self.dims[0] * j
     }
 
-    /// The centre of cell `c`, in image coordinates.
-    fn centre(&self, c: usize) -> Vector2<f64> {
-        let (i, j) = (c % self.dims[0], c / self.dims[0]);
-        self.lo + Vector2::new(i as f64 + 0.5, j as f64 + 0.5) * self.pixel
-    }
-
-    /// Whether the cell at (i, j) exists and holds points.
-    fn occupied(&self, i: isize, j: isize) -> bool {
-        i >= 0
-            && j >= 0
-            && (i as usize) < self.dims[0]
-            && (j as usize) < self.dims[1]
-            && !self.cells[i as usize + self.dims[0] * j as usize].is_empty()
-    }
-
-    /// From cell `c` towards its empty neighbours (None when it has none, or they cancel).
-    fn outward(&self, c: usize) -> Option<Vector2<f64>> {
-        let (i, j) = ((c % self.dims[0]) as isize, (c / self.dims[0]) as isize);
-        [(-1, 0), (1, 0), (0, -1), (0, 1)]
-            .into_iter()
-            .filter(|&(di, dj)| !self.occupied(i + di, j + dj))
-            .map(|(di, dj)| Vector2::new(di as f64, dj as f64))
-            .sum::<Vector2<f64>>()
-            .try_normalize(1e-9)
-    }
-
-    /// The points of cell `c` and of its eight neighbours.
-    fn around(&self, c: usize) -> Vec<usize> {
-        let (i, j) = ((c % self.dims[0]) as isize, (c / self.dims[0]) as isize);
-        let mut near = Vec::new();
-        for dj in -1..=1 {
-            for di in -1..=1 {
-                if self.occupied(i + di, j + dj) {
-                    let cell = (i + di) as usize + self.dims[0] * (j + dj) as usize;
-                    near.extend_from_slice(&self.cells[cell]);
-                }
-            }
-        }
-        near
-    }
-
     /// Whether the occupied cell `c` borders an empty cell or the edge.
     fn on_rim(&self, c: usize) -> bool {
         let (i, j) = (c % self.dims[0], c / self.dims[0]);
@@ -269,9 +223,7 @@ pub fn complete_view(
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
     let centre = estimated_centre(points, &depths, &view, &rim_bins);
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
-    let fine_bins = ImageBins::new(&image, HIDDEN_SIDE_BIN * spacing / mean_depth);
-    let grids = [&fine_bins, &bins];
-    let mirrors = hidden_side(points, &depths, &view, &grids, &centre, floor_z);
+    let mirrors = hidden_side(points, &depths, &view, &bins, &centre, floor_z);
     let mut surface = points.to_vec();
     surface.extend(mirrors.iter().flatten());
     for (c, cell) in rim_bins.cells.iter().enumerate() {
@@ -431,9 +383,8 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// The object's centre: the centroid of the patch's rim (the silhouette's generator, which a
-/// centrally symmetric object's centre halves), a long object's moved along its axis to the
-/// middle of its outline, then moved back along its ray to the depth floor of `depth_prior`
-/// where it lies in front of it (a cap seen from its pole has its rim in front).
+/// centrally symmetric object's centre halves), moved back along its ray when that leaves the
+/// object shallower than half its narrower side (a cap seen from its pole has its rim in front).
 fn estimated_centre(
     points: &[Vector3<f64>],
     depths: &[f64],
@@ -459,55 +410,8 @@ fn estimated_centre(
         centroid
     };
     let at_least = depth_prior(&outline, depths, view, &centroid);
-    let shortfall = rim_shortfall(points, depths, view, bins);
-    let depth = (view.depth(&centroid) + shortfall).max(at_least);
+    let depth = view.depth(&centroid).max(at_least);
     view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid))
-}
-
-/// How far, in depth, the rim's deepest points fall short of the outline on average. No pixel
-/// falls exactly on the outline, and near it a surface turning away from the camera deepens
-/// fast: each rim bin's deepest point is carried on to the bin's outer edge along the depth's
-/// slope there (fitted over the bin and its neighbours), by at most the depths they span.
-fn rim_shortfall(
-    points: &[Vector3<f64>],
-    depths: &[f64],
-    view: &ViewFrame,
-    bins: &ImageBins,
-) -> f64 {
-    let rim: Vec<usize> = (0..bins.cells.len())
-        .filter(|&c| !bins.cells[c].is_empty() && bins.on_rim(c))
-        .collect();
-    let shortfall = |c: usize| -> Option<f64> {
-        let out = bins.outward(c)?;
-        let near = bins.around(c);
-        let image: Vec<Vector2<f64>> = near.iter().map(|&k| view.image(&points[k])).collect();
-        let near_depths: Vec<f64> = near.iter().map(|&k| depths[k]).collect();
-        let slope = depth_gradient(&image, &near_depths)?.dot(&out).max(0.0);
-        let deepest = *bins.cells[c]
-            .iter()
-            .max_by(|&&a, &&b| depths[a].total_cmp(&depths[b]))?;
-        let reach = (bins.centre(c) + out * (bins.pixel / 2.0) - view.image(&points[deepest]))
-            .dot(&out)
-            .max(0.0);
-        let span = extent(near_depths.iter().copied());
-        Some((slope * reach).min(span))
-    };
-    rim.iter().filter_map(|&c| shortfall(c)).sum::<f64>() / rim.len().max(1) as f64
-}
-
-/// The least-squares gradient of `values` over the image points `at` (None when they are
-/// too few or on one line).
-fn depth_gradient(at: &[Vector2<f64>], values: &[f64]) -> Option<Vector2<f64>> {
-    let mean_at = at.iter().sum::<Vector2<f64>>() / at.len() as f64;
-    let mean_value = values.iter().sum::<f64>() / values.len() as f64;
-    let mut normal = Matrix2::zeros();
-    let mut right = Vector2::zeros();
-    for (q, v) in at.iter().zip(values) {
-        let d = q - mean_at;
-        normal += d * d.transpose();
-        right += d * (v - mean_value);
-    }
-    Some(normal.try_inverse()? * right)
 }
 
 /// `centre` moved along the patch's longest axis to the middle of the patch's outline across
@@ -547,32 +451,32 @@ fn along_long_axis(
 
 /// Per observed point, where its ray leaves the object on the hidden side: the deepest point,
 /// in its image bin, of the observed surface reflected through `centre` (None when that is not
-/// behind the point). The bins of `grids` are tried finest first: a coarse bin's deepest point
-/// lies behind much of what its rays cross near the outline, and only a bin where no reflected
-/// point lies behind the observed one is left to the next. Stops at the floor when the ray
-/// reaches it first.
+/// behind the point). Stops at the floor when the ray reaches it first.
 fn hidden_side(
     points: &[Vector3<f64>],
     depths: &[f64],
     view: &ViewFrame,
-    grids: &[&ImageBins],
+    bins: &ImageBins,
     centre: &Vector3<f64>,
     floor_z: Option<f64>,
 ) -> Vec<Option<Vector3<f64>>> {
-    let backs: Vec<Vec<f64>> = grids
-        .iter()
-        .map(|bins| deepest_reflected(points, view, bins, centre))
-        .collect();
+    let mut back = vec![f64::NEG_INFINITY; bins.cells.len()];
+    for p in points {
+        let reflected = 2.0 * centre - p;
+        let s = view.depth(&reflected);
+        if s > 0.0 {
+            let c = bins.cell(&view.image(&reflected));
+            back[c] = back[c].max(s);
+        }
+    }
     points
         .iter()
         .zip(depths)
         .map(|(p, &s)| {
-            let image = view.image(p);
-            let b = grids
-                .iter()
-                .zip(&backs)
-                .map(|(bins, back)| back[bins.cell(&image)])
-                .find(|&b| b > s)?;
+            let b = back[bins.cell(&view.image(p))];
+            if b <= s {
+                return None;
+            }
             let mut q = view.viewpoint + (p - view.viewpoint) * (b / s);
             if let Some(floor) = floor_z {
                 if q.z < floor && p.z > floor {
@@ -583,26 +487,6 @@ fn hidden_side(
             Some(q)
         })
         .collect()
-}
-
-/// Per bin, the depth of the deepest point of the observed surface reflected through `centre`
-/// (negative infinity where none falls).
-fn deepest_reflected(
-    points: &[Vector3<f64>],
-    view: &ViewFrame,
-    bins: &ImageBins,
-    centre: &Vector3<f64>,
-) -> Vec<f64> {
-    let mut back = vec![f64::NEG_INFINITY; bins.cells.len()];
-    for p in points {
-        let reflected = 2.0 * centre - p;
-        let s = view.depth(&reflected);
-        if s > 0.0 {
-            let c = bins.cell(&view.image(&reflected));
-            back[c] = back[c].max(s);
-        }
-    }
-    back
 }
 
 /// The longest side of the points' bounding box.
