@@ -383,8 +383,9 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// The object's centre: the centroid of the patch's rim (the silhouette's generator, which a
-/// centrally symmetric object's centre halves), moved back along its ray when that leaves the
-/// object shallower than half its narrower side (a cap seen from its pole has its rim in front).
+/// centrally symmetric object's centre halves), a long object's moved along its axis to the
+/// middle of its outline, then moved back along its ray to the depth floor of `depth_prior`
+/// where it lies in front of it (a cap seen from its pole has its rim in front).
 fn estimated_centre(
     points: &[Vector3<f64>],
     depths: &[f64],
