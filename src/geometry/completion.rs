@@ -124,6 +124,12 @@ impl ViewFrame {
         (p - self.viewpoint).dot(&self.forward)
     }
 
+    /// Coordinates across the view, seen along `forward` (along `right` and `up`).
+    fn across(&self, p: &Vector3<f64>) -> Vector2<f64> {
+        let d = p - self.viewpoint;
+        Vector2::new(d.dot(&self.right), d.dot(&self.up))
+    }
+
     /// Image-plane coordinates (x / z, y / z).
     fn image(&self, p: &Vector3<f64>) -> Vector2<f64> {
         let d = p - self.viewpoint;
@@ -303,8 +309,8 @@ impl Outline {
     fn new(points: &[Vector3<f64>], view: &ViewFrame) -> Self {
         let across = across_view(points, view);
         let axes = principal_axes(&across);
-        let spread = |a: usize| extent(across.iter().map(|q| q.dot(&axes.column(a))));
-        let (long, short) = if spread(0) >= spread(1) {
+        let spread = [0, 1].map(|a| extent(across.iter().map(|q| q.dot(&axes.column(a)))));
+        let (long, short) = if spread[0] >= spread[1] {
             (0, 1)
         } else {
             (1, 0)
@@ -312,8 +318,8 @@ impl Outline {
         Self {
             long: axes.column(long).into_owned(),
             short: axes.column(short).into_owned(),
-            length: spread(long),
-            breadth: spread(short),
+            length: spread[long],
+            breadth: spread[short],
             across,
         }
     }
@@ -332,7 +338,7 @@ impl Outline {
 fn depth_prior(outline: &Outline, depths: &[f64], view: &ViewFrame, centre: &Vector3<f64>) -> f64 {
     let nearest = depths.iter().cloned().fold(f64::INFINITY, f64::min);
     let overall = nearest + outline.breadth / 2.0;
-    let middle = across_view(std::slice::from_ref(centre), view)[0];
+    let middle = view.across(centre);
     let band = CENTRE_BAND * outline.length;
     let offset = |i: usize, axis: &Vector2<f64>| (outline.across[i] - middle).dot(axis).abs();
     let strip: Vec<usize> = (0..depths.len())
@@ -356,13 +362,7 @@ fn depth_prior(outline: &Outline, depths: &[f64], view: &ViewFrame, centre: &Vec
 
 /// The points' coordinates across the view (along `right` and `up`).
 fn across_view(points: &[Vector3<f64>], view: &ViewFrame) -> Vec<Vector2<f64>> {
-    points
-        .iter()
-        .map(|p| {
-            let d = p - view.viewpoint;
-            Vector2::new(d.dot(&view.right), d.dot(&view.up))
-        })
-        .collect()
+    points.iter().map(|p| view.across(p)).collect()
 }
 
 /// The principal axes of planar points, as the columns of a rotation.
