@@ -3,11 +3,10 @@
 //! is such a view (its image bins hold one surface, not a front and a back), what lies behind
 //! the observed surface along the view rays is filled up to a prior on the hidden side: the
 //! observed surface reflected through the object's estimated centre, which is exact for
-//! centrally symmetric objects. The centre is the rim's centroid, deepened by what the rim's
-//! pixels fall short of the outline; a long object's is moved along its axis to the middle of
-//! its outline, and is at least as deep behind the surface as the object is wide there (round
-//! across its axis); a compact object's at least half its breadth deep behind the nearer of
-//! its nearest point and the surface in front of the centre.
+//! centrally symmetric objects. The centre is the rim's centroid; a long object's is moved
+//! along its axis to the middle of its outline, and taken as deep behind the surface as the
+//! object is wide there (round across its axis); a compact object's at least half its breadth
+//! deep behind the nearer of its nearest point and the surface in front of the centre.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
@@ -175,47 +174,6 @@ impl ImageBins {
         let [i, j] = [0, 1]
             .map(|a| (((p[a] - self.lo[a]) / self.pixel).floor() as usize).min(self.dims[a] - 1));
         i + self.dims[0] * j
-    }
-
-    /// The centre of cell `c`, in image coordinates.
-    fn centre(&self, c: usize) -> Vector2<f64> {
-        let (i, j) = (c % self.dims[0], c / self.dims[0]);
-        self.lo + Vector2::new(i as f64 + 0.5, j as f64 + 0.5) * self.pixel
-    }
-
-    /// Whether the cell at (i, j) exists and holds points.
-    fn occupied(&self, i: isize, j: isize) -> bool {
-        i >= 0
-            && j >= 0
-            && (i as usize) < self.dims[0]
-            && (j as usize) < self.dims[1]
-            && !self.cells[i as usize + self.dims[0] * j as usize].is_empty()
-    }
-
-    /// From cell `c` towards its empty neighbours (None when it has none, or they cancel).
-    fn outward(&self, c: usize) -> Option<Vector2<f64>> {
-        let (i, j) = ((c % self.dims[0]) as isize, (c / self.dims[0]) as isize);
-        [(-1, 0), (1, 0), (0, -1), (0, 1)]
-            .into_iter()
-            .filter(|&(di, dj)| !self.occupied(i + di, j + dj))
-            .map(|(di, dj)| Vector2::new(di as f64, dj as f64))
-            .sum::<Vector2<f64>>()
-            .try_normalize(1e-9)
-    }
-
-    /// The points of cell `c` and of its eight neighbours.
-    fn around(&self, c: usize) -> Vec<usize> {
-        let (i, j) = ((c % self.dims[0]) as isize, (c / self.dims[0]) as isize);
-        let mut near = Vec::new();
-        for dj in -1..=1 {
-            for di in -1..=1 {
-                if self.occupied(i + di, j + dj) {
-                    let cell = (i + di) as usize + self.dims[0] * (j + dj) as usize;
-                    near.extend_from_slice(&self.cells[cell]);
-                }
-            }
-        }
-        near
     }
 
     /// Whether the occupied cell `c` borders an empty cell or the edge.
@@ -425,8 +383,8 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// The object's centre: the centroid of the patch's rim (the silhouette's generator, which a
-/// centrally symmetric object's centre halves), deepened by the rim's median shortfall of the
-/// outline, a long object's moved along its axis to the middle of its outline, then moved back along its ray to the depth floor of `depth_prior`
+/// centrally symmetric object's centre halves), a long object's moved along its axis to the
+/// middle of its outline, then moved back along its ray to the depth floor of `depth_prior`
 /// where it lies in front of it (a cap seen from its pole has its rim in front).
 fn estimated_centre(
     points: &[Vector3<f64>],
@@ -453,62 +411,8 @@ fn estimated_centre(
         centroid
     };
     let at_least = depth_prior(&outline, depths, view, &centroid);
-    let shortfall = rim_shortfall(points, depths, view, bins);
-    let depth = (view.depth(&centroid) + shortfall).max(at_least);
+    let depth = view.depth(&centroid).max(at_least);
     view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid))
-}
-
-/// How far, in depth, the rim's deepest points fall short of the outline. No pixel falls
-/// exactly on the outline, and near it a surface turning away from the camera deepens fast:
-/// each rim bin's deepest point is carried on to the bin's outer edge along the depth's slope
-/// there (fitted over the bin and its neighbours), by at most the depths they span. The median
-/// bin's carry, not the mean: the few bins on a face seen nearly edge-on (a box's side) have a
-/// slope that carries them far, and the mean made a box seen face-on too deep.
-fn rim_shortfall(
-    points: &[Vector3<f64>],
-    depths: &[f64],
-    view: &ViewFrame,
-    bins: &ImageBins,
-) -> f64 {
-    let rim: Vec<usize> = (0..bins.cells.len())
-        .filter(|&c| !bins.cells[c].is_empty() && bins.on_rim(c))
-        .collect();
-    let shortfall = |c: usize| -> Option<f64> {
-        let out = bins.outward(c)?;
-        let near = bins.around(c);
-        let image: Vec<Vector2<f64>> = near.iter().map(|&k| view.image(&points[k])).collect();
-        let near_depths: Vec<f64> = near.iter().map(|&k| depths[k]).collect();
-        let slope = depth_gradient(&image, &near_depths)?.dot(&out).max(0.0);
-        let deepest = *bins.cells[c]
-            .iter()
-            .max_by(|&&a, &&b| depths[a].total_cmp(&depths[b]))?;
-        let reach = (bins.centre(c) + out * (bins.pixel / 2.0) - view.image(&points[deepest]))
-            .dot(&out)
-            .max(0.0);
-        let span = extent(near_depths.iter().copied());
-        Some((slope * reach).min(span))
-    };
-    let mut carries: Vec<f64> = rim.iter().map(|&c| shortfall(c).unwrap_or(0.0)).collect();
-    if carries.is_empty() {
-        return 0.0;
-    }
-    let middle = carries.len() / 2;
-    *carries.select_nth_unstable_by(middle, f64::total_cmp).1
-}
-
-/// The least-squares gradient of `values` over the image points `at` (None when they are
-/// too few or on one line).
-fn depth_gradient(at: &[Vector2<f64>], values: &[f64]) -> Option<Vector2<f64>> {
-    let mean_at = at.iter().sum::<Vector2<f64>>() / at.len() as f64;
-    let mean_value = values.iter().sum::<f64>() / values.len() as f64;
-    let mut normal = Matrix2::zeros();
-    let mut right = Vector2::zeros();
-    for (q, v) in at.iter().zip(values) {
-        let d = q - mean_at;
-        normal += d * d.transpose();
-        right += d * (v - mean_value);
-    }
-    Some(normal.try_inverse()? * right)
 }
 
 /// `centre` moved along the patch's longest axis to the middle of the patch's outline across
