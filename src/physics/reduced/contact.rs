@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::{ReducedPoint, ReducedSim};
 use crate::linalg::product;
-use crate::physics::obstacle::{carried_by, Obstacle, Stick};
+use crate::physics::obstacle::{carried_by, Obstacle, Penetration, Stick};
 use crate::physics::rolling::{RollingStick, ROLL_SLIP};
 
 /// Which contact springs a factored preconditioner holds: their curvature is stiff, so a
@@ -40,6 +40,7 @@ impl ReducedSim {
 
     /// Indexes the contact points anew after some were added or resampled.
     pub(super) fn contacts_changed(&mut self) {
+        self.held_contact = None;
         let (rows, n) = (4 * self.subspace.handles(), self.contacts.len());
         self.contact_phis = DMatrix::from_fn(rows, n, |a, i| self.contacts[i].phi[a]);
         self.contact_rests = DMatrix::from_fn(3, n, |d, i| self.contacts[i].rest[d]);
@@ -158,21 +159,25 @@ impl ReducedSim {
         self.roll_anchors.end_step();
     }
 
-    /// The contact state at `z` that decides the contact curvature: the pairs in touch, this
-    /// step's friction.
-    pub(super) fn contact_signature(&self, z: &DMatrix<f64>) -> ContactSignature {
-        let touching = self
-            .candidates
+    /// The candidate (contact, obstacle) pairs in touch at `z`, with their penetration.
+    pub(super) fn touching_at(&self, z: &DMatrix<f64>) -> Vec<(usize, usize, Penetration)> {
+        self.candidates
             .iter()
-            .copied()
-            .filter(|&(c, o)| {
-                self.obstacle(o)
-                    .penetration(&self.contacts[c].at(z))
-                    .is_some()
+            .filter_map(|&(c, o)| {
+                let p = self.obstacle(o).penetration(&self.contacts[c].at(z))?;
+                Some((c, o, p))
             })
-            .collect();
+            .collect()
+    }
+
+    /// The contact state that decides the contact curvature: the pairs in `touching`, this
+    /// step's friction.
+    pub(super) fn contact_signature(
+        &self,
+        touching: &[(usize, usize, Penetration)],
+    ) -> ContactSignature {
         ContactSignature {
-            touching,
+            touching: touching.iter().map(|&(c, o, _)| (c, o)).collect(),
             sticks: self.sticks.iter().map(|s| s.point).collect(),
             rolls: self.rolls.len(),
         }
@@ -187,22 +192,27 @@ impl ReducedSim {
         }
     }
 
-    /// The curvature of the contact and friction springs at `z` (None: nothing touches):
-    /// sum (phi phi^T) (x) S over touching points, S = sum s n n^T over the point's springs (its
-    /// normal, its friction tangents), n their direction and s their stiffness. A point's
-    /// springs share its phi, so they are summed into one 3 x 3 block first: a gripped or
-    /// resting body has thousands of them, and the products below cost per point.
+    /// The curvature of the contact and friction springs at `z` (None: nothing touches).
     pub(super) fn contact_curvature(&self, z: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+        self.curvature_of(&self.touching_at(z))
+    }
+
+    /// The curvature of the springs of `touching` and of this step's friction (None: nothing
+    /// touches): sum (phi phi^T) (x) S over touching points, S = sum s n n^T over the point's
+    /// springs (its normal, its friction tangents), n their direction and s their stiffness. A
+    /// point's springs share its phi, so they are summed into one 3 x 3 block first: a gripped
+    /// or resting body has thousands of them, and the products below cost per point.
+    pub(super) fn curvature_of(
+        &self,
+        touching: &[(usize, usize, Penetration)],
+    ) -> Option<DMatrix<f64>> {
         let kc = self.params.contact_stiffness;
         let mut blocks: Vec<Option<Matrix3<f64>>> = vec![None; self.contacts.len()];
         let mut add = |c: usize, s: f64, n: &Vector3<f64>| {
             *blocks[c].get_or_insert_with(Matrix3::zeros) += n * n.transpose() * s;
         };
-        for &(c, o) in &self.candidates {
-            let contact = &self.contacts[c];
-            if let Some(p) = self.obstacle(o).penetration(&contact.at(z)) {
-                add(c, kc * contact.weight, &p.normal);
-            }
+        for (c, _, p) in touching {
+            add(*c, kc * self.contacts[*c].weight, &p.normal);
         }
         for stick in &self.sticks {
             for t in &stick.tangents {

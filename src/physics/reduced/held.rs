@@ -26,9 +26,13 @@ impl ReducedSim {
     /// to the next and is added exactly. Both cost a few small products and one 12K x 12K
     /// factorization, a fraction of the elastic Hessian's assembly; without them, a falling or
     /// landing body costs many iterations and a refresh of the whole Hessian. A body resting on
-    /// the same points keeps its factor: the curvature changes only with which springs act.
+    /// the same points keeps its factor: the curvature changes only with which springs act. A
+    /// body that turned on the same springs (a block spinning on a frictionless floor turns past
+    /// the tolerance every other step) reuses the contact curvature held with them: making it
+    /// again took a small body's step from 0.030 to 0.040 ms (median, printed).
     pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) {
-        let signature = self.contact_signature(z);
+        let touching = self.touching_at(z);
+        let signature = self.contact_signature(&touching);
         self.held_matrix();
         // A pinned body does not turn as a whole: its mean rotation is bending, which turning
         // the held matrix would misdescribe.
@@ -50,7 +54,14 @@ impl ReducedSim {
             turn_blocks(held, &turn)
         };
         add_kron_identity(&mut matrix, &self.quadratic_part());
-        if let Some(contact) = self.contact_curvature(z) {
+        if self
+            .held_contact
+            .as_ref()
+            .is_none_or(|(held, _)| *held != signature)
+        {
+            self.held_contact = Some((signature.clone(), self.curvature_of(&touching)));
+        }
+        if let Some((_, Some(contact))) = self.held_contact.as_ref() {
             matrix += contact;
         }
         self.factored_contact = Some(signature);

@@ -259,6 +259,9 @@ pub struct ReducedSim {
     factored_contact: Option<ContactSignature>,
     /// The rotation, from `held_rotation`, that the factored preconditioner was turned by.
     factored_turn: Matrix3<f64>,
+    /// The contact curvature last added to the preconditioner and the contact it was made for:
+    /// a body that only turned is refactored with it instead of making it again.
+    held_contact: Option<(ContactSignature, Option<DMatrix<f64>>)>,
     history: VecDeque<(DVector<f64>, DVector<f64>)>,
     preconditioner: Option<DenseCholesky>,
     /// Convergence threshold on |dz . g| (J), from the tolerance and the object's size.
@@ -316,6 +319,7 @@ impl ReducedSim {
             held_rotation: Matrix3::identity(),
             factored_contact: None,
             factored_turn: Matrix3::identity(),
+            held_contact: None,
             history: VecDeque::new(),
             preconditioner: None,
             subspace,
