@@ -1,4 +1,5 @@
-//! Unit tests of the reduced solver's contact curvature, held-matrix turn and refresh rule.
+//! Unit tests of the reduced solver's contact curvature (by blocks, and held through a turn),
+//! held-matrix turn and refresh rule.
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
@@ -114,4 +115,68 @@ fn refresh_waits_only_for_a_solve_about_to_converge() {
         "the grace ends"
     );
     assert!(!refresh_due(AFTER + GRACE - 1, &fast, tolerance));
+}
+
+/// A body turned on the floor about the vertical keeps the same springs: its preconditioner is
+/// refactored for the turn with the contact curvature it holds, which equals the one made
+/// afresh at the turned state.
+#[test]
+fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
+    use crate::geometry::{box_mesh, Cubature, TetMesh, VoxelGrid};
+    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver, Subspace};
+    use crate::skinning::{EigenmodeField, EigenmodeOptions};
+    use std::sync::Arc;
+
+    let shape = box_mesh(Vector3::new(0.4, 0.2, 0.1));
+    let grid = VoxelGrid::from_shape(&shape, 64, None).resample(8);
+    let mesh = TetMesh::from_grid(&grid);
+    let options = EigenmodeOptions {
+        modes: 2,
+        ..Default::default()
+    };
+    let field = EigenmodeField::compute(mesh.clone(), shape.normalization(), &options).unwrap();
+    let cubature = Cubature::stratified(&grid, 64, mesh.volume());
+    let subspace = Arc::new(Subspace::build(
+        Arc::new(field),
+        shape.normalization(),
+        &cubature,
+        1000.0,
+    ));
+    let params = SimParams {
+        friction: 0.0,
+        ..Default::default()
+    };
+    let mut sim = ReducedSim::new(subspace.clone(), params, Solver::QuasiNewton, 0.46).unwrap();
+    let areas = vec![1e-3; mesh.vertices.len()];
+    sim.add_contact_points(&mesh.vertices, &areas);
+    // The bottom face 1 mm below the floor: its points touch, the others are far above it.
+    sim.add_obstacle(Obstacle::floor(-0.049));
+    sim.prepare();
+    let turned_by = |angle: f64| {
+        let turn = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), angle);
+        subspace.rigid_state(turn.matrix(), &Vector3::zeros())
+    };
+    let (before, after) = (turned_by(0.0), turned_by(0.01));
+    sim.find_candidates(&before);
+    sim.hold_at(&before);
+    let held_before = sim.held_contact.clone().expect("held");
+    assert!(
+        !held_before.0.touching.is_empty(),
+        "the bottom face touches"
+    );
+    let factorizations = sim.factorizations;
+    sim.find_candidates(&after);
+    sim.hold_at(&after);
+    assert_eq!(
+        sim.factorizations,
+        factorizations + 1,
+        "refactored for the turn"
+    );
+    let (signature, held) = sim.held_contact.clone().expect("held");
+    assert_eq!(signature, held_before.0, "the same springs");
+    let fresh = sim
+        .curvature_of(&sim.touching_at(&after))
+        .expect("touching");
+    let held = held.expect("touching");
+    assert!((&held - &fresh).amax() <= 1e-12 * fresh.amax());
 }
