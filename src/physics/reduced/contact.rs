@@ -41,6 +41,8 @@ impl ReducedSim {
     /// Indexes the contact points anew after some were added or resampled.
     pub(super) fn contacts_changed(&mut self) {
         self.held_contact = None;
+        // The broad phase's gathered samples belong to the points as they were.
+        self.candidates.clear();
         let (rows, n) = (4 * self.subspace.handles(), self.contacts.len());
         self.contact_phis = DMatrix::from_fn(rows, n, |a, i| self.contacts[i].phi[a]);
         self.contact_rests = DMatrix::from_fn(3, n, |d, i| self.contacts[i].rest[d]);
@@ -70,11 +72,12 @@ impl ReducedSim {
         for o in 0..self.obstacles.len() + self.colliders.len() {
             match self.obstacle(o) {
                 // A floor is near only the points within the margin above it. A point's height
-                // is n.X + (Z^T n).phi, a third of its position's cost.
+                // is n.X + (Z^T n).phi, a third of its position's cost, all in one product.
                 Obstacle::Plane { normal, offset } => {
-                    let lift = z.tr_mul(normal);
+                    let row = DMatrix::from_row_slice(1, z.ncols(), z.tr_mul(normal).as_slice());
+                    let lift = product(&row, &self.contact_phis);
                     for (c, contact) in self.contacts.iter().enumerate() {
-                        let height = normal.dot(&contact.rest) + lift.dot(&contact.phi);
+                        let height = normal.dot(&contact.rest) + lift[c];
                         if offset - height > -margin {
                             candidates.push((c, o));
                         }
@@ -96,7 +99,19 @@ impl ReducedSim {
         }
         // Point by point, as the sums over them have always run.
         candidates.sort_unstable();
+        let gathered = candidates.iter().map(|(c, _)| c);
+        self.candidate_rests = self.contact_rests.select_columns(gathered.clone());
+        self.candidate_phis = self.contact_phis.select_columns(gathered);
         self.candidates = candidates;
+    }
+
+    /// The candidates' positions at `z` (3 x candidates), in one product: point by point, a
+    /// body in a bin (1300 candidates) spent most of its step placing them.
+    pub(super) fn candidate_positions(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
+        if self.candidates.is_empty() {
+            return DMatrix::zeros(3, 0);
+        }
+        &self.candidate_rests + product(z, &self.candidate_phis)
     }
 
     /// Friction for this step: the candidate contacts that touch at its start, and the
@@ -161,10 +176,14 @@ impl ReducedSim {
 
     /// The candidate (contact, obstacle) pairs in touch at `z`, with their penetration.
     pub(super) fn touching_at(&self, z: &DMatrix<f64>) -> Vec<(usize, usize, Penetration)> {
+        let positions = self.candidate_positions(z);
         self.candidates
             .iter()
-            .filter_map(|&(c, o)| {
-                let p = self.obstacle(o).penetration(&self.contacts[c].at(z))?;
+            .zip(positions.column_iter())
+            .filter_map(|(&(c, o), x)| {
+                let p = self
+                    .obstacle(o)
+                    .penetration(&Vector3::new(x[0], x[1], x[2]))?;
                 Some((c, o, p))
             })
             .collect()

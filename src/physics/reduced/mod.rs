@@ -18,6 +18,7 @@ mod held;
 mod hessian;
 mod pinning;
 mod pins;
+mod point;
 mod rebase;
 
 pub use rebase::state_projection;
@@ -32,6 +33,7 @@ use crate::linalg::{product, DenseCholesky};
 use contact::ContactSignature;
 use held::refresh_due;
 use pinning::PinConstraint;
+use point::ReducedPoint;
 
 /// How each implicit step is solved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -105,57 +107,6 @@ impl StepReport {
     /// How many times stiffer than `pin_stiffness` the pin springs ended the step.
     pub fn pin_spring_boost(&self) -> f64 {
         STIFFENING.powi(self.pin_stiffenings as i32)
-    }
-}
-
-/// A material point of the object expressed in the subspace.
-#[derive(Clone)]
-struct ReducedPoint {
-    rest: Vector3<f64>,
-    phi: DVector<f64>,
-    /// Mass for pins (kg), area for contacts (m^2).
-    weight: f64,
-    target: Vector3<f64>,
-    /// Pins moved together (an attachment); 0 for pins that stay where they were put.
-    group: u32,
-}
-
-impl ReducedPoint {
-    /// The material points at `rests` sampled in `subspace`, each with its weight, held at its
-    /// rest position.
-    fn sampled(
-        subspace: &Subspace,
-        rests: &[Vector3<f64>],
-        weights: &[f64],
-        group: u32,
-    ) -> Vec<ReducedPoint> {
-        (subspace
-            .phis(rests)
-            .into_iter()
-            .zip(rests.iter().zip(weights)))
-        .map(|(phi, (x, w))| ReducedPoint {
-            rest: *x,
-            phi,
-            weight: *w,
-            target: *x,
-            group,
-        })
-        .collect()
-    }
-
-    /// Where the point is in state `z`: rest + Z phi, summed here without the temporaries a
-    /// matrix product would allocate (the broad phase and every evaluation take it per point).
-    fn at(&self, z: &DMatrix<f64>) -> Vector3<f64> {
-        self.rest + self.moved_by(z)
-    }
-
-    /// How far the point moves under a change `step` of the state: step phi.
-    fn moved_by(&self, step: &DMatrix<f64>) -> Vector3<f64> {
-        let mut d = Vector3::zeros();
-        for (column, p) in step.as_slice().chunks_exact(3).zip(self.phi.iter()) {
-            d += Vector3::new(column[0], column[1], column[2]) * *p;
-        }
-        d
     }
 }
 
@@ -238,6 +189,10 @@ pub struct ReducedSim {
     /// This step's broad phase: (contact, obstacle) pairs close enough to touch, obstacles
     /// indexed over `obstacles` then `colliders`.
     candidates: Vec<(usize, usize)>,
+    /// The candidates' rest positions (3 x candidates) and subspace samples (4K x candidates),
+    /// gathered once a step so that an evaluation places them all in one product.
+    candidate_rests: DMatrix<f64>,
+    candidate_phis: DMatrix<f64>,
     /// This step's friction: contact points touching at its start.
     sticks: Vec<Stick>,
     /// Friction anchors of contacts resting on static obstacles.
@@ -308,6 +263,8 @@ impl ReducedSim {
             colliders: Vec::new(),
             colliders_before: Vec::new(),
             candidates: Vec::new(),
+            candidate_rests: DMatrix::zeros(3, 0),
+            candidate_phis: DMatrix::zeros(0, 0),
             sticks: Vec::new(),
             anchors: Anchors::default(),
             rolls: Vec::new(),
@@ -653,9 +610,13 @@ impl ReducedSim {
         let mut energy = elastic;
         let mut touching = Vec::new();
         let kc = self.params.contact_stiffness;
-        for &(c, o) in &self.candidates {
+        let positions = self.candidate_positions(z);
+        for (&(c, o), x) in self.candidates.iter().zip(positions.column_iter()) {
             let contact = &self.contacts[c];
-            if let Some(p) = self.obstacle(o).penetration(&contact.at(z)) {
+            if let Some(p) = self
+                .obstacle(o)
+                .penetration(&Vector3::new(x[0], x[1], x[2]))
+            {
                 energy += 0.5 * kc * contact.weight * p.depth * p.depth;
                 // In place: an outer product per touching point would allocate, and a resting
                 // body has hundreds of them in every evaluation.
