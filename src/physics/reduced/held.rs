@@ -28,8 +28,8 @@ impl ReducedSim {
     /// landing body costs many iterations and a refresh of the whole Hessian. A body resting on
     /// the same points keeps its factor: the curvature changes only with which springs act. A
     /// body that turned on the same springs (a block spinning on a frictionless floor turns past
-    /// the tolerance every other step) reuses the contact curvature held with them: making it
-    /// again took a small body's step from 0.030 to 0.040 ms (median, printed).
+    /// the tolerance every other step) reuses the contact curvature held with them: that took a
+    /// small body's median step from 0.040 to 0.030 ms (printed).
     pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) {
         let touching = self.touching_at(z);
         let signature = self.contact_signature(&touching);
