@@ -608,22 +608,16 @@ impl ReducedSim {
     fn evaluate(&self, z: &DMatrix<f64>, objective: &StepObjective) -> Evaluation {
         let (elastic, mut gradient) = self.subspace.elastic_forces(z, &self.material);
         let mut energy = elastic;
-        let mut touching = Vec::new();
         let kc = self.params.contact_stiffness;
-        let positions = self.candidate_positions(z);
-        for (&(c, o), x) in self.candidates.iter().zip(positions.column_iter()) {
-            let contact = &self.contacts[c];
-            if let Some(p) = self
-                .obstacle(o)
-                .penetration(&Vector3::new(x[0], x[1], x[2]))
-            {
-                energy += 0.5 * kc * contact.weight * p.depth * p.depth;
-                // In place: an outer product per touching point would allocate, and a resting
-                // body has hundreds of them in every evaluation.
-                gradient.ger(-kc * contact.weight * p.depth, &p.normal, &contact.phi, 1.0);
-                touching.push((c, o));
-            }
+        let touching_now = self.touching_at(z);
+        for (c, _, p) in &touching_now {
+            let contact = &self.contacts[*c];
+            energy += 0.5 * kc * contact.weight * p.depth * p.depth;
+            // In place: an outer product per touching point would allocate, and a resting
+            // body has hundreds of them in every evaluation.
+            gradient.ger(-kc * contact.weight * p.depth, &p.normal, &contact.phi, 1.0);
         }
+        let touching = touching_now.iter().map(|&(c, o, _)| (c, o)).collect();
         for stick in &self.sticks {
             let contact = &self.contacts[stick.point];
             let (e, g) = stick.energy_and_gradient(&contact.at(z));
