@@ -19,6 +19,13 @@ use super::strain::FieldSamples;
 use crate::geometry::{Cubature, Normalization};
 use crate::skinning::SkinningField;
 
+/// Cubature points times 4K from which a force evaluation is split over threads. The solver
+/// calls it from outside the thread pool, so a split costs two wake-ups and a wait: at 1024
+/// points and K = 17 an evaluation took 98 us on 2 threads and 62 us on one (printed,
+/// `bench sim` on the plate). A tight loop of split evaluations, threads awake, took 37 us
+/// against 60 us, and 140 us against 248 us at 4096 points (printed, a scratch timing).
+const FORCES_PARALLEL_WORK: usize = 200_000;
+
 /// A skinning subspace sampled at a cubature set (world units).
 pub struct Subspace {
     field: Arc<dyn SkinningField>,
@@ -193,11 +200,12 @@ impl Subspace {
     }
 
     /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).
-    /// One parallel pass: each thread takes a run of cubature points, forms their F, their
-    /// stresses, and its share of the gradient; the shares are summed.
+    /// One pass, split over threads for large cubatures (see [`FORCES_PARALLEL_WORK`]): each
+    /// thread takes a run of cubature points, forms their F, their stresses, and its share of
+    /// the gradient; the shares are summed.
     pub fn elastic_forces(&self, z: &DMatrix<f64>, material: &Material) -> (f64, DMatrix<f64>) {
         let np = self.cubature_len();
-        if !self.worth_parallel() {
+        if np * 4 * self.handles < FORCES_PARALLEL_WORK {
             return self.samples.forces(z, material, 0..np);
         }
         let runs = rayon::current_num_threads().max(1);
