@@ -223,6 +223,27 @@ pub fn product(a: &nalgebra::DMatrix<f64>, b: &nalgebra::DMatrix<f64>) -> nalgeb
     out
 }
 
+/// out += a b^T with faer, on the calling thread: nalgebra's `gemm` over a transposed view
+/// ran a matrix-vector product per column (a third of the cell's step, spreading its sticks'
+/// forces, in a `perf` of `bench scene`, printed).
+pub fn add_product_transposed(
+    out: &mut nalgebra::DMatrix<f64>,
+    a: &nalgebra::DMatrix<f64>,
+    b: &nalgebra::DMatrix<f64>,
+) {
+    assert_eq!(a.ncols(), b.ncols(), "inner dimensions of a product");
+    assert_eq!(out.shape(), (a.nrows(), b.nrows()), "shape of a product");
+    let (rows, cols) = out.shape();
+    faer::linalg::matmul::matmul(
+        MatMut::from_column_major_slice_mut(out.as_mut_slice(), rows, cols),
+        faer::Accum::Add,
+        faer::MatRef::from_column_major_slice(a.as_slice(), a.nrows(), a.ncols()),
+        faer::MatRef::from_column_major_slice(b.as_slice(), b.nrows(), b.ncols()).transpose(),
+        1.0,
+        Par::Seq,
+    );
+}
+
 /// Dense LL^T of a symmetric positive definite matrix (column-major, n x n): faer's blocked
 /// factorization, run on the calling thread. At the reduced sizes (a few hundred) thread
 /// hand-offs cost more than they save; at 204 unknowns it took 0.070 ms where nalgebra's

@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::{ReducedPoint, ReducedSim};
-use crate::linalg::product;
+use crate::linalg::{add_product_transposed, product};
 use crate::physics::obstacle::{carried_by, Obstacle, Penetration, Stick};
 use crate::physics::rolling::{RollingStick, ROLL_SLIP};
 
@@ -43,6 +43,7 @@ impl ReducedSim {
         self.held_contact = None;
         // The broad phase's gathered samples belong to the points as they were.
         self.candidates.clear();
+        self.stick_points.clear();
         let (rows, n) = (4 * self.subspace.handles(), self.contacts.len());
         self.contact_phis = DMatrix::from_fn(rows, n, |a, i| self.contacts[i].phi[a]);
         self.contact_rests = DMatrix::from_fn(3, n, |d, i| self.contacts[i].rest[d]);
@@ -60,48 +61,42 @@ impl ReducedSim {
     /// step. Boxes first, then the exact test once per point: a gripper's or a bin's box holds
     /// everything it holds, and testing all of it in every evaluation was most of a step.
     pub(super) fn find_candidates(&mut self, z: &DMatrix<f64>) {
-        self.candidates.clear();
+        let before = std::mem::take(&mut self.candidates);
         if self.contacts.is_empty() {
             return;
         }
         let moved = product(&(z - &self.z), &self.contact_phis);
         let reach = moved.column_iter().map(|d| d.norm()).fold(0.0, f64::max);
         let margin = 0.1 * self.diagonal + 2.0 * reach;
-        let mut positions: Option<DMatrix<f64>> = None;
-        let mut candidates = std::mem::take(&mut self.candidates);
+        let positions = self.contact_positions_at(z);
+        let body = column_bounds(&positions);
+        let mut candidates = Vec::with_capacity(before.len());
         for o in 0..self.obstacles.len() + self.colliders.len() {
-            match self.obstacle(o) {
-                // A floor is near only the points within the margin above it. A point's height
-                // is n.X + (Z^T n).phi, a third of its position's cost, all in one product.
-                Obstacle::Plane { normal, offset } => {
-                    let row = DMatrix::from_row_slice(1, z.ncols(), z.tr_mul(normal).as_slice());
-                    let lift = product(&row, &self.contact_phis);
-                    for (c, contact) in self.contacts.iter().enumerate() {
-                        let height = normal.dot(&contact.rest) + lift[c];
-                        if offset - height > -margin {
-                            candidates.push((c, o));
-                        }
-                    }
-                }
-                obstacle => {
-                    let positions = positions.get_or_insert_with(|| self.contact_positions_at(z));
-                    let bounds = obstacle.bounds(margin);
-                    for (c, x) in positions.column_iter().enumerate() {
-                        let x = Vector3::new(x[0], x[1], x[2]);
-                        let boxed = bounds
-                            .is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));
-                        if boxed && obstacle.is_within(&x, margin) {
-                            candidates.push((c, o));
-                        }
-                    }
+            let obstacle = self.obstacle(o);
+            let bounds = obstacle.bounds(margin);
+            // The body's box first: in a cell of ten objects most obstacles are far from most
+            // bodies, and testing every point against each was a quarter of a step.
+            if !reaches(obstacle, bounds.as_ref(), &body, margin) {
+                continue;
+            }
+            for (c, x) in positions.column_iter().enumerate() {
+                let x = Vector3::new(x[0], x[1], x[2]);
+                let boxed =
+                    bounds.is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));
+                if boxed && obstacle.is_within(&x, margin) {
+                    candidates.push((c, o));
                 }
             }
         }
         // Point by point, as the sums over them have always run.
         candidates.sort_unstable();
-        let gathered = candidates.iter().map(|(c, _)| c);
-        self.candidate_rests = self.contact_rests.select_columns(gathered.clone());
-        self.candidate_phis = self.contact_phis.select_columns(gathered);
+        // A body resting on the same points keeps its candidates: their samples are gathered
+        // already (megabytes for a column in a bin, copied in every step before).
+        if candidates != before {
+            let points: Vec<usize> = candidates.iter().map(|&(c, _)| c).collect();
+            self.candidate_rests = gather_columns(&self.contact_rests, &points);
+            self.candidate_phis = gather_columns(&self.contact_phis, &points);
+        }
         self.candidates = candidates;
     }
 
@@ -126,9 +121,12 @@ impl ReducedSim {
         }
         let statics = self.obstacles.len();
         let mut pushes: Vec<(usize, Vector3<f64>)> = Vec::new();
-        for &(c, o) in &self.candidates {
+        // Placed in one product: point by point, this loop was a fifth of a step of the cell's
+        // column in its bin (a `perf` of `bench scene`, printed).
+        let positions = self.candidate_positions(&self.z);
+        for (&(c, o), x) in self.candidates.iter().zip(positions.column_iter()) {
             let contact = &self.contacts[c];
-            let x = contact.at(&self.z);
+            let x = Vector3::new(x[0], x[1], x[2]);
             let Some(p) = self.obstacle(o).penetration(&x) else {
                 continue;
             };
@@ -151,7 +149,37 @@ impl ReducedSim {
             }
         }
         self.anchors.end_step();
+        let points: Vec<usize> = self.sticks.iter().map(|s| s.point).collect();
+        if points != self.stick_points {
+            self.stick_rests = gather_columns(&self.contact_rests, &points);
+            self.stick_phis = gather_columns(&self.contact_phis, &points);
+            self.stick_points = points;
+        }
         self.find_rolls(&pushes, statics);
+    }
+
+    /// Adds the sticks' forces at `z` to `gradient` (3 x 4K) and returns their energy: every
+    /// stick placed in one product and its force spread in another, where point by point a
+    /// gripped or resting body's hundreds of sticks cost a product each.
+    pub(super) fn add_stick_forces(&self, z: &DMatrix<f64>, gradient: &mut DMatrix<f64>) -> f64 {
+        if self.sticks.is_empty() {
+            return 0.0;
+        }
+        let positions = &self.stick_rests + product(z, &self.stick_phis);
+        let mut forces = DMatrix::zeros(3, self.sticks.len());
+        let mut energy = 0.0;
+        for ((stick, x), mut force) in self
+            .sticks
+            .iter()
+            .zip(positions.column_iter())
+            .zip(forces.column_iter_mut())
+        {
+            let (e, g) = stick.energy_and_gradient(&Vector3::new(x[0], x[1], x[2]));
+            energy += e;
+            force.copy_from(&g);
+        }
+        add_product_transposed(gradient, &forces, &self.stick_phis);
+        energy
     }
 
     /// Rolling friction on each obstacle pushing with a total force from `pushes`.
@@ -252,6 +280,49 @@ impl ReducedSim {
         }
         Some(curvature)
     }
+}
+
+/// The smallest box (lower and upper corners) holding the columns of `points` (3 x n, n > 0).
+fn column_bounds(points: &DMatrix<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for x in points.column_iter() {
+        for d in 0..3 {
+            lo[d] = lo[d].min(x[d]);
+            hi[d] = hi[d].max(x[d]);
+        }
+    }
+    (lo, hi)
+}
+
+/// Whether any point in the box `body` may come within `margin` of `obstacle`, whose own box
+/// (grown by the margin) is `bounds`: a plane is reached when the box's lowest corner is within
+/// the margin above it, anything else when the boxes overlap.
+fn reaches(
+    obstacle: &Obstacle,
+    bounds: Option<&(Vector3<f64>, Vector3<f64>)>,
+    body: &(Vector3<f64>, Vector3<f64>),
+    margin: f64,
+) -> bool {
+    let (lo, hi) = body;
+    if let Obstacle::Plane { normal, .. } = obstacle {
+        let lowest = Vector3::from_fn(|d, _| if normal[d] >= 0.0 { lo[d] } else { hi[d] });
+        return obstacle.is_within(&lowest, margin);
+    }
+    bounds.is_none_or(|(min, max)| (0..3).all(|d| lo[d] <= max[d] && hi[d] >= min[d]))
+}
+
+/// The columns `columns` of `from`, in their order: a column copied
+/// at a time, where nalgebra's `select_columns` copied entry by entry (8 % of the cell's step
+/// in a `perf` of `bench scene`, printed).
+fn gather_columns(from: &DMatrix<f64>, columns: &[usize]) -> DMatrix<f64> {
+    let rows = from.nrows();
+    // Filled as it is gathered: zeroing it first was a tenth of the cell's step.
+    let mut gathered = Vec::with_capacity(rows * columns.len());
+    for &c in columns {
+        gathered.extend_from_slice(&from.as_slice()[c * rows..(c + 1) * rows]);
+    }
+    DMatrix::from_vec(rows, columns.len(), gathered)
 }
 
 /// sum_i (phi_i phi_i^T) (x) S_i in flat z order (S_i symmetric 3 x 3), as six (4K x 4K)

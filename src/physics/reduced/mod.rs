@@ -193,6 +193,11 @@ pub struct ReducedSim {
     /// gathered once a step so that an evaluation places them all in one product.
     candidate_rests: DMatrix<f64>,
     candidate_phis: DMatrix<f64>,
+    /// The sticks' points' rest positions (3 x sticks) and samples (4K x sticks), likewise,
+    /// and which points they are.
+    stick_points: Vec<usize>,
+    stick_rests: DMatrix<f64>,
+    stick_phis: DMatrix<f64>,
     /// This step's friction: contact points touching at its start.
     sticks: Vec<Stick>,
     /// Friction anchors of contacts resting on static obstacles.
@@ -265,6 +270,9 @@ impl ReducedSim {
             candidates: Vec::new(),
             candidate_rests: DMatrix::zeros(3, 0),
             candidate_phis: DMatrix::zeros(0, 0),
+            stick_points: Vec::new(),
+            stick_rests: DMatrix::zeros(3, 0),
+            stick_phis: DMatrix::zeros(0, 0),
             sticks: Vec::new(),
             anchors: Anchors::default(),
             rolls: Vec::new(),
@@ -618,12 +626,7 @@ impl ReducedSim {
             gradient.ger(-kc * contact.weight * p.depth, &p.normal, &contact.phi, 1.0);
         }
         let touching = touching_now.iter().map(|&(c, o, _)| (c, o)).collect();
-        for stick in &self.sticks {
-            let contact = &self.contacts[stick.point];
-            let (e, g) = stick.energy_and_gradient(&contact.at(z));
-            energy += e;
-            gradient.ger(1.0, &g, &contact.phi, 1.0);
-        }
+        energy += self.add_stick_forces(z, &mut gradient);
         for roll in &self.rolls {
             let (e, g) = roll.energy_and_gradient(z);
             energy += e;
