@@ -293,3 +293,19 @@ impl DenseCholesky {
         );
     }
 }
+
+#[cfg(test)]
+mod product_tests {
+    use super::*;
+
+    #[test]
+    fn add_product_transposed_adds_a_times_b_transposed() {
+        let a = nalgebra::DMatrix::from_fn(3, 40, |r, c| ((r * 7 + c * 3) % 11) as f64 - 5.0);
+        let b = nalgebra::DMatrix::from_fn(68, 40, |r, c| ((r * 5 + c) % 13) as f64 * 0.25);
+        let start = nalgebra::DMatrix::from_fn(3, 68, |r, c| (r + c) as f64);
+        let mut out = start.clone();
+        add_product_transposed(&mut out, &a, &b);
+        let expected = start + &a * b.transpose();
+        assert!((out - &expected).amax() <= 1e-12 * expected.amax());
+    }
+}

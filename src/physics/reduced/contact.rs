@@ -312,9 +312,9 @@ fn reaches(
     bounds.is_none_or(|(min, max)| (0..3).all(|d| lo[d] <= max[d] && hi[d] >= min[d]))
 }
 
-/// The columns `columns` of `from`, in their order: a column copied
-/// at a time, where nalgebra's `select_columns` copied entry by entry (8 % of the cell's step
-/// in a `perf` of `bench scene`, printed).
+/// The columns `columns` of `from`, in their order: a column copied at a time, where
+/// nalgebra's `select_columns` copied entry by entry (8 % of the cell's step in a `perf` of
+/// `bench scene`, printed).
 fn gather_columns(from: &DMatrix<f64>, columns: &[usize]) -> DMatrix<f64> {
     let rows = from.nrows();
     // Filled as it is gathered: zeroing it first was a tenth of the cell's step.
@@ -349,4 +349,87 @@ pub(super) fn kronecker_blocks(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points spread over the box from `lo` to `hi`, corners included.
+    fn spread(lo: &Vector3<f64>, hi: &Vector3<f64>) -> DMatrix<f64> {
+        let steps = 6;
+        let t = |i: usize| i as f64 / steps as f64;
+        let mut columns = Vec::new();
+        for (i, j, k) in (0..=steps)
+            .flat_map(|i| (0..=steps).flat_map(move |j| (0..=steps).map(move |k| (i, j, k))))
+        {
+            let x = Vector3::new(t(i), t(j), t(k));
+            columns.extend((lo + (hi - lo).component_mul(&x)).iter().copied());
+        }
+        DMatrix::from_vec(3, columns.len() / 3, columns)
+    }
+
+    /// The broad phase skips an obstacle only when no point of the body's box can reach it:
+    /// floors and tilted planes above, at and below the box, and a hull beside it.
+    #[test]
+    fn a_body_box_is_skipped_only_when_none_of_its_points_reaches() {
+        let (lo, hi) = (Vector3::new(-0.1, 0.2, 0.3), Vector3::new(0.2, 0.4, 0.5));
+        let points = spread(&lo, &hi);
+        let body = column_bounds(&points);
+        assert!((body.0 - lo).amax() < 1e-12 && (body.1 - hi).amax() < 1e-12);
+        let cube = |centre: Vector3<f64>| {
+            let corners: Vec<_> = (0..8)
+                .map(|k| {
+                    centre
+                        + Vector3::new((k & 1) as f64, ((k >> 1) & 1) as f64, (k >> 2) as f64) * 0.1
+                })
+                .collect();
+            Obstacle::hull_of(&corners).expect("a cube spans a volume")
+        };
+        let tilted = |offset: f64| Obstacle::Plane {
+            normal: Vector3::new(0.6, -0.48, 0.64).normalize(),
+            offset,
+        };
+        let obstacles = [
+            Obstacle::floor(0.1),
+            Obstacle::floor(0.25),
+            Obstacle::floor(0.31),
+            tilted(-0.2),
+            tilted(0.0),
+            tilted(0.4),
+            cube(Vector3::new(0.25, 0.3, 0.35)),
+            cube(Vector3::new(0.5, 0.3, 0.35)),
+            cube(Vector3::new(1.0, 1.0, 1.0)),
+        ];
+        let margin = 0.05;
+        let (mut skipped, mut kept) = (0, 0);
+        for obstacle in &obstacles {
+            let bounds = obstacle.bounds(margin);
+            let reached = points
+                .column_iter()
+                .any(|x| obstacle.is_within(&Vector3::new(x[0], x[1], x[2]), margin));
+            let kept_here = reaches(obstacle, bounds.as_ref(), &body, margin);
+            assert!(kept_here || !reached, "skipped an obstacle a point reaches");
+            if kept_here {
+                kept += 1
+            } else {
+                skipped += 1
+            }
+        }
+        assert!(
+            skipped >= 3 && kept >= 3,
+            "{skipped} skipped, {kept} kept: the test is blind"
+        );
+    }
+
+    #[test]
+    fn gathered_columns_are_the_named_ones_in_order() {
+        let from = DMatrix::from_fn(4, 5, |r, c| (10 * c + r) as f64);
+        let gathered = gather_columns(&from, &[3, 0, 3]);
+        assert_eq!(gathered.shape(), (4, 3));
+        for (j, c) in [3, 0, 3].into_iter().enumerate() {
+            assert_eq!(gathered.column(j), from.column(c));
+        }
+        assert_eq!(gather_columns(&from, &[]).shape(), (4, 0));
+    }
 }
