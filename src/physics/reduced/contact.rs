@@ -3,6 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use super::point::{placed, Gathered};
 use super::{ReducedPoint, ReducedSim};
 use crate::linalg::{add_product_transposed, product};
 use crate::physics::obstacle::{carried_by, Obstacle, Penetration, Stick};
@@ -43,7 +44,8 @@ impl ReducedSim {
         self.held_contact = None;
         // The broad phase's gathered samples belong to the points as they were.
         self.candidates.clear();
-        self.stick_points.clear();
+        self.gathered_candidates = Gathered::new();
+        self.gathered_sticks = Gathered::new();
         let (rows, n) = (4 * self.subspace.handles(), self.contacts.len());
         self.contact_phis = DMatrix::from_fn(rows, n, |a, i| self.contacts[i].phi[a]);
         self.contact_rests = DMatrix::from_fn(3, n, |d, i| self.contacts[i].rest[d]);
@@ -52,7 +54,7 @@ impl ReducedSim {
     /// Every contact point's position at `z` (3 x n), in one product: point by point, the
     /// broad phase of a body with a thousand contact points cost more than its solve.
     fn contact_positions_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
-        &self.contact_rests + product(z, &self.contact_phis)
+        placed(z, &self.contact_rests, &self.contact_phis)
     }
 
     /// The broad phase: the (contact, obstacle) pairs to test during a step from state `z`.
@@ -61,7 +63,7 @@ impl ReducedSim {
     /// step. Boxes first, then the exact test once per point: a gripper's or a bin's box holds
     /// everything it holds, and testing all of it in every evaluation was most of a step.
     pub(super) fn find_candidates(&mut self, z: &DMatrix<f64>) {
-        let before = std::mem::take(&mut self.candidates);
+        self.candidates.clear();
         if self.contacts.is_empty() {
             return;
         }
@@ -70,7 +72,7 @@ impl ReducedSim {
         let margin = 0.1 * self.diagonal + 2.0 * reach;
         let positions = self.contact_positions_at(z);
         let body = column_bounds(&positions);
-        let mut candidates = Vec::with_capacity(before.len());
+        let mut candidates = std::mem::take(&mut self.candidates);
         for o in 0..self.obstacles.len() + self.colliders.len() {
             let obstacle = self.obstacle(o);
             let bounds = obstacle.bounds(margin);
@@ -90,23 +92,14 @@ impl ReducedSim {
         }
         // Point by point, as the sums over them have always run.
         candidates.sort_unstable();
-        // A body resting on the same points keeps its candidates: their samples are gathered
-        // already (megabytes for a column in a bin, copied in every step before).
-        if candidates != before {
-            let points: Vec<usize> = candidates.iter().map(|&(c, _)| c).collect();
-            self.candidate_rests = gather_columns(&self.contact_rests, &points);
-            self.candidate_phis = gather_columns(&self.contact_phis, &points);
-        }
+        let points = candidates.iter().map(|&(c, _)| c).collect();
+        (self.gathered_candidates).gather(points, &self.contact_rests, &self.contact_phis);
         self.candidates = candidates;
     }
 
-    /// The candidates' positions at `z` (3 x candidates), in one product: point by point, a
-    /// body in a bin (1300 candidates) spent most of its step placing them.
+    /// The candidates' positions at `z` (3 x candidates).
     pub(super) fn candidate_positions(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
-        if self.candidates.is_empty() {
-            return DMatrix::zeros(3, 0);
-        }
-        &self.candidate_rests + product(z, &self.candidate_phis)
+        self.gathered_candidates.placed(z)
     }
 
     /// Friction for this step: the candidate contacts that touch at its start, and the
@@ -149,12 +142,8 @@ impl ReducedSim {
             }
         }
         self.anchors.end_step();
-        let points: Vec<usize> = self.sticks.iter().map(|s| s.point).collect();
-        if points != self.stick_points {
-            self.stick_rests = gather_columns(&self.contact_rests, &points);
-            self.stick_phis = gather_columns(&self.contact_phis, &points);
-            self.stick_points = points;
-        }
+        let points = self.sticks.iter().map(|s| s.point).collect();
+        (self.gathered_sticks).gather(points, &self.contact_rests, &self.contact_phis);
         self.find_rolls(&pushes, statics);
     }
 
@@ -165,7 +154,7 @@ impl ReducedSim {
         if self.sticks.is_empty() {
             return 0.0;
         }
-        let positions = &self.stick_rests + product(z, &self.stick_phis);
+        let positions = self.gathered_sticks.placed(z);
         let mut forces = DMatrix::zeros(3, self.sticks.len());
         let mut energy = 0.0;
         for ((stick, x), mut force) in self
@@ -178,7 +167,7 @@ impl ReducedSim {
             energy += e;
             force.copy_from(&g);
         }
-        add_product_transposed(gradient, &forces, &self.stick_phis);
+        add_product_transposed(gradient, &forces, &self.gathered_sticks.phis);
         energy
     }
 
@@ -312,19 +301,6 @@ fn reaches(
     bounds.is_none_or(|(min, max)| (0..3).all(|d| lo[d] <= max[d] && hi[d] >= min[d]))
 }
 
-/// The columns `columns` of `from`, in their order: a column copied at a time, where
-/// nalgebra's `select_columns` copied entry by entry (8 % of the cell's step in a `perf` of
-/// `bench scene`, printed).
-fn gather_columns(from: &DMatrix<f64>, columns: &[usize]) -> DMatrix<f64> {
-    let rows = from.nrows();
-    // Filled as it is gathered: zeroing it first was a tenth of the cell's step.
-    let mut gathered = Vec::with_capacity(rows * columns.len());
-    for &c in columns {
-        gathered.extend_from_slice(&from.as_slice()[c * rows..(c + 1) * rows]);
-    }
-    DMatrix::from_vec(rows, columns.len(), gathered)
-}
-
 /// sum_i (phi_i phi_i^T) (x) S_i in flat z order (S_i symmetric 3 x 3), as six (4K x 4K)
 /// products over the points, one per pair of axes, instead of a (12K)^2 update per point.
 pub(super) fn kronecker_blocks(
@@ -420,16 +396,5 @@ mod tests {
             skipped >= 3 && kept >= 3,
             "{skipped} skipped, {kept} kept: the test is blind"
         );
-    }
-
-    #[test]
-    fn gathered_columns_are_the_named_ones_in_order() {
-        let from = DMatrix::from_fn(4, 5, |r, c| (10 * c + r) as f64);
-        let gathered = gather_columns(&from, &[3, 0, 3]);
-        assert_eq!(gathered.shape(), (4, 3));
-        for (j, c) in [3, 0, 3].into_iter().enumerate() {
-            assert_eq!(gathered.column(j), from.column(c));
-        }
-        assert_eq!(gather_columns(&from, &[]).shape(), (4, 0));
     }
 }

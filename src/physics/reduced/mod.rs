@@ -33,7 +33,7 @@ use crate::linalg::{product, DenseCholesky};
 use contact::ContactSignature;
 use held::refresh_due;
 use pinning::PinConstraint;
-use point::ReducedPoint;
+use point::{Gathered, ReducedPoint};
 
 /// How each implicit step is solved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -189,15 +189,10 @@ pub struct ReducedSim {
     /// This step's broad phase: (contact, obstacle) pairs close enough to touch, obstacles
     /// indexed over `obstacles` then `colliders`.
     candidates: Vec<(usize, usize)>,
-    /// The candidates' rest positions (3 x candidates) and subspace samples (4K x candidates),
-    /// gathered once a step so that an evaluation places them all in one product.
-    candidate_rests: DMatrix<f64>,
-    candidate_phis: DMatrix<f64>,
-    /// The sticks' points' rest positions (3 x sticks) and samples (4K x sticks), likewise,
-    /// and which points they are.
-    stick_points: Vec<usize>,
-    stick_rests: DMatrix<f64>,
-    stick_phis: DMatrix<f64>,
+    /// The candidates' points, gathered once a step so that an evaluation places them all in
+    /// one product; the sticks' points, likewise.
+    gathered_candidates: Gathered,
+    gathered_sticks: Gathered,
     /// This step's friction: contact points touching at its start.
     sticks: Vec<Stick>,
     /// Friction anchors of contacts resting on static obstacles.
@@ -268,11 +263,8 @@ impl ReducedSim {
             colliders: Vec::new(),
             colliders_before: Vec::new(),
             candidates: Vec::new(),
-            candidate_rests: DMatrix::zeros(3, 0),
-            candidate_phis: DMatrix::zeros(0, 0),
-            stick_points: Vec::new(),
-            stick_rests: DMatrix::zeros(3, 0),
-            stick_phis: DMatrix::zeros(0, 0),
+            gathered_candidates: Gathered::new(),
+            gathered_sticks: Gathered::new(),
             sticks: Vec::new(),
             anchors: Anchors::default(),
             rolls: Vec::new(),
