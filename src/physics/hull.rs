@@ -20,8 +20,8 @@ pub struct ConvexHull {
     /// Outward unit normal and offset of each face plane.
     planes: Vec<(Vector3<f64>, f64)>,
     /// The same planes four at a time, for the tests every contact point makes in every
-    /// evaluation: a deformed body's hull has hundreds of faces, and the plane loops were a
-    /// sixth of the bundled scene's step (perf).
+    /// evaluation: a deformed body's hull has hundreds of faces, and the plane loops were
+    /// about a sixth of the bundled scene's step (perf).
     quads: Vec<PlaneQuad>,
     lo: Vector3<f64>,
     hi: Vector3<f64>,
@@ -37,18 +37,16 @@ struct PlaneQuad {
 
 impl PlaneQuad {
     fn of(planes: &[(Vector3<f64>, f64)]) -> Vec<Self> {
+        type Plane = (Vector3<f64>, f64);
         planes
             .chunks(4)
             .map(|chunk| {
-                let lane = |i: usize, f: &dyn Fn(&(Vector3<f64>, f64)) -> f64, pad: f64| {
-                    chunk.get(i).map_or(pad, f)
-                };
-                let column = |f: &dyn Fn(&(Vector3<f64>, f64)) -> f64, pad: f64| {
-                    f64x4::from(std::array::from_fn::<f64, 4, _>(|i| lane(i, f, pad)))
+                let lanes = |entry: &dyn Fn(&Plane) -> f64, pad: f64| {
+                    f64x4::from(std::array::from_fn(|i| chunk.get(i).map_or(pad, entry)))
                 };
                 Self {
-                    normal: [0, 1, 2].map(|d| column(&|(n, _)| n[d], 0.0)),
-                    offset: column(&|(_, o)| *o, f64::INFINITY),
+                    normal: [0, 1, 2].map(|d| lanes(&|(n, _)| n[d], 0.0)),
+                    offset: lanes(&|(_, o)| *o, f64::INFINITY),
                 }
             })
             .collect()
