@@ -69,7 +69,7 @@ pub struct StepReport {
     /// The quasi-Newton solver found no descent, or ran out of its budget and every extension
     /// of it, and full Newton finished the step.
     pub fallback: bool,
-    /// Times the quasi-Newton solver refactored its held Hessian during the step.
+    /// Times the quasi-Newton solver reassembled its held elastic Hessian during the step.
     pub refreshes: usize,
     /// Factorizations of the quasi-Newton solver's preconditioner during the step (a refresh,
     /// a turn of the body, a change of the contact springs acting); 0 for a body that keeps
@@ -494,14 +494,19 @@ impl ReducedSim {
             if mode == Solver::QuasiNewton
                 && refresh_due(since_refresh, &decrements, self.decrement_tolerance)
             {
-                // Slow progress: the held Hessian no longer describes the state. Refactor it
-                // here and hold it from now on; pairs measured against the old one would pull
-                // the new one back toward it.
-                self.hold_new(self.held_elastic_at(z), z);
+                // Slow progress: the held matrix no longer describes the state. Where the
+                // contact springs acting differ from those it was factored with (a landing's
+                // come and go within its step), it is factored again with them first: one
+                // small factorization, where a new elastic Hessian costs an assembly over the
+                // cubature points. Either way it is held from now on; pairs measured against
+                // the old one would pull the new one back toward it.
+                if !self.refit_contacts(z) {
+                    self.hold_new(self.held_elastic_at(z), z);
+                    report.refreshes += 1;
+                }
                 history.clear();
                 since_refresh = 0;
                 decrements.clear();
-                report.refreshes += 1;
             }
             let gradient = flat(&current.gradient);
             let mut direction = match mode {
