@@ -496,10 +496,10 @@ impl ReducedSim {
             {
                 // Slow progress: the held matrix no longer describes the state. Where the
                 // contact springs acting differ from those it was factored with (a landing's
-                // come and go within its step), it is factored again with them first: one
-                // small factorization, where a new elastic Hessian costs an assembly over the
-                // cubature points. Either way it is held from now on; pairs measured against
-                // the old one would pull the new one back toward it.
+                // come and go within its step), or the body has turned, it is factored again
+                // as it is now first: one small factorization, where a new elastic Hessian
+                // costs an assembly over the cubature points. Either way it is held from now
+                // on; pairs measured against the old one would pull the new one back.
                 if !self.refit_contacts(z) {
                     self.hold_new(self.held_elastic_at(z), z);
                     report.refreshes += 1;
