@@ -72,9 +72,9 @@ impl ReducedSim {
 
     /// Refactors the preconditioner with the contact springs acting at `z`, as `hold_at` does;
     /// false when it was up to date with them (and with the body's turn), and nothing changed.
-    /// A scanned rod's landing took 8.5 to 10.1 ms with three elastic refreshes in its step,
-    /// and 2.9 ms when the first slow spell refactored the contact springs alone (printed):
-    /// its springs had changed, its elastic Hessian hardly had.
+    /// A scanned rod's landing took 8.5 to 10.1 ms with three elastic refreshes in its step;
+    /// with the contact springs refactored first, no step of its drop took over 2.9 ms
+    /// (printed): its springs had changed, its elastic Hessian hardly had.
     pub(super) fn refit_contacts(&mut self, z: &DMatrix<f64>) -> bool {
         let factorizations = self.factorizations;
         self.hold_at(z);
