@@ -326,6 +326,20 @@ fn hanging_bar_loses_energy_and_keeps_its_pins() {
     }
 }
 
+/// Puts a floor at height `z` under the fixture's boundary vertices, each a contact point;
+/// returns those points.
+fn above_a_floor(sim: &mut ReducedSim, f: &Fixture, z: f64) -> Vec<Vector3<f64>> {
+    let points: Vec<_> = f
+        .mesh
+        .boundary_vertices
+        .iter()
+        .map(|&v| f.mesh.vertices[v as usize])
+        .collect();
+    sim.add_contact_points(&points, &f.mesh.boundary_areas);
+    sim.add_obstacle(Obstacle::floor(z));
+    points
+}
+
 #[test]
 fn drop_onto_the_floor_comes_to_rest_above_it() {
     let f = bar();
@@ -335,14 +349,7 @@ fn drop_onto_the_floor_comes_to_rest_above_it() {
         ..Default::default()
     };
     let mut sim = simulation(&f, &params, Solver::QuasiNewton);
-    let points: Vec<_> = f
-        .mesh
-        .boundary_vertices
-        .iter()
-        .map(|&v| f.mesh.vertices[v as usize])
-        .collect();
-    sim.add_contact_points(&points, &f.mesh.boundary_areas);
-    sim.add_obstacle(Obstacle::floor(-0.15));
+    let points = above_a_floor(&mut sim, &f, -0.15);
     let mut resting_factorizations = 0;
     for step in 0..120 {
         let r = sim.step();
@@ -668,14 +675,7 @@ fn a_tilted_landing_refactors_its_springs_before_reassembling() {
         ..Default::default()
     };
     let mut sim = simulation(&f, &params, Solver::QuasiNewton);
-    let points: Vec<_> = f
-        .mesh
-        .boundary_vertices
-        .iter()
-        .map(|&v| f.mesh.vertices[v as usize])
-        .collect();
-    sim.add_contact_points(&points, &f.mesh.boundary_areas);
-    sim.add_obstacle(Obstacle::floor(-0.2));
+    above_a_floor(&mut sim, &f, -0.2);
     let tilt = Rotation3::from_axis_angle(&Vector3::y_axis(), 0.3).into_inner();
     sim.set_state(rigid_state(&f, &tilt, &Vector3::zeros()), None);
     let (mut refreshes, mut factorizations) = (0, 0);
