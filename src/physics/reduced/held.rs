@@ -29,8 +29,8 @@ impl ReducedSim {
     /// the same points keeps its factor: the curvature changes only with which springs act. A
     /// body that turned on the same springs (a block spinning on a frictionless floor turns past
     /// the tolerance every other step) reuses the contact curvature held with them: that took a
-    /// small body's median step from 0.040 to 0.030 ms (printed).
-    pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) {
+    /// small body's median step from 0.040 to 0.030 ms (printed). Returns whether it refactored.
+    pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) -> bool {
         let touching = self.touching_at(z);
         let signature = self.contact_signature(&touching);
         self.held_matrix();
@@ -43,7 +43,7 @@ impl ReducedSim {
         };
         let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
         if self.factored_contact.as_ref() == Some(&signature) && !turned {
-            return;
+            return false;
         }
         let held = self.held.as_ref().expect("made above");
         // A pinned body's held matrix is factored as it is: turning it by the identity would
@@ -68,17 +68,7 @@ impl ReducedSim {
         self.factored_turn = turn;
         self.preconditioner = Some(self.factor_hessian(matrix));
         self.factorizations += 1;
-    }
-
-    /// Refactors the preconditioner with the contact springs acting at `z`, as `hold_at` does;
-    /// false when it was up to date with them (and with the body's turn), and nothing changed.
-    /// A scanned rod's landing took 8.5 to 10.1 ms with three elastic refreshes in its step;
-    /// with the contact springs refactored first, no step of its drop took over 2.9 ms
-    /// (printed): its springs had changed, its elastic Hessian hardly had.
-    pub(super) fn refit_contacts(&mut self, z: &DMatrix<f64>) -> bool {
-        let factorizations = self.factorizations;
-        self.hold_at(z);
-        self.factorizations > factorizations
+        true
     }
 
     /// Whether the contact springs acting (`touching`) include more that the preconditioner
