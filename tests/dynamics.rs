@@ -693,3 +693,42 @@ fn a_tilted_landing_refactors_its_springs_before_reassembling() {
         "{refreshes} elastic reassemblies over the landing ({factorizations} factorizations)"
     );
 }
+
+/// A soft bar of 1024 cubature points hanging from one end bends far from its rest Hessian:
+/// its quasi-Newton solve reassembles the held elastic Hessian on the coarser cubature (every
+/// other point) and still reaches full Newton's steps.
+#[test]
+fn a_hessian_refreshed_on_fewer_points_reaches_newtons_steps() {
+    let f = fixture(Vector3::new(1.0, 0.2, 0.2), 20, 8, 1024, 1000.0);
+    let params = SimParams {
+        young: 1e5,
+        ..Default::default()
+    };
+    let run = |solver| {
+        let mut sim = simulation(&f, &params, solver);
+        pin_left_end(&mut sim, &f, &params);
+        let mut refreshes = 0;
+        for step in 0..40 {
+            let r = sim.step();
+            assert!(
+                r.converged,
+                "{solver:?} step {step} did not converge: {r:?}"
+            );
+            refreshes += r.refreshes;
+        }
+        (sim.position_of(&Vector3::new(0.5, 0.0, 0.0)), refreshes)
+    };
+    let (newton, _) = run(Solver::Newton);
+    let (quasi, refreshes) = run(Solver::QuasiNewton);
+    assert!(
+        refreshes > 0,
+        "the bent bar never refreshed its held Hessian"
+    );
+    let sag = (newton - Vector3::new(0.5, 0.0, 0.0)).norm();
+    assert!(sag > 0.05, "the free end sags, got {sag} m");
+    let gap = (quasi - newton).norm();
+    assert!(
+        gap < 1e-3 * sag,
+        "quasi-Newton's tip {gap} m from Newton's ({refreshes} refreshes)"
+    );
+}

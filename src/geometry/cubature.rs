@@ -53,6 +53,30 @@ impl Cubature {
         Cubature { points, volumes }
     }
 
+    /// One point of every run of `stride` consecutive points (the middle one), standing for the
+    /// run: its volume is the run's, reweighted to the whole set's volume, centroid and second
+    /// moments. Stratified points run along a space-filling curve, so a run is a compact region.
+    /// Returns the indices kept and the coarser set.
+    pub fn coarsened(&self, stride: usize) -> (Vec<usize>, Cubature) {
+        let stride = stride.max(1);
+        let runs: Vec<_> = (0..self.len()).step_by(stride).collect();
+        let kept: Vec<usize> = runs
+            .iter()
+            .map(|&start| (start + stride / 2).min(self.len() - 1))
+            .collect();
+        let mut volumes: Vec<f64> = runs
+            .iter()
+            .map(|&start| {
+                self.volumes[start..(start + stride).min(self.len())]
+                    .iter()
+                    .sum()
+            })
+            .collect();
+        let points: Vec<_> = kept.iter().map(|&i| self.points[i]).collect();
+        match_moments(&points, &mut volumes, &self.points, &self.volumes);
+        (kept, Cubature { points, volumes })
+    }
+
     /// The points of [`Cubature::stratified`] alone, for callers that need no volumes (the
     /// network's reference points): matching the moments of 4096 points costs milliseconds.
     pub fn stratified_points(grid: &VoxelGrid, target: usize) -> Vec<Vector3<f64>> {
@@ -319,6 +343,52 @@ mod tests {
             let error = (inertia(&c.points, &c.volumes) - exact * scale).norm() / exact.norm();
             assert!(error < 1e-9, "{target} points: inertia off by {error:e}");
             assert!(c.volumes.iter().all(|&v| v > 0.0));
+        }
+    }
+
+    /// The coarser set keeps one point of each run, with the whole set's volume, centroid and
+    /// second moments.
+    #[test]
+    fn a_coarsened_cubature_keeps_the_volume_centroid_and_inertia() {
+        let shape = crate::geometry::primitives::capsule_mesh(0.3, 0.1);
+        let grid = VoxelGrid::from_shape(&shape, 32, None);
+        let fine = Cubature::stratified(&grid, 1024, grid.solid_volume());
+        let moments = |c: &Cubature| {
+            let volume = c.total_volume();
+            let centroid = c.points.iter().zip(&c.volumes).map(|(p, v)| p * *v).sum();
+            let second: nalgebra::Matrix3<f64> = c
+                .points
+                .iter()
+                .zip(&c.volumes)
+                .map(|(p, v)| p * p.transpose() * *v)
+                .sum();
+            (volume, centroid, second)
+        };
+        let (volume, centroid, second): (f64, Vector3<f64>, _) = moments(&fine);
+        // Every other point keeps all three; one in four, the volume and centroid (matching
+        // its inertia too would change a volume more than five-fold on this small capsule).
+        for stride in [2, 4] {
+            let (kept, coarse) = fine.coarsened(stride);
+            assert_eq!(kept.len(), fine.len().div_ceil(stride));
+            assert!(kept.iter().enumerate().all(|(run, &i)| i / stride == run));
+            assert!(kept
+                .iter()
+                .zip(&coarse.points)
+                .all(|(&i, p)| fine.points[i] == *p));
+            let (v, c, s) = moments(&coarse);
+            assert!(
+                (v - volume).abs() < 1e-9 * volume,
+                "stride {stride}: volume {v}"
+            );
+            assert!(
+                (c - centroid).norm() < 1e-9 * volume,
+                "stride {stride}: centroid"
+            );
+            assert!(
+                stride > 2 || (s - second).norm() < 1e-9 * second.norm(),
+                "stride {stride}: inertia"
+            );
+            assert!(coarse.volumes.iter().all(|&v| v > 0.0));
         }
     }
 

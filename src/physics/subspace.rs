@@ -26,6 +26,56 @@ use crate::skinning::SkinningField;
 /// against 60 us, and 140 us against 248 us at 4096 points (printed, a scratch timing).
 const FORCES_PARALLEL_WORK: usize = 200_000;
 
+/// About how many cubature points the quasi-Newton preconditioner's elastic Hessian is
+/// reassembled on (see [`PreconditionerPoints`]). With 256 of 1024, a scanned creature's
+/// hanging took 4.212 ms at its slowest step against 2.955 ms on every point, where 512 took
+/// 2.778 ms (`bench real`, printed): its thin limbs keep too few points.
+const PRECONDITIONER_POINTS: usize = 512;
+
+/// A coarser cubature, one point of every few, on which the quasi-Newton solver reassembles
+/// its held elastic Hessian when a step stops making progress and nothing touches (see
+/// `reduced::refresh_use`). The assembly costs in proportion to the points, about 1 ms at
+/// 1024 points and 17 handles, most of a refreshing step; the held matrix only preconditions,
+/// and L-BFGS corrects what it misses.
+struct PreconditionerPoints {
+    samples: FieldSamples,
+    assembly: HessianAssembly,
+}
+
+impl PreconditionerPoints {
+    /// None where the cubature has fewer than twice [`PRECONDITIONER_POINTS`].
+    fn new(
+        k: usize,
+        weights: &[f64],
+        gradients: &[Vector3<f64>],
+        cubature: &Cubature,
+    ) -> Option<Self> {
+        let stride = cubature.len() / PRECONDITIONER_POINTS;
+        if stride < 2 {
+            return None;
+        }
+        let (kept, coarse) = cubature.coarsened(stride);
+        let weights = gather_points(&kept, k, weights);
+        let gradients = gather_points(&kept, k, gradients);
+        Some(Self {
+            samples: FieldSamples::new(k, &weights, &gradients, &coarse.points, &coarse.volumes),
+            assembly: HessianAssembly::new(
+                4 * k,
+                coarse.volumes.clone(),
+                g_all_of(k, &weights, &gradients, &coarse.points),
+                &coarse.points,
+            ),
+        })
+    }
+}
+
+/// The values of points `kept` from `values` laid out K per point.
+fn gather_points<T: Copy>(kept: &[usize], k: usize, values: &[T]) -> Vec<T> {
+    kept.iter()
+        .flat_map(|&p| values[p * k..(p + 1) * k].iter().copied())
+        .collect()
+}
+
 /// A skinning subspace sampled at a cubature set (world units).
 pub struct Subspace {
     field: Arc<dyn SkinningField>,
@@ -35,6 +85,9 @@ pub struct Subspace {
     samples: FieldSamples,
     /// G at the cubature points: the elastic Hessian.
     assembly: HessianAssembly,
+    /// A coarser cubature for the quasi-Newton preconditioner (see [`PreconditionerPoints`]);
+    /// none where the cubature is small already.
+    coarse: Option<PreconditionerPoints>,
     /// sum_p rho v_p phi_p phi_p^T (4K x 4K); the reduced mass is this (x) I_3.
     mass_phi: DMatrix<f64>,
     /// sum_p rho v_p phi_p (4K); gravity's reduced force is this (x) g.
@@ -58,25 +111,11 @@ impl Subspace {
         let np = cubature.len();
         let (weights, gradients) = sample(field.as_ref(), &normalization, &cubature.points, true);
         let gradients = gradients.expect("asked for gradients");
-        let columns = 3 * np;
-        let mut g_all = vec![0.0; 4 * k * columns];
+        let g_all = g_all_of(k, &weights, &gradients, &cubature.points);
         let mut mass_phi = DMatrix::zeros(4 * k, 4 * k);
         let mut mass_moment = DVector::zeros(4 * k);
         for p in 0..np {
-            let x = cubature.points[p];
-            let xt = [x.x, x.y, x.z, 1.0];
-            for i in 0..k {
-                let w = weights[p * k + i];
-                let gw = gradients[p * k + i];
-                for (c, xc) in xt.iter().enumerate() {
-                    let row = 4 * i + c;
-                    for e in 0..3 {
-                        let identity = if c == e { w } else { 0.0 };
-                        g_all[row * columns + 3 * p + e] = identity + xc * gw[e];
-                    }
-                }
-            }
-            let phi = phi_of(&weights[p * k..(p + 1) * k], &x);
+            let phi = phi_of(&weights[p * k..(p + 1) * k], &cubature.points[p]);
             let m = density * cubature.volumes[p];
             mass_phi.ger(m, &phi, &phi, 1.0);
             mass_moment.axpy(m, &phi, 1.0);
@@ -84,6 +123,7 @@ impl Subspace {
         let mean_gradient = mean_gradient(&g_all, &cubature.volumes, 4 * k);
         Self {
             mean_gradient,
+            coarse: PreconditionerPoints::new(k, &weights, &gradients, cubature),
             samples: FieldSamples::new(
                 k,
                 &weights,
@@ -199,6 +239,23 @@ impl Subspace {
         self.assembly.preconditioning_hessian(hessians)
     }
 
+    /// Deformation gradients at the points of the coarser cubature (see
+    /// [`PreconditionerPoints`]; all points where there is none), in their order.
+    pub(crate) fn coarse_gradients(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
+        match self.coarse.as_ref() {
+            Some(coarse) => coarse.samples.deformation_gradients(z),
+            None => self.deformation_gradients(z),
+        }
+    }
+
+    /// `preconditioning_hessian` on the coarser cubature, for dP/dF `hessians` at its points.
+    pub(crate) fn coarse_preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
+        match self.coarse.as_ref() {
+            Some(coarse) => coarse.assembly.preconditioning_hessian(hessians),
+            None => self.assembly.preconditioning_hessian(hessians),
+        }
+    }
+
     /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).
     /// One pass, split over threads for large cubatures (see [`FORCES_PARALLEL_WORK`]): each
     /// thread takes a run of cubature points, forms their F, their stresses, and its share of
@@ -226,6 +283,33 @@ impl Subspace {
     pub fn worth_parallel(&self) -> bool {
         self.assembly.worth_parallel()
     }
+}
+
+/// G of every point side by side, (4K) x (3 Np) row-major (see `HessianAssembly::new`): G's
+/// rows are w_i e_c^T + X_c grad w_i^T for handle i and coordinate c of [X; 1].
+fn g_all_of(
+    k: usize,
+    weights: &[f64],
+    gradients: &[Vector3<f64>],
+    points: &[Vector3<f64>],
+) -> Vec<f64> {
+    let columns = 3 * points.len();
+    let mut g_all = vec![0.0; 4 * k * columns];
+    for (p, x) in points.iter().enumerate() {
+        let xt = [x.x, x.y, x.z, 1.0];
+        for i in 0..k {
+            let w = weights[p * k + i];
+            let gw = gradients[p * k + i];
+            for (c, xc) in xt.iter().enumerate() {
+                let row = 4 * i + c;
+                for e in 0..3 {
+                    let identity = if c == e { w } else { 0.0 };
+                    g_all[row * columns + 3 * p + e] = identity + xc * gw[e];
+                }
+            }
+        }
+    }
+    g_all
 }
 
 /// sum_p v_p G_p / sum_p v_p from G laid out as in `Subspace::g_all`.

@@ -123,7 +123,7 @@ impl ReducedSim {
             let matrix = if self.z.amax() == 0.0 {
                 self.rest_elastic_hessian().clone()
             } else {
-                self.held_elastic_at(&self.z)
+                self.held_elastic_at(&self.z, HessianUse::Preconditioner)
             };
             self.held_rotation = self.subspace.mean_rotation(&self.z);
             self.held = Some(matrix);
@@ -131,12 +131,12 @@ impl ReducedSim {
         self.held.as_ref().expect("made above")
     }
 
-    /// The elastic Hessian at `z` to hold: exact where inertia, damping and the pins at their
-    /// own stiffness make it definite. Stiffening the pins for a step keeps it definite;
-    /// releasing pins drops it.
-    pub(super) fn held_elastic_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
+    /// The elastic Hessian at `z` to hold, summed as `usage` says (a preconditioner's or a
+    /// refresh's): exact where inertia, damping and the pins at their own stiffness make it
+    /// definite. Stiffening the pins for a step keeps it definite; releasing pins drops it.
+    pub(super) fn held_elastic_at(&self, z: &DMatrix<f64>, usage: HessianUse) -> DMatrix<f64> {
         let base = self.inertia_part() + &self.pin_phi * self.params.pin_stiffness;
-        self.smooth_elastic_at(z, &base, HessianUse::Preconditioner)
+        self.smooth_elastic_at(z, &base, usage)
     }
 
     pub(super) fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {

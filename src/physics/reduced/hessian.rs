@@ -16,6 +16,9 @@ pub(super) enum HessianUse {
     Newton,
     /// The quasi-Newton preconditioner: f32 where that keeps its digits.
     Preconditioner,
+    /// The quasi-Newton preconditioner reassembled within a step: as `Preconditioner`, on
+    /// the coarser cubature (see `Subspace::coarse_gradients`).
+    Refresh,
 }
 
 impl ReducedSim {
@@ -61,8 +64,11 @@ impl ReducedSim {
         quadratic: &DMatrix<f64>,
         usage: HessianUse,
     ) -> DMatrix<f64> {
-        let gradients = self.subspace.deformation_gradients(z);
-        if let HessianUse::Preconditioner = usage {
+        if let HessianUse::Preconditioner | HessianUse::Refresh = usage {
+            let gradients = match usage {
+                HessianUse::Refresh => self.subspace.coarse_gradients(z),
+                _ => self.subspace.deformation_gradients(z),
+            };
             for project in [false, true] {
                 let single = self.elastic_hessian_of(&gradients, project, usage);
                 if self.factorable(&single, quadratic, true) {
@@ -70,6 +76,7 @@ impl ReducedSim {
                 }
             }
         }
+        let gradients = self.subspace.deformation_gradients(z);
         let exact = self.elastic_hessian_of(&gradients, false, HessianUse::Newton);
         if self.factorable(&exact, quadratic, false) {
             return exact;
@@ -109,6 +116,7 @@ impl ReducedSim {
         match usage {
             HessianUse::Newton => self.subspace.elastic_hessian(&hessians),
             HessianUse::Preconditioner => self.subspace.preconditioning_hessian(&hessians),
+            HessianUse::Refresh => self.subspace.coarse_preconditioning_hessian(&hessians),
         }
     }
 
