@@ -239,21 +239,24 @@ impl Subspace {
         self.assembly.preconditioning_hessian(hessians)
     }
 
-    /// Deformation gradients at the points of the coarser cubature (see
-    /// [`PreconditionerPoints`]; all points where there is none), in their order.
-    pub(crate) fn coarse_gradients(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
+    /// The samples and the assembly of the coarser cubature (see [`PreconditionerPoints`]),
+    /// or of every point where there is none.
+    fn coarse_or_all(&self) -> (&FieldSamples, &HessianAssembly) {
         match self.coarse.as_ref() {
-            Some(coarse) => coarse.samples.deformation_gradients(z),
-            None => self.deformation_gradients(z),
+            Some(coarse) => (&coarse.samples, &coarse.assembly),
+            None => (&self.samples, &self.assembly),
         }
+    }
+
+    /// Deformation gradients at the points of the coarser cubature (all points where there is
+    /// none), in their order.
+    pub(crate) fn coarse_gradients(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
+        self.coarse_or_all().0.deformation_gradients(z)
     }
 
     /// `preconditioning_hessian` on the coarser cubature, for dP/dF `hessians` at its points.
     pub(crate) fn coarse_preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
-        match self.coarse.as_ref() {
-            Some(coarse) => coarse.assembly.preconditioning_hessian(hessians),
-            None => self.assembly.preconditioning_hessian(hessians),
-        }
+        self.coarse_or_all().1.preconditioning_hessian(hessians)
     }
 
     /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).

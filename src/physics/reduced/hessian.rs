@@ -64,24 +64,44 @@ impl ReducedSim {
         quadratic: &DMatrix<f64>,
         usage: HessianUse,
     ) -> DMatrix<f64> {
-        if let HessianUse::Preconditioner | HessianUse::Refresh = usage {
-            let gradients = match usage {
-                HessianUse::Refresh => self.subspace.coarse_gradients(z),
-                _ => self.subspace.deformation_gradients(z),
-            };
-            for project in [false, true] {
-                let single = self.elastic_hessian_of(&gradients, project, usage);
-                if self.factorable(&single, quadratic, true) {
+        // Every point's deformation gradients are formed once, and only where they are used.
+        let gradients = match usage {
+            HessianUse::Newton => self.subspace.deformation_gradients(z),
+            HessianUse::Preconditioner => {
+                let gradients = self.subspace.deformation_gradients(z);
+                if let Some(single) = self.factorable_single(&gradients, quadratic, usage) {
                     return single;
                 }
+                gradients
             }
-        }
-        let gradients = self.subspace.deformation_gradients(z);
+            HessianUse::Refresh => {
+                let coarse = self.subspace.coarse_gradients(z);
+                if let Some(single) = self.factorable_single(&coarse, quadratic, usage) {
+                    return single;
+                }
+                self.subspace.deformation_gradients(z)
+            }
+        };
         let exact = self.elastic_hessian_of(&gradients, false, HessianUse::Newton);
         if self.factorable(&exact, quadratic, false) {
             return exact;
         }
         self.elastic_hessian_of(&gradients, true, HessianUse::Newton)
+    }
+
+    /// The preconditioner's Hessian at `gradients` (the points `usage` says), exact or else
+    /// projected, summed in f32 where that keeps its digits: the first that factors as the held
+    /// matrix is (see `smooth_elastic_at`); None when neither does.
+    fn factorable_single(
+        &self,
+        gradients: &[Matrix3<f64>],
+        quadratic: &DMatrix<f64>,
+        usage: HessianUse,
+    ) -> Option<DMatrix<f64>> {
+        [false, true]
+            .into_iter()
+            .map(|project| self.elastic_hessian_of(gradients, project, usage))
+            .find(|single| self.factorable(single, quadratic, true))
     }
 
     /// Whether `elastic` plus `quadratic` (x) I_3 is positive definite, on the free directions
