@@ -109,7 +109,7 @@ impl HessianAssembly {
 
     /// Whether a pass over the points is worth splitting over threads: below
     /// [`PARALLEL_WORK`] the wake-up of another thread costs more than it saves.
-    pub(crate) fn worth_parallel(&self) -> bool {
+    fn worth_parallel(&self) -> bool {
         self.len() * self.rows >= PARALLEL_WORK
     }
 

@@ -281,11 +281,6 @@ impl Subspace {
                 |(ea, ga), (eb, gb)| (ea + eb, ga + gb),
             )
     }
-
-    /// Whether a pass over the cubature points is worth splitting over threads.
-    pub fn worth_parallel(&self) -> bool {
-        self.assembly.worth_parallel()
-    }
 }
 
 /// G of every point side by side, (4K) x (3 Np) row-major (see `HessianAssembly::new`): G's

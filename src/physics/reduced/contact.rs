@@ -1,8 +1,9 @@
 //! Contact of a reduced body: the broad phase, this step's friction (point sticks and
 //! rolling), and the contact and friction curvature the solvers add to their Hessians.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, Vector3};
 
+use super::curvature::Springs;
 use super::point::{placed, Gathered};
 use super::{ReducedPoint, ReducedSim};
 use crate::linalg::{add_product_transposed, product};
@@ -234,36 +235,24 @@ impl ReducedSim {
     }
 
     /// The curvature of the springs of `touching` and of this step's friction (None: nothing
-    /// touches): sum (phi phi^T) (x) S over touching points, S = sum s n n^T over the point's
-    /// springs (its normal, its friction tangents), n their direction and s their stiffness. A
-    /// point's springs share its phi, so they are summed into one 3 x 3 block first: a gripped
-    /// or resting body has thousands of them, and the products below cost per point.
+    /// touches): each touching point's spring along its normal, each stick's across it, and
+    /// the rolling friction.
     pub(super) fn curvature_of(
         &self,
         touching: &[(usize, usize, Penetration)],
     ) -> Option<DMatrix<f64>> {
         let kc = self.params.contact_stiffness;
-        let mut blocks: Vec<Option<Matrix3<f64>>> = vec![None; self.contacts.len()];
-        let mut add = |c: usize, s: f64, n: &Vector3<f64>| {
-            *blocks[c].get_or_insert_with(Matrix3::zeros) += n * n.transpose() * s;
-        };
+        let mut springs = Springs::default();
         for (c, _, p) in touching {
-            add(*c, kc * self.contacts[*c].weight, &p.normal);
+            springs.add_along(*c, kc * self.contacts[*c].weight, &p.normal);
         }
         for stick in &self.sticks {
-            for t in &stick.tangents {
-                add(stick.point, stick.stiffness, t);
-            }
+            springs.add_across(stick.point, stick.stiffness, &stick.tangents);
         }
-        let points: Vec<(&DVector<f64>, Matrix3<f64>)> = blocks
-            .iter()
-            .zip(&self.contacts)
-            .filter_map(|(block, contact)| block.map(|b| (&contact.phi, b)))
-            .collect();
-        if points.is_empty() && self.rolls.is_empty() {
+        if springs.is_empty() && self.rolls.is_empty() {
             return None;
         }
-        let mut curvature = kronecker_blocks(&points, 4 * self.subspace.handles());
+        let mut curvature = springs.curvature(&self.contact_phis);
         for roll in &self.rolls {
             roll.add_curvature(&mut curvature);
         }
@@ -299,32 +288,6 @@ fn reaches(
         return obstacle.is_within(&lowest, margin);
     }
     bounds.is_none_or(|(min, max)| (0..3).all(|d| lo[d] <= max[d] && hi[d] >= min[d]))
-}
-
-/// sum_i (phi_i phi_i^T) (x) S_i in flat z order (S_i symmetric 3 x 3), as six (4K x 4K)
-/// products over the points, one per pair of axes, instead of a (12K)^2 update per point.
-pub(super) fn kronecker_blocks(
-    points: &[(&DVector<f64>, Matrix3<f64>)],
-    n4: usize,
-) -> DMatrix<f64> {
-    let phis = DMatrix::from_fn(n4, points.len(), |a, i| points[i].0[a]);
-    let mut out = DMatrix::zeros(3 * n4, 3 * n4);
-    for d in 0..3 {
-        for e in d..3 {
-            let mut weighted = phis.clone();
-            for (i, (_, block)) in points.iter().enumerate() {
-                weighted.column_mut(i).scale_mut(block[(d, e)]);
-            }
-            let block = &phis * weighted.transpose();
-            for b in 0..n4 {
-                for a in 0..n4 {
-                    out[(3 * a + d, 3 * b + e)] = block[(a, b)];
-                    out[(3 * a + e, 3 * b + d)] = block[(a, b)];
-                }
-            }
-        }
-    }
-    out
 }
 
 #[cfg(test)]

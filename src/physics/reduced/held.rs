@@ -6,8 +6,11 @@ use std::collections::VecDeque;
 use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::contact::ContactSignature;
-use super::hessian::HessianUse;
-use super::{add_kron_identity, ReducedSim, REFRESH_AFTER_ITERATIONS, REFRESH_GRACE};
+use super::hessian::{CheckedHessian, HessianUse};
+use super::{
+    add_kron_identity, Evaluation, ReducedSim, Solver, StepReport, REFRESH_AFTER_ITERATIONS,
+    REFRESH_GRACE,
+};
 use crate::linalg::DenseCholesky;
 
 /// A turn of the body (largest entry of the rotation's change) past which the preconditioner
@@ -16,6 +19,11 @@ const TURN_TOLERANCE: f64 = 1e-3;
 /// New contact springs, as a share of those the preconditioner holds, past which a solve
 /// refactors it with those acting.
 const CONTACT_GAIN: f64 = 0.5;
+/// Iterations of a converged step past which its held Hessian is refreshed for the next one
+/// (see `ReducedSim::refresh_ahead`).
+const REFRESH_AHEAD_ITERATIONS: usize = 7;
+/// Iterations more than a fresh held Hessian's first step took that show it stale.
+const STALE_ITERATIONS: usize = 3;
 
 impl ReducedSim {
     /// Refactors the preconditioner for the state `z` when the body has turned or the contact
@@ -104,14 +112,25 @@ impl ReducedSim {
         self.factor_hessian(matrix)
     }
 
-    /// Holds `matrix`, the elastic Hessian at `z`, and factors it with inertia, damping, pins
-    /// and the contact curvature at `z`.
-    pub(super) fn hold_new(&mut self, matrix: DMatrix<f64>, z: &DMatrix<f64>) {
-        self.held = Some(matrix);
+    /// Holds `elastic`, the elastic Hessian at `z`, and factors it with inertia, damping, pins
+    /// and the contact curvature at `z`. Where nothing touches and the pins are at their own
+    /// stiffness, that is the factor formed when it was checked: a second factorization of the
+    /// same matrix cost 0.12 ms of a refreshing step (printed).
+    pub(super) fn hold_new(&mut self, elastic: CheckedHessian, z: &DMatrix<f64>) {
+        self.held = Some(elastic.matrix);
         self.held_rotation = self.subspace.mean_rotation(z);
         // The factor in place belongs to the old matrix: `hold_at` refactors whatever touches.
         self.factored_contact = None;
         self.factored_turn = Matrix3::identity();
+        if let (Some(factor), true) = (elastic.factor, self.pin_boost == 1.0) {
+            let signature = self.contact_signature(&self.touching_at(z));
+            if signature == ContactSignature::default() {
+                self.preconditioner = Some(factor);
+                self.factored_contact = Some(signature);
+                self.factorizations += 1;
+                return;
+            }
+        }
         self.hold_at(z);
     }
 
@@ -124,6 +143,7 @@ impl ReducedSim {
                 self.rest_elastic_hessian().clone()
             } else {
                 self.held_elastic_at(&self.z, HessianUse::Preconditioner)
+                    .matrix
             };
             self.held_rotation = self.subspace.mean_rotation(&self.z);
             self.held = Some(matrix);
@@ -134,7 +154,7 @@ impl ReducedSim {
     /// The elastic Hessian at `z` to hold, summed as `usage` says (a preconditioner's or a
     /// refresh's): exact where inertia, damping and the pins at their own stiffness make it
     /// definite. Stiffening the pins for a step keeps it definite; releasing pins drops it.
-    pub(super) fn held_elastic_at(&self, z: &DMatrix<f64>, usage: HessianUse) -> DMatrix<f64> {
+    pub(super) fn held_elastic_at(&self, z: &DMatrix<f64>, usage: HessianUse) -> CheckedHessian {
         let base = self.inertia_part() + &self.pin_phi * self.params.pin_stiffness;
         self.smooth_elastic_at(z, &base, usage)
     }
@@ -150,6 +170,46 @@ impl ReducedSim {
         }
         DenseCholesky::new(matrix.as_slice(), matrix.nrows())
             .expect("inertia plus a PSD Hessian is positive definite")
+    }
+
+    /// Keeps count of how a held Hessian fares, and refreshes it at `z`, where the step that
+    /// `report`s ending in `end` shows it stale (see `refresh_ahead`).
+    pub(super) fn refresh_if_stale(
+        &mut self,
+        z: &DMatrix<f64>,
+        end: &Evaluation,
+        report: &mut StepReport,
+    ) {
+        if report.refreshes > 0 || report.fallback {
+            self.fresh_iterations = None;
+        } else if self.refresh_ahead(report, end) {
+            self.hold_new(self.held_elastic_at(z, HessianUse::Refresh), z);
+            self.history.clear();
+            report.refreshes += 1;
+            self.fresh_iterations = None;
+        } else {
+            self.fresh_iterations.get_or_insert(report.iterations);
+        }
+    }
+
+    /// Whether a quasi-Newton step that `report`s ending in `end` should refresh its held
+    /// elastic Hessian before the next step: one that converged without a refresh, with nothing
+    /// touching, in `REFRESH_AHEAD_ITERATIONS` or more, `STALE_ITERATIONS` more than the first
+    /// step over the held Hessian took. A bending or swinging body's held Hessian goes stale
+    /// step by step: a pinned rod's steps took 4, 5, 6, 7, 9 iterations, and the next one 11
+    /// with a refresh within it (2.5 ms, printed). Refreshed at the end of the slow step
+    /// instead, no step pays both a stale solve's iterations and the refresh. Where a fresh
+    /// Hessian is no faster (a poked rod's steps took 7 to 9 iterations after a refresh too),
+    /// refreshing ahead only cost time: its median step went from 0.584 to 1.401 ms (printed).
+    /// In contact, iterations come from springs coming and going, not from a stale Hessian.
+    fn refresh_ahead(&self, report: &StepReport, end: &Evaluation) -> bool {
+        self.solver == Solver::QuasiNewton
+            && report.converged
+            && report.iterations >= REFRESH_AHEAD_ITERATIONS
+            && end.touching.is_empty()
+            && self
+                .fresh_iterations
+                .is_some_and(|fresh| report.iterations >= fresh + STALE_ITERATIONS)
     }
 
     /// The L-BFGS two-loop recursion with the factored rest Hessian as initial inverse.
@@ -213,4 +273,18 @@ pub(super) fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
         }
     }
     out
+}
+
+/// How a held elastic Hessian reassembled within a step at the state evaluated in `at` is
+/// summed: on the coarser cubature while nothing touches (a bending or swinging body), on every
+/// point in contact. Coarse, a pinned rod's slowest steps (`bench real`, scanned, hanging) took
+/// 1.829 and 1.927 ms against 2.679 and 2.742 ms (printed); in contact, the scanned rod's
+/// landing took 9.586 ms coarse against 7.249 ms on every point (printed): where the springs
+/// hold the stiff directions, the soft ones left to elasticity need its Hessian's digits.
+pub(super) fn refresh_use(at: &Evaluation) -> HessianUse {
+    if at.touching.is_empty() {
+        HessianUse::Refresh
+    } else {
+        HessianUse::Preconditioner
+    }
 }

@@ -9,6 +9,12 @@ use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
 use crate::physics::material::Matrix9;
 
+/// Points from which their stress derivatives are formed on several threads: a point's takes
+/// about 70 ns, so the wake-up of another thread outweighs the split of a thousand of them. On
+/// 2 threads 512 points took 0.09 ms against 0.03 ms on one, 1024 points 0.076 ms against
+/// 0.071 ms (printed, a scratch timing of `bench sim` on the rod).
+const PARALLEL_STRESS_DERIVATIVES: usize = 8192;
+
 /// What an elastic Hessian is for, which decides the digits it is summed with.
 #[derive(Clone, Copy)]
 pub(super) enum HessianUse {
@@ -19,6 +25,13 @@ pub(super) enum HessianUse {
     /// The quasi-Newton preconditioner reassembled within a step: as `Preconditioner`, on
     /// the coarser cubature (see `Subspace::coarse_gradients`).
     Refresh,
+}
+
+/// An elastic Hessian (12K x 12K) and, where it was factored to check that it is definite,
+/// that factor: of it plus the quadratic part it was checked with, on the pins' free directions.
+pub(super) struct CheckedHessian {
+    pub matrix: DMatrix<f64>,
+    pub factor: Option<DenseCholesky>,
 }
 
 impl ReducedSim {
@@ -40,7 +53,9 @@ impl ReducedSim {
     /// inertia, damping, pins and contact.
     fn hessian_at(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
         let quadratic = self.quadratic_part();
-        let mut hessian = self.smooth_elastic_at(z, &quadratic, HessianUse::Newton);
+        let mut hessian = self
+            .smooth_elastic_at(z, &quadratic, HessianUse::Newton)
+            .matrix;
         add_kron_identity(&mut hessian, &quadratic);
         if let Some(contact) = self.contact_curvature(z) {
             hessian += contact;
@@ -63,7 +78,7 @@ impl ReducedSim {
         z: &DMatrix<f64>,
         quadratic: &DMatrix<f64>,
         usage: HessianUse,
-    ) -> DMatrix<f64> {
+    ) -> CheckedHessian {
         // Every point's deformation gradients are formed once, and only where they are used.
         let gradients = match usage {
             HessianUse::Newton => self.subspace.deformation_gradients(z),
@@ -83,41 +98,50 @@ impl ReducedSim {
             }
         };
         let exact = self.elastic_hessian_of(&gradients, false, HessianUse::Newton);
-        if self.factorable(&exact, quadratic, false) {
-            return exact;
+        let matrix = if self.factored(&exact, quadratic, false).is_some() {
+            exact
+        } else {
+            self.elastic_hessian_of(&gradients, true, HessianUse::Newton)
+        };
+        CheckedHessian {
+            matrix,
+            factor: None,
         }
-        self.elastic_hessian_of(&gradients, true, HessianUse::Newton)
     }
 
     /// The preconditioner's Hessian at `gradients` (the points `usage` says), exact or else
     /// projected, summed in f32 where that keeps its digits: the first that factors as the held
-    /// matrix is (see `smooth_elastic_at`); None when neither does.
+    /// matrix is (see `smooth_elastic_at`), with that factor; None when neither does.
     fn factorable_single(
         &self,
         gradients: &[Matrix3<f64>],
         quadratic: &DMatrix<f64>,
         usage: HessianUse,
-    ) -> Option<DMatrix<f64>> {
-        [false, true]
-            .into_iter()
-            .map(|project| self.elastic_hessian_of(gradients, project, usage))
-            .find(|single| self.factorable(single, quadratic, true))
+    ) -> Option<CheckedHessian> {
+        [false, true].into_iter().find_map(|project| {
+            let matrix = self.elastic_hessian_of(gradients, project, usage);
+            let factor = self.factored(&matrix, quadratic, true)?;
+            Some(CheckedHessian {
+                matrix,
+                factor: Some(factor),
+            })
+        })
     }
 
-    /// Whether `elastic` plus `quadratic` (x) I_3 is positive definite, on the free directions
-    /// only when `restricted`.
-    fn factorable(
+    /// `elastic` plus `quadratic` (x) I_3, on the free directions only when `restricted`,
+    /// factored; None where it is not positive definite.
+    fn factored(
         &self,
         elastic: &DMatrix<f64>,
         quadratic: &DMatrix<f64>,
         restricted: bool,
-    ) -> bool {
+    ) -> Option<DenseCholesky> {
         let mut total = elastic.clone();
         add_kron_identity(&mut total, quadratic);
         if let (true, Some(pinning)) = (restricted, self.pinning.as_ref()) {
             pinning.restrict_hessian(&mut total);
         }
-        DenseCholesky::new(total.as_slice(), total.nrows()).is_ok()
+        DenseCholesky::new(total.as_slice(), total.nrows()).ok()
     }
 
     fn elastic_hessian_of(
@@ -128,7 +152,7 @@ impl ReducedSim {
     ) -> DMatrix<f64> {
         let material = self.material;
         let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, project);
-        let hessians: Vec<Matrix9> = if self.subspace.worth_parallel() {
+        let hessians: Vec<Matrix9> = if gradients.len() >= PARALLEL_STRESS_DERIVATIVES {
             gradients.par_iter().map(hessian_of).collect()
         } else {
             gradients.iter().map(hessian_of).collect()

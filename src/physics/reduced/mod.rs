@@ -13,6 +13,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 mod contact;
+mod curvature;
 mod guess;
 mod held;
 mod hessian;
@@ -31,8 +32,7 @@ use super::subspace::Subspace;
 use crate::error::Result;
 use crate::linalg::{product, DenseCholesky};
 use contact::ContactSignature;
-use held::refresh_due;
-use hessian::HessianUse;
+use held::{refresh_due, refresh_use};
 use pinning::PinConstraint;
 use point::{Gathered, ReducedPoint};
 
@@ -157,6 +157,9 @@ pub struct ReducedSim {
     calm_steps: usize,
     /// Iterations the last step took.
     last_iterations: usize,
+    /// Iterations of the first step solved wholly over the held elastic Hessian (None until
+    /// one has been): what it costs while fresh (see `refresh_ahead`).
+    fresh_iterations: Option<usize>,
     time: f64,
     pins: Vec<ReducedPoint>,
     /// The pin energy is quadratic in Z, so it is kept in closed form whatever the number of
@@ -245,6 +248,7 @@ impl ReducedSim {
             z_prev: DMatrix::zeros(3, 4 * k),
             z_before: None,
             calm_steps: 0,
+            fresh_iterations: None,
             last_iterations: 0,
             time: 0.0,
             pins: Vec::new(),
@@ -424,6 +428,7 @@ impl ReducedSim {
             self.held = None;
             self.history.clear();
         }
+        self.refresh_if_stale(&z, &current, &mut report);
         let before = std::mem::replace(&mut self.z_prev, std::mem::replace(&mut self.z, z));
         // A step that needed more than its budget met an impulse (a landing, a poke's start):
         // the changes of velocity around it are no trend. Carried into the next steps' guesses
@@ -689,20 +694,6 @@ impl ReducedSim {
     pub fn position_of(&self, rest: &Vector3<f64>) -> Vector3<f64> {
         let phi = self.subspace.phis(&[*rest]).remove(0);
         rest + &self.z * phi
-    }
-}
-
-/// How a held elastic Hessian reassembled within a step at the state evaluated in `at` is
-/// summed: on the coarser cubature while nothing touches (a bending or swinging body), on every
-/// point in contact. Coarse, a pinned rod's slowest steps (`bench real`, scanned, hanging) took
-/// 1.829 and 1.927 ms against 2.679 and 2.742 ms (printed); in contact, the scanned rod's
-/// landing took 9.586 ms coarse against 7.249 ms on every point (printed): where the springs
-/// hold the stiff directions, the soft ones left to elasticity need its Hessian's digits.
-fn refresh_use(at: &Evaluation) -> HessianUse {
-    if at.touching.is_empty() {
-        HessianUse::Refresh
-    } else {
-        HessianUse::Preconditioner
     }
 }
 

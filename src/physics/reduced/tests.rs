@@ -3,9 +3,10 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::contact::kronecker_blocks;
+use super::curvature::Springs;
 use super::held::turn_blocks;
 use crate::linalg::DenseCholesky;
+use crate::physics::obstacle::tangents;
 use rand::{Rng, SeedableRng};
 
 /// d(n . x)/dz for x = X + Z phi: the flat vector phi (x) n.
@@ -17,60 +18,66 @@ fn random_vector(rng: &mut impl Rng, n: usize) -> DVector<f64> {
     DVector::from_fn(n, |_, _| rng.random::<f64>() * 2.0 - 1.0)
 }
 
-/// The Kronecker-block contact curvature equals the sum of its springs' rank-one terms,
-/// and the preconditioner factored from it solves as a fresh factorization of the whole
-/// matrix does.
+/// Contact springs on `points` random points (4K = `n4`), each along a direction drawn from
+/// `directions` (all random when empty) and every other one with friction across it: the
+/// springs and the sum of their rank-one terms.
+fn random_springs(
+    rng: &mut impl Rng,
+    n4: usize,
+    points: usize,
+    directions: &[Vector3<f64>],
+) -> (DMatrix<f64>, Springs, DMatrix<f64>) {
+    let phis = DMatrix::from_fn(n4, points, |_, _| rng.random::<f64>() * 2.0 - 1.0);
+    let mut springs = Springs::default();
+    let mut expected = DMatrix::zeros(3 * n4, 3 * n4);
+    for i in 0..points {
+        let phi = phis.column(i).into_owned();
+        let n = if directions.is_empty() {
+            Vector3::new(rng.random(), rng.random(), rng.random()).normalize()
+        } else {
+            directions[i % directions.len()]
+        };
+        let s = 1e7 * rng.random::<f64>();
+        springs.add_along(i, s, &n);
+        let a = point_jacobian(&phi, &n);
+        expected.ger(s, &a, &a, 1.0);
+        if i % 2 == 0 {
+            let t = tangents(&n);
+            springs.add_across(i, 0.5 * s, &t);
+            for t in &t {
+                let a = point_jacobian(&phi, t);
+                expected.ger(0.5 * s, &a, &a, 1.0);
+            }
+        }
+    }
+    (phis, springs, expected)
+}
+
+/// The contact curvature, grouped by direction (a floor, two fingers) or by pairs of axes
+/// (springs pointing anywhere), equals the sum of its springs' rank-one terms, and the
+/// preconditioner factored from it solves as a fresh factorization of the whole matrix does.
 #[test]
-fn contact_curvature_by_blocks_matches_rank_one_terms() {
+fn contact_curvature_matches_rank_one_terms() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
     let n4 = 4 * 5;
-    let phis: Vec<DVector<f64>> = (0..40).map(|_| random_vector(&mut rng, n4)).collect();
-    let springs: Vec<(&DVector<f64>, f64, Vector3<f64>)> = phis
-        .iter()
-        .map(|phi| {
-            let n = Vector3::new(rng.random(), rng.random(), rng.random()).normalize();
-            (phi, 1e7 * rng.random::<f64>(), n)
-        })
-        .collect();
-    let mut expected = DMatrix::zeros(3 * n4, 3 * n4);
-    let mut expected_extra: Vec<(&DVector<f64>, f64, Vector3<f64>)> = Vec::new();
-    for (phi, s, n) in &springs {
-        let a = point_jacobian(phi, n);
-        expected.ger(*s, &a, &a, 1.0);
+    let floor = [Vector3::z()];
+    let fingers = [Vector3::x(), -Vector3::x(), Vector3::new(0.0, 0.6, 0.8)];
+    for directions in [&floor[..], &fingers[..], &[]] {
+        let (phis, springs, expected) = random_springs(&mut rng, n4, 40, directions);
+        let curvature = springs.curvature(&phis);
+        assert!((&curvature - &expected).amax() <= 1e-9 * expected.amax());
+        let base = DMatrix::from_diagonal_element(3 * n4, 3 * n4, 1e3);
+        let rhs = random_vector(&mut rng, 3 * n4);
+        let solve = |m: &DMatrix<f64>| {
+            let mut x = rhs.clone();
+            DenseCholesky::new(m.as_slice(), m.nrows())
+                .expect("positive definite")
+                .solve(x.as_mut_slice());
+            x
+        };
+        let (fresh, held) = (solve(&(&base + &expected)), solve(&(&base + &curvature)));
+        assert!((&held - &fresh).norm() <= 1e-9 * fresh.norm());
     }
-    // Each point carries its spring and, for half of them, a second one on the same phi (a
-    // friction tangent), summed into its 3 x 3 block.
-    let points: Vec<(&DVector<f64>, nalgebra::Matrix3<f64>)> = springs
-        .iter()
-        .enumerate()
-        .map(|(i, (phi, s, n))| {
-            let mut block = n * n.transpose() * *s;
-            if i % 2 == 0 {
-                let t = Vector3::new(-n.y, n.x, 0.0).normalize();
-                block += t * t.transpose() * (0.5 * s);
-                expected_extra.push((*phi, 0.5 * s, t));
-            }
-            (*phi, block)
-        })
-        .collect();
-    for (phi, s, t) in &expected_extra {
-        let a = point_jacobian(phi, t);
-        expected.ger(*s, &a, &a, 1.0);
-    }
-    let blocks = kronecker_blocks(&points, n4);
-    assert!((&blocks - &expected).amax() <= 1e-9 * expected.amax());
-    let base = DMatrix::from_diagonal_element(3 * n4, 3 * n4, 1e3);
-    let whole = &base + &expected;
-    let rhs = random_vector(&mut rng, 3 * n4);
-    let solve = |m: &DMatrix<f64>| {
-        let mut x = rhs.clone();
-        DenseCholesky::new(m.as_slice(), m.nrows())
-            .expect("positive definite")
-            .solve(x.as_mut_slice());
-        x
-    };
-    let (fresh, held) = (solve(&whole), solve(&(&base + &blocks)));
-    assert!((&held - &fresh).norm() <= 1e-9 * fresh.norm());
 }
 
 /// Turning every block by R is the congruence by I (x) R: a quadratic form evaluated at
