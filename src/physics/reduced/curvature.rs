@@ -64,7 +64,7 @@ impl Springs {
     }
 
     /// The directional terms grouped by direction, None past `MOST_DIRECTIONS` of them.
-    fn by_direction(&self) -> Option<Vec<(Vector3<f64>, Vec<(usize, f64)>)>> {
+    pub(super) fn by_direction(&self) -> Option<Vec<(Vector3<f64>, Vec<(usize, f64)>)>> {
         let mut groups: Vec<(Vector3<f64>, Vec<(usize, f64)>)> = Vec::new();
         for &(point, s, n) in &self.along {
             let same = groups
@@ -120,7 +120,7 @@ fn add_kronecker(out: &mut DMatrix<f64>, gram: &DMatrix<f64>, block: &Matrix3<f6
 /// sum_i (phi_i phi_i^T) (x) S_i in flat z order, phi_i the columns of `phis` (4K x points)
 /// and S_i symmetric 3 x 3, as six (4K x 4K) products over the points, one per pair of axes,
 /// instead of a (12K)^2 update per point.
-pub(super) fn kronecker_blocks(phis: &DMatrix<f64>, blocks: &[Matrix3<f64>]) -> DMatrix<f64> {
+fn kronecker_blocks(phis: &DMatrix<f64>, blocks: &[Matrix3<f64>]) -> DMatrix<f64> {
     let n4 = phis.nrows();
     let mut out = DMatrix::zeros(3 * n4, 3 * n4);
     for d in 0..3 {

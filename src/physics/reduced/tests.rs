@@ -64,6 +64,10 @@ fn contact_curvature_matches_rank_one_terms() {
     let fingers = [Vector3::x(), -Vector3::x(), Vector3::new(0.0, 0.6, 0.8)];
     for directions in [&floor[..], &fingers[..], &[]] {
         let (phis, springs, expected) = random_springs(&mut rng, n4, 40, directions);
+        // Friction's normals merge with the contact normals: one group per direction.
+        let groups = springs.by_direction().map(|groups| groups.len());
+        let expected_groups = (!directions.is_empty()).then_some(directions.len());
+        assert_eq!(groups, expected_groups, "directions {directions:?}");
         let curvature = springs.curvature(&phis);
         assert!((&curvature - &expected).amax() <= 1e-9 * expected.amax());
         let base = DMatrix::from_diagonal_element(3 * n4, 3 * n4, 1e3);
