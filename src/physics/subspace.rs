@@ -27,24 +27,43 @@ use crate::skinning::SkinningField;
 const FORCES_PARALLEL_WORK: usize = 200_000;
 
 /// About how many cubature points the quasi-Newton preconditioner's elastic Hessian is
-/// reassembled on (see [`PreconditionerPoints`]). With 256 of 1024, a scanned creature's
+/// reassembled on (see [`CubatureTerms::coarser`]). With 256 of 1024, a scanned creature's
 /// hanging took 4.212 ms at its slowest step against 2.955 ms on every point, where 512 took
 /// 2.778 ms (`bench real`, printed): its thin limbs keep too few points.
 const PRECONDITIONER_POINTS: usize = 512;
 
-/// A coarser cubature, one point of every few, on which the quasi-Newton solver reassembles
-/// its held elastic Hessian when a step stops making progress and nothing touches (see
-/// `reduced::refresh_use`). The assembly costs in proportion to the points, about 1 ms at
-/// 1024 points and 17 handles, most of a refreshing step; the held matrix only preconditions,
-/// and L-BFGS corrects what it misses.
-struct PreconditionerPoints {
+/// The field sampled at a cubature set: its deformation gradients and forces, and its elastic
+/// Hessian's assembly. A subspace holds one for its cubature and, for the quasi-Newton
+/// preconditioner, one for a coarser cubature (see [`CubatureTerms::coarser`]).
+struct CubatureTerms {
     samples: FieldSamples,
     assembly: HessianAssembly,
 }
 
-impl PreconditionerPoints {
-    /// None where the cubature has fewer than twice [`PRECONDITIONER_POINTS`].
+impl CubatureTerms {
+    /// The terms at `cubature`, whose points have the K `weights` and `gradients` each and G
+    /// laid out as `g_all_of` gives it.
     fn new(
+        k: usize,
+        weights: &[f64],
+        gradients: &[Vector3<f64>],
+        cubature: &Cubature,
+        g_all: Vec<f64>,
+    ) -> Self {
+        let (points, volumes) = (&cubature.points, &cubature.volumes);
+        Self {
+            samples: FieldSamples::new(k, weights, gradients, points, volumes),
+            assembly: HessianAssembly::new(4 * k, volumes.clone(), g_all, points),
+        }
+    }
+
+    /// The terms at a coarser cubature, on which the quasi-Newton solver reassembles its held
+    /// elastic Hessian when a step stops making progress and nothing touches (see
+    /// `reduced::refresh_use`). The assembly costs in proportion to the points, about 1 ms at
+    /// 1024 points and 17 handles, most of a refreshing step; the held matrix only
+    /// preconditions, and L-BFGS corrects what it misses. None where the cubature has fewer
+    /// than twice [`PRECONDITIONER_POINTS`].
+    fn coarser(
         k: usize,
         weights: &[f64],
         gradients: &[Vector3<f64>],
@@ -57,15 +76,8 @@ impl PreconditionerPoints {
         let (kept, coarse) = cubature.coarsened(stride);
         let weights = gather_points(&kept, k, weights);
         let gradients = gather_points(&kept, k, gradients);
-        Some(Self {
-            samples: FieldSamples::new(k, &weights, &gradients, &coarse.points, &coarse.volumes),
-            assembly: HessianAssembly::new(
-                4 * k,
-                coarse.volumes.clone(),
-                g_all_of(k, &weights, &gradients, &coarse.points),
-                &coarse.points,
-            ),
-        })
+        let g_all = g_all_of(k, &weights, &gradients, &coarse.points);
+        Some(Self::new(k, &weights, &gradients, &coarse, g_all))
     }
 }
 
@@ -81,13 +93,11 @@ pub struct Subspace {
     field: Arc<dyn SkinningField>,
     handles: usize,
     normalization: Normalization,
-    /// The field at the cubature points: deformation gradients and elastic forces.
-    samples: FieldSamples,
-    /// G at the cubature points: the elastic Hessian.
-    assembly: HessianAssembly,
-    /// A coarser cubature for the quasi-Newton preconditioner (see [`PreconditionerPoints`]);
-    /// none where the cubature is small already.
-    coarse: Option<PreconditionerPoints>,
+    /// The field at the cubature points: deformation gradients, elastic forces and Hessian.
+    all: CubatureTerms,
+    /// A coarser cubature for the quasi-Newton preconditioner (see
+    /// [`CubatureTerms::coarser`]); none where the cubature is small already.
+    coarse: Option<CubatureTerms>,
     /// sum_p rho v_p phi_p phi_p^T (4K x 4K); the reduced mass is this (x) I_3.
     mass_phi: DMatrix<f64>,
     /// sum_p rho v_p phi_p (4K); gravity's reduced force is this (x) g.
@@ -123,20 +133,8 @@ impl Subspace {
         let mean_gradient = mean_gradient(&g_all, &cubature.volumes, 4 * k);
         Self {
             mean_gradient,
-            coarse: PreconditionerPoints::new(k, &weights, &gradients, cubature),
-            samples: FieldSamples::new(
-                k,
-                &weights,
-                &gradients,
-                &cubature.points,
-                &cubature.volumes,
-            ),
-            assembly: HessianAssembly::new(
-                4 * k,
-                cubature.volumes.clone(),
-                g_all,
-                &cubature.points,
-            ),
+            coarse: CubatureTerms::coarser(k, &weights, &gradients, cubature),
+            all: CubatureTerms::new(k, &weights, &gradients, cubature, g_all),
             field,
             handles: k,
             normalization,
@@ -182,11 +180,11 @@ impl Subspace {
     }
     /// The number of cubature points.
     pub fn cubature_len(&self) -> usize {
-        self.samples.len()
+        self.all.samples.len()
     }
     /// The cubature volumes, m^3.
     pub fn volumes(&self) -> &[f64] {
-        self.samples.volumes()
+        self.all.samples.volumes()
     }
     /// The body's mass, kg: density times the cubature's total volume.
     pub fn total_mass(&self) -> f64 {
@@ -224,39 +222,38 @@ impl Subspace {
     /// Deformation gradients at every cubature point for the handle matrix `z` (3 x 4K), as
     /// 3 x 3 matrices.
     pub fn deformation_gradients(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
-        self.samples.deformation_gradients(z)
+        self.all.samples.deformation_gradients(z)
     }
 
     /// The elastic Hessian over the cubature for dP/dF `hessians` at its points (see
     /// `HessianAssembly::elastic_hessian`).
     pub fn elastic_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
-        self.assembly.elastic_hessian(hessians)
+        self.all.assembly.elastic_hessian(hessians)
     }
 
     /// `elastic_hessian` with the digits a preconditioner needs (see
     /// `HessianAssembly::preconditioning_hessian`).
     pub(crate) fn preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
-        self.assembly.preconditioning_hessian(hessians)
+        self.all.assembly.preconditioning_hessian(hessians)
     }
 
-    /// The samples and the assembly of the coarser cubature (see [`PreconditionerPoints`]),
-    /// or of every point where there is none.
-    fn coarse_or_all(&self) -> (&FieldSamples, &HessianAssembly) {
-        match self.coarse.as_ref() {
-            Some(coarse) => (&coarse.samples, &coarse.assembly),
-            None => (&self.samples, &self.assembly),
-        }
+    /// The terms of the coarser cubature (see [`CubatureTerms::coarser`]), or of every point
+    /// where there is none.
+    fn coarse_or_all(&self) -> &CubatureTerms {
+        self.coarse.as_ref().unwrap_or(&self.all)
     }
 
     /// Deformation gradients at the points of the coarser cubature (all points where there is
     /// none), in their order.
     pub(crate) fn coarse_gradients(&self, z: &DMatrix<f64>) -> Vec<Matrix3<f64>> {
-        self.coarse_or_all().0.deformation_gradients(z)
+        self.coarse_or_all().samples.deformation_gradients(z)
     }
 
     /// `preconditioning_hessian` on the coarser cubature, for dP/dF `hessians` at its points.
     pub(crate) fn coarse_preconditioning_hessian(&self, hessians: &[Matrix9]) -> DMatrix<f64> {
-        self.coarse_or_all().1.preconditioning_hessian(hessians)
+        self.coarse_or_all()
+            .assembly
+            .preconditioning_hessian(hessians)
     }
 
     /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).
@@ -266,7 +263,7 @@ impl Subspace {
     pub fn elastic_forces(&self, z: &DMatrix<f64>, material: &Material) -> (f64, DMatrix<f64>) {
         let np = self.cubature_len();
         if np * 4 * self.handles < FORCES_PARALLEL_WORK {
-            return self.samples.forces(z, material, 0..np);
+            return self.all.samples.forces(z, material, 0..np);
         }
         let runs = rayon::current_num_threads().max(1);
         let per_run = np.div_ceil(runs).max(1);
@@ -274,7 +271,7 @@ impl Subspace {
             .into_par_iter()
             .map(|run| {
                 let points = run * per_run..((run + 1) * per_run).min(np);
-                self.samples.forces(z, material, points)
+                self.all.samples.forces(z, material, points)
             })
             .reduce(
                 || (0.0, DMatrix::zeros(3, 4 * self.handles)),
