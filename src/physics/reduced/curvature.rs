@@ -15,6 +15,9 @@ const SAME_DIRECTION: f64 = 1e-12;
 /// Distinct directions past which the six products by pairs of axes cost less.
 const MOST_DIRECTIONS: usize = 4;
 
+/// A spring direction and the (point, stiffness) of each term along it.
+pub(super) type DirectionGroup = (Vector3<f64>, Vec<(usize, f64)>);
+
 /// The springs acting on contact points, gathered before their curvature is formed.
 #[derive(Default)]
 pub(super) struct Springs {
@@ -64,8 +67,8 @@ impl Springs {
     }
 
     /// The directional terms grouped by direction, None past `MOST_DIRECTIONS` of them.
-    pub(super) fn by_direction(&self) -> Option<Vec<(Vector3<f64>, Vec<(usize, f64)>)>> {
-        let mut groups: Vec<(Vector3<f64>, Vec<(usize, f64)>)> = Vec::new();
+    pub(super) fn by_direction(&self) -> Option<Vec<DirectionGroup>> {
+        let mut groups: Vec<DirectionGroup> = Vec::new();
         for &(point, s, n) in &self.along {
             let same = groups
                 .iter()
