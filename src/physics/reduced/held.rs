@@ -16,9 +16,9 @@ use crate::linalg::DenseCholesky;
 /// A turn of the body (largest entry of the rotation's change) past which the preconditioner
 /// is turned with it.
 const TURN_TOLERANCE: f64 = 1e-3;
-/// New contact springs, as a share of those the preconditioner holds, past which a solve
-/// refactors it with those acting.
-const CONTACT_GAIN: f64 = 0.5;
+/// Contact springs gained or lost, as a share of those the preconditioner holds, past which a
+/// solve refactors it with those acting.
+const CONTACT_CHANGE: f64 = 0.5;
 /// Iterations of a converged step past which its held Hessian is refreshed for the next one
 /// (see `ReducedSim::refresh_ahead`).
 const REFRESH_AHEAD_ITERATIONS: usize = 7;
@@ -79,25 +79,19 @@ impl ReducedSim {
         true
     }
 
-    /// Whether the contact springs acting (`touching`) include more that the preconditioner
-    /// lacks than half as many as it holds (and at least two): a body landing gains a hundred
-    /// stiff springs within one step, and L-BFGS over a factor without them needs many
-    /// iterations to find their curvature. Springs lost, and the few that come and go as a
-    /// body settles into a soft one, are left to the next step: refactoring for them cost the
-    /// ball on the soft slab more than it saved (p99 21.5 ms against 14.7 ms, printed).
-    pub(super) fn contacts_gained(&self, touching: &[(usize, usize)]) -> bool {
-        let Some(factored) = self.factored_contact.as_ref() else {
-            return false;
-        };
-        // Both lists follow the sorted broad phase: a binary search, where a hash set of the
-        // held pairs cost an allocation and a hash per pair in every iteration.
-        let held = &factored.touching;
-        debug_assert!(held.windows(2).all(|w| w[0] < w[1]), "held pairs sorted");
-        let gained = touching
-            .iter()
-            .filter(|pair| held.binary_search(pair).is_err())
-            .count();
-        gained >= 2 && gained as f64 > CONTACT_GAIN * held.len() as f64
+    /// Whether the contact springs acting (`touching`) differ from those the preconditioner
+    /// holds by more than half as many as it holds (and at least two), gained or lost. A body
+    /// landing gains a hundred stiff springs within one step, and L-BFGS over a factor without
+    /// them needs many iterations to find their curvature. A factor holding springs that no
+    /// longer act gives directions far too short: a plate pushed off the floor within its step
+    /// crept back over several iterations, and its drop's p99 step took 1.811-1.977 ms against
+    /// 1.423-1.466 ms with lost springs counted (printed). The few that come and go as a body
+    /// settles into a soft one are left to the next step: refactoring for them cost the ball
+    /// on the soft slab more than it saved (p99 21.5 ms against 14.7 ms, printed).
+    pub(super) fn springs_changed(&self, touching: &[(usize, usize)]) -> bool {
+        self.factored_contact
+            .as_ref()
+            .is_some_and(|factored| changed_past_share(&factored.touching, touching))
     }
 
     /// The quasi-Newton initial Hessian, factored: the held elastic Hessian (at rest the
@@ -261,6 +255,22 @@ fn converging_within(decrements: &[f64], tolerance: f64, iterations: usize) -> b
     rate < 1.0 && last * rate.powi(iterations as i32) < tolerance
 }
 
+/// Whether the pairs in `touching` gained or lost against those `held` (both sorted, as the
+/// broad phase lists them) number at least two and more than `CONTACT_CHANGE` of those held.
+fn changed_past_share(held: &[(usize, usize)], touching: &[(usize, usize)]) -> bool {
+    // A binary search, where a hash set of the held pairs cost an allocation and a hash per
+    // pair in every iteration.
+    debug_assert!(held.windows(2).all(|w| w[0] < w[1]), "held pairs sorted");
+    let gained = touching
+        .iter()
+        .filter(|pair| held.binary_search(pair).is_err())
+        .count();
+    // Held pairs not in touch: those held, less those of `touching` held too.
+    let lost = held.len() - (touching.len() - gained);
+    let past = |changed: usize| changed >= 2 && changed as f64 > CONTACT_CHANGE * held.len() as f64;
+    past(gained) || past(lost)
+}
+
 /// (I (x) R) H (I (x) R^T) in flat z order: every 3 x 3 block of H turned by R.
 pub(super) fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
     let blocks = h.nrows() / 3;
@@ -286,5 +296,37 @@ pub(super) fn refresh_use(at: &Evaluation) -> HessianUse {
         HessianUse::Refresh
     } else {
         HessianUse::Preconditioner
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::changed_past_share;
+
+    fn pairs(points: std::ops::Range<usize>) -> Vec<(usize, usize)> {
+        points.map(|c| (c, 0)).collect()
+    }
+
+    /// Springs gained and springs lost both count, past half of those held; a few coming and
+    /// going do not.
+    #[test]
+    fn springs_gained_or_lost_past_half_refactor() {
+        let held = pairs(0..100);
+        assert!(!changed_past_share(&held, &held));
+        assert!(
+            !changed_past_share(&held, &pairs(10..110)),
+            "10 gained, 10 lost"
+        );
+        assert!(changed_past_share(&held, &pairs(0..151)), "51 gained");
+        assert!(!changed_past_share(&held, &pairs(0..150)), "50 gained");
+        assert!(changed_past_share(&held, &pairs(51..100)), "51 lost");
+        assert!(!changed_past_share(&held, &pairs(50..100)), "50 lost");
+        assert!(
+            changed_past_share(&held, &pairs(60..160)),
+            "60 gained, 60 lost"
+        );
+        assert!(changed_past_share(&[], &pairs(0..2)), "2 gained on none");
+        assert!(!changed_past_share(&[], &pairs(0..1)), "1 gained on none");
+        assert!(changed_past_share(&pairs(0..3), &[]), "all 3 lost");
     }
 }

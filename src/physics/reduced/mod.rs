@@ -584,8 +584,9 @@ impl ReducedSim {
             }
             *z += unflat(&(&direction * step), self.subspace.handles());
             current = next;
-            // A landing: springs the factor lacks would cost many iterations.
-            if mode == Solver::QuasiNewton && self.contacts_gained(&current.touching) {
+            // A landing, or a lift-off within the step: springs the factor lacks, or holds
+            // while they no longer act, would cost many iterations.
+            if mode == Solver::QuasiNewton && self.springs_changed(&current.touching) {
                 self.hold_at(z);
                 history.clear();
             }
