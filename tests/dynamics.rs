@@ -709,7 +709,7 @@ fn a_hessian_refreshed_on_fewer_points_reaches_newtons_steps() {
         let mut sim = simulation(&f, &params, solver);
         pin_left_end(&mut sim, &f, &params);
         let (mut refreshes, mut ahead) = (0, 0);
-        for step in 0..60 {
+        for step in 0..40 {
             let r = sim.step();
             assert!(
                 r.converged,
