@@ -663,6 +663,21 @@ fn pins_added_after_prepare_count_in_the_preconditioner_at_once() {
     }
 }
 
+/// The fixture tilted by `angle` about y, its boundary vertices contact points over a floor at
+/// -0.2; returns the simulation and those points.
+fn tilted_above_a_floor(
+    f: &Fixture,
+    params: &SimParams,
+    solver: Solver,
+    angle: f64,
+) -> (ReducedSim, Vec<Vector3<f64>>) {
+    let mut sim = simulation(f, params, solver);
+    let points = above_a_floor(&mut sim, f, -0.2);
+    let tilt = Rotation3::from_axis_angle(&Vector3::y_axis(), angle).into_inner();
+    sim.set_state(rigid_state(f, &tilt, &Vector3::zeros()), None);
+    (sim, points)
+}
+
 /// A stiff bar dropped tilted lands on one end and falls flat: its contact springs change
 /// within the landing steps while its elastic Hessian hardly does. A solve that slows down
 /// there refactors the held matrix with the springs acting before it reassembles the elastic
@@ -674,10 +689,7 @@ fn a_tilted_landing_refactors_its_springs_before_reassembling() {
         young: 5e6,
         ..Default::default()
     };
-    let mut sim = simulation(&f, &params, Solver::QuasiNewton);
-    above_a_floor(&mut sim, &f, -0.2);
-    let tilt = Rotation3::from_axis_angle(&Vector3::y_axis(), 0.3).into_inner();
-    sim.set_state(rigid_state(&f, &tilt, &Vector3::zeros()), None);
+    let (mut sim, _) = tilted_above_a_floor(&f, &params, Solver::QuasiNewton, 0.3);
     let (mut refreshes, mut factorizations) = (0, 0);
     for step in 0..60 {
         let r = sim.step();
@@ -752,10 +764,7 @@ fn a_flat_landing_solves_with_the_springs_it_gained() {
         ..Default::default()
     };
     let run = |solver| {
-        let mut sim = simulation(&f, &params, solver);
-        let points = above_a_floor(&mut sim, &f, -0.2);
-        let tilt = Rotation3::from_axis_angle(&Vector3::y_axis(), 0.35).into_inner();
-        sim.set_state(rigid_state(&f, &tilt, &Vector3::zeros()), None);
+        let (mut sim, points) = tilted_above_a_floor(&f, &params, solver, 0.35);
         let reports: Vec<StepReport> = (0..60).map(|_| sim.step()).collect();
         let at_rest = reports.last().expect("steps").contacts;
         for (step, r) in reports.iter().enumerate() {
