@@ -19,11 +19,14 @@
 #   eval               eval                                   (the learned field on 15 shapes, 4 min)
 #   basis              bench basis                            (error against time to a basis, 4 shapes)
 #   peer               bench peer                             (the soft block in MuJoCo and physskin)
-# Not rerun: sim.json (the full `bench sim`, about 55 minutes), and sim-targets.json (its plate and
-# rod rows at 16 handles and 1024 points, about 7 minutes):
+# Not rerun: sim.json (the full `bench sim`, about 55 minutes), sim-targets.json (its plate and
+# rod rows at 16 handles and 1024 points, about 7 minutes) and sim-creature.json (the creature's
+# rows at the same sizes, about 40 minutes, most of it the FEM):
 #   benches/record.sh sim target/release/physskin bench sim --json --plot benches/results/sim.svg
 #   benches/record.sh sim-targets target/release/physskin bench sim --shape rod,plate \
 #       --handles 16 --cubature 1024 --json --plot /tmp/sim-targets.svg
+#   benches/record.sh sim-creature target/release/physskin bench sim --shape creature \
+#       --handles 16 --cubature 1024 --json --plot /tmp/sim-creature.svg
 # Usage: benches/report.sh [NAME...]   (default: all of the above)
 set -euo pipefail
 cd "$(dirname "$0")/.."
