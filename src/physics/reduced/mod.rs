@@ -132,9 +132,9 @@ struct Evaluation {
 
 /// Curvature pairs L-BFGS keeps, carried over from step to step. A bending body's held
 /// Hessian goes stale within a few steps; pairs from the steps since describe what changed.
-/// The poked creature (16 handles, 1024 points) took a median step of 1.438-1.591 ms with 8,
-/// 0.822 ms with 32, 0.926 ms with 64 (printed, `bench sim`, FEM left out); the rod's and the
-/// plate's rows stayed within their runs' spread.
+/// The poked creature (16 handles, 1024 points) took a median step of 1.471-1.645 ms with 8,
+/// 1.438 ms with 16, 0.822 ms with 32, 0.926 ms with 64 (printed, `bench sim`, FEM left out);
+/// the rod's and the plate's rows stayed within their runs' spread.
 const LBFGS_PAIRS: usize = 32;
 /// After this many quasi-Newton iterations in one step, the held Hessian is refreshed, unless
 /// the solve is converging fast enough to finish within `REFRESH_GRACE` more.
