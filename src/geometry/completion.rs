@@ -10,6 +10,8 @@
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
+use std::ops::Add;
+
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::Serialize;
 
@@ -176,6 +178,18 @@ impl ImageBins {
         i + self.dims[0] * j
     }
 
+    /// The cells around cell `c` (its eight neighbours within the grid).
+    fn around(&self, c: usize) -> impl Iterator<Item = usize> + '_ {
+        let (i, j) = ((c % self.dims[0]) as isize, (c / self.dims[0]) as isize);
+        (-1..=1)
+            .flat_map(move |di| (-1..=1).map(move |dj| (i + di, j + dj)))
+            .filter(move |&(a, b)| (a, b) != (i, j))
+            .filter(|&(a, b)| {
+                a >= 0 && b >= 0 && (a as usize) < self.dims[0] && (b as usize) < self.dims[1]
+            })
+            .map(|(a, b)| a as usize + self.dims[0] * b as usize)
+    }
+
     /// Whether the occupied cell `c` borders an empty cell or the edge.
     fn on_rim(&self, c: usize) -> bool {
         let (i, j) = (c % self.dims[0], c / self.dims[0]);
@@ -227,9 +241,15 @@ pub fn complete_view(
     // The rim is found on bins of about two pixels: coarser bins would reach far into the
     // patch where faces are foreshortened, and pull the centre towards the camera.
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
-    let centre = estimated_centre(points, &depths, &view, &rim_bins);
+    let (centre, long) = estimated_centre(points, &depths, &view, &rim_bins);
+    // The reflection is followed pixel by pixel where the object is long, taken round across
+    // its axis. A compact object's is not: its bins' deepest reflected points are kept, a
+    // generous fill that makes up for what the rim's pixels leave out (and an animal is not
+    // symmetric; a box seen square to one face would come out thin).
+    let fine_pixel = long.then_some(rim_bins.pixel);
+    let reflection = Reflection::new(points, &view, &centre, fine_pixel, bins.pixel);
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
-    let mirrors = hidden_side(points, &depths, &view, &bins, &centre, floor_z);
+    let mirrors = reflection.hidden_side(points, &depths, &view, floor_z);
     let mut surface = points.to_vec();
     surface.extend(mirrors.iter().flatten());
     for (c, cell) in rim_bins.cells.iter().enumerate() {
@@ -332,10 +352,19 @@ impl Outline {
 
 /// The least depth of the object's centre. A compact object is at least half its breadth deep
 /// behind its nearest point, or behind the surface in front of `centre` if that is less (an
-/// animal seen from the side is shallower than it is tall). A long object is as deep as it is
-/// wide through `centre`, behind the surface in front of it: the rim alone puts a thin round
-/// object's centre in front of its axis, as no pixel falls exactly on its outline.
-fn depth_prior(outline: &Outline, depths: &[f64], view: &ViewFrame, centre: &Vector3<f64>) -> f64 {
+/// animal seen from the side is shallower than it is tall). A long object is round across its
+/// axis: its axis lies half its width behind the surface in front of it, measured across the
+/// axis, which along a ray tilted from the axis is that over the tilt's sine. The rim alone
+/// would put a thin round object's centre in front of its axis, as no pixel falls exactly on
+/// its outline.
+fn depth_prior(
+    outline: &Outline,
+    depths: &[f64],
+    view: &ViewFrame,
+    centre: &Vector3<f64>,
+    long: Option<&LongAxis>,
+    pitch: f64,
+) -> f64 {
     let nearest = depths.iter().cloned().fold(f64::INFINITY, f64::min);
     let overall = nearest + outline.breadth / 2.0;
     let middle = view.across(centre);
@@ -345,12 +374,27 @@ fn depth_prior(outline: &Outline, depths: &[f64], view: &ViewFrame, centre: &Vec
         .filter(|&i| offset(i, &outline.long) <= band)
         .collect();
     let width = extent(strip.iter().map(|&i| outline.across[i].dot(&outline.short)));
+    // The surface of a tilted long object recedes along its axis: each point's depth is taken
+    // back to the centre's place along the axis, so that the band's near end does not stand in
+    // for the surface in front of the centre.
+    let (slope, along, tilt) = match long {
+        Some(l) => (l.depth_slope(), l.across_in(view), l.tilt),
+        None => (0.0, Vector2::zeros(), 1.0),
+    };
     let in_front = strip
         .iter()
         .filter(|&&i| offset(i, &outline.short) <= band)
-        .map(|&i| depths[i])
+        .map(|&i| depths[i] - slope * (outline.across[i] - middle).dot(&along))
         .fold(f64::INFINITY, f64::min);
-    let local = in_front + width / 2.0;
+    // Pixels a pitch apart span a pitch less than the outline they sample, on average (left
+    // out for a compact object, whose coarse fill makes up for it).
+    let width = width
+        + if long.is_some() {
+            pitch * in_front
+        } else {
+            0.0
+        };
+    let local = in_front + width / 2.0 / tilt;
     if !local.is_finite() {
         overall
     } else if outline.is_long() {
@@ -391,7 +435,7 @@ fn estimated_centre(
     depths: &[f64],
     view: &ViewFrame,
     bins: &ImageBins,
-) -> Vector3<f64> {
+) -> (Vector3<f64>, bool) {
     // Per rim bin its deepest point: where the surface turns away. The nearer points of a bin
     // on a face seen at a grazing angle lie towards the camera and would pull the centre in.
     let rim: Vec<usize> = (0..bins.cells.len())
@@ -405,89 +449,222 @@ fn estimated_centre(
         .collect();
     let centroid = rim.iter().map(|&i| points[i]).sum::<Vector3<f64>>() / rim.len().max(1) as f64;
     let outline = Outline::new(points, view);
-    let centroid = if outline.is_long() {
-        along_long_axis(points, view, &centroid)
-    } else {
-        centroid
+    let long = outline
+        .is_long()
+        .then(|| LongAxis::new(points, view))
+        .flatten();
+    let centroid = match &long {
+        Some(long) => long.to_outline_middle(points, view, &centroid),
+        None => centroid,
     };
-    let at_least = depth_prior(&outline, depths, view, &centroid);
+    // The rim bins are two pixels wide.
+    let pitch = bins.pixel / 2.0;
+    let at_least = depth_prior(&outline, depths, view, &centroid, long.as_ref(), pitch);
     let depth = view.depth(&centroid).max(at_least);
-    view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid))
+    let centre = view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid));
+    (centre, long.is_some())
 }
 
-/// `centre` moved along the patch's longest axis to the middle of the patch's outline across
-/// the view: a centrally symmetric object's outline is symmetric about its centre, seen along
-/// any direction across the view. The rim's centroid leans towards where perspective puts more
-/// points, a long object's near end; moving along the object's own axis keeps it on that axis.
-/// Unmoved when that axis points nearly at the camera.
-fn along_long_axis(
-    points: &[Vector3<f64>],
-    view: &ViewFrame,
-    centre: &Vector3<f64>,
-) -> Vector3<f64> {
-    let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
-    let covariance = points
-        .iter()
-        .map(|p| (p - mean) * (p - mean).transpose())
-        .sum::<Matrix3<f64>>();
-    let eigen = nalgebra::SymmetricEigen::new(covariance);
-    let longest = eigen.eigenvalues.imax();
-    let axis = eigen.eigenvectors.column(longest).into_owned();
-    let Some(across) = (axis - view.forward * axis.dot(&view.forward)).try_normalize(1e-9) else {
-        return *centre;
-    };
-    let tilt = axis.dot(&across);
-    if tilt < MIN_AXIS_TILT {
-        return *centre;
+/// A long object's axis (the points' longest principal axis) and how it lies in the view.
+struct LongAxis {
+    axis: Vector3<f64>,
+    /// The axis's part across the view, normalized.
+    across: Vector3<f64>,
+    /// The sine of the angle between the axis and the view.
+    tilt: f64,
+    /// The cosine of that angle (signed: the axis's part along the view).
+    along_view: f64,
+}
+
+impl LongAxis {
+    /// None when the axis points nearly at the camera: its ends cannot be told apart then.
+    fn new(points: &[Vector3<f64>], view: &ViewFrame) -> Option<Self> {
+        let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+        let covariance = points
+            .iter()
+            .map(|p| (p - mean) * (p - mean).transpose())
+            .sum::<Matrix3<f64>>();
+        let eigen = nalgebra::SymmetricEigen::new(covariance);
+        let axis = eigen
+            .eigenvectors
+            .column(eigen.eigenvalues.imax())
+            .into_owned();
+        let across = (axis - view.forward * axis.dot(&view.forward)).try_normalize(1e-9)?;
+        let tilt = axis.dot(&across);
+        (tilt >= MIN_AXIS_TILT).then_some(Self {
+            axis,
+            across,
+            tilt,
+            along_view: axis.dot(&view.forward),
+        })
     }
-    let mut along: Vec<f64> = points
-        .iter()
-        .map(|p| (p - view.viewpoint).dot(&across))
-        .collect();
-    along.sort_by(f64::total_cmp);
-    let at = |q: f64| along[((along.len() - 1) as f64 * q).round() as usize];
-    let middle = (at(OUTLINE_QUANTILE) + at(1.0 - OUTLINE_QUANTILE)) / 2.0;
-    centre + axis * ((middle - (centre - view.viewpoint).dot(&across)) / tilt)
+
+    /// How much deeper the axis gets per unit it moves along `across`.
+    fn depth_slope(&self) -> f64 {
+        self.along_view / self.tilt
+    }
+
+    /// `across` in the view's (right, up) coordinates.
+    fn across_in(&self, view: &ViewFrame) -> Vector2<f64> {
+        Vector2::new(self.across.dot(&view.right), self.across.dot(&view.up))
+    }
+
+    /// `centre` moved along the axis to the middle of the patch's outline across the view: a
+    /// centrally symmetric object's outline is symmetric about its centre, seen along any
+    /// direction across the view. The rim's centroid leans towards where perspective puts more
+    /// points, a long object's near end; moving along the object's own axis keeps it on that
+    /// axis.
+    fn to_outline_middle(
+        &self,
+        points: &[Vector3<f64>],
+        view: &ViewFrame,
+        centre: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        let mut along: Vec<f64> = points
+            .iter()
+            .map(|p| (p - view.viewpoint).dot(&self.across))
+            .collect();
+        along.sort_by(f64::total_cmp);
+        let at = |q: f64| along[((along.len() - 1) as f64 * q).round() as usize];
+        let middle = (at(OUTLINE_QUANTILE) + at(1.0 - OUTLINE_QUANTILE)) / 2.0;
+        centre + self.axis * ((middle - (centre - view.viewpoint).dot(&self.across)) / self.tilt)
+    }
 }
 
-/// Per observed point, where its ray leaves the object on the hidden side: the deepest point,
-/// in its image bin, of the observed surface reflected through `centre` (None when that is not
-/// behind the point). Stops at the floor when the ray reaches it first.
-fn hidden_side(
-    points: &[Vector3<f64>],
-    depths: &[f64],
-    view: &ViewFrame,
-    bins: &ImageBins,
-    centre: &Vector3<f64>,
-    floor_z: Option<f64>,
-) -> Vec<Option<Vector3<f64>>> {
-    let mut back = vec![f64::NEG_INFINITY; bins.cells.len()];
-    for p in points {
-        let reflected = 2.0 * centre - p;
-        let s = view.depth(&reflected);
-        if s > 0.0 {
-            let c = bins.cell(&view.image(&reflected));
-            back[c] = back[c].max(s);
+/// The observed surface reflected through a centre, its depths gathered in image bins: the
+/// prior on the hidden side.
+struct Reflection {
+    /// Mean depths in bins of about two pixels, where the reflection is followed that closely.
+    fine: Option<BackMap>,
+    /// The deepest depth in bins of a few point spacings over the observed points' extent.
+    coarse: BackMap,
+}
+
+impl Reflection {
+    /// `points` reflected through `centre`, binned in bins of `fine_pixel` (when given) and
+    /// `coarse_pixel`.
+    fn new(
+        points: &[Vector3<f64>],
+        view: &ViewFrame,
+        centre: &Vector3<f64>,
+        fine_pixel: Option<f64>,
+        coarse_pixel: f64,
+    ) -> Self {
+        let reflected: Vec<Vector3<f64>> = points
+            .iter()
+            .map(|p| 2.0 * centre - p)
+            .filter(|r| view.depth(r) > 0.0)
+            .collect();
+        // The fine grid spans both, so that reflected points beyond the observed outline are
+        // not clamped into its edge bins.
+        let image: Vec<Vector2<f64>> = points
+            .iter()
+            .chain(&reflected)
+            .map(|p| view.image(p))
+            .collect();
+        let back: Vec<(Vector2<f64>, f64)> = image[points.len()..]
+            .iter()
+            .zip(&reflected)
+            .map(|(q, r)| (*q, view.depth(r)))
+            .collect();
+        Self {
+            fine: fine_pixel.map(|pixel| BackMap::new(&image, &back, pixel, f64::add)),
+            coarse: BackMap::new(&image[..points.len()], &back, coarse_pixel, f64::max),
         }
     }
-    points
-        .iter()
-        .zip(depths)
-        .map(|(p, &s)| {
-            let b = back[bins.cell(&view.image(p))];
-            if b <= s {
-                return None;
-            }
-            let mut q = view.viewpoint + (p - view.viewpoint) * (b / s);
-            if let Some(floor) = floor_z {
-                if q.z < floor && p.z > floor {
-                    // Where the segment from p to q crosses the floor.
-                    q = p + (q - p) * ((p.z - floor) / (p.z - q.z));
+
+    /// Per observed point, where its ray leaves the object on the hidden side: the reflection's
+    /// mean depth in the point's fine bin or the bins around it (where perspective leaves the
+    /// reflection sparser), so that a tilted hidden side is followed, not flattened to a bin's
+    /// deepest point; where it has none there, or is coarse only, its deepest point in the
+    /// coarse bin. None when that is not behind the point. Stops at the floor when the ray
+    /// reaches it first.
+    fn hidden_side(
+        &self,
+        points: &[Vector3<f64>],
+        depths: &[f64],
+        view: &ViewFrame,
+        floor_z: Option<f64>,
+    ) -> Vec<Option<Vector3<f64>>> {
+        points
+            .iter()
+            .zip(depths)
+            .map(|(p, &s)| {
+                let q = view.image(p);
+                let b = self
+                    .fine
+                    .as_ref()
+                    .and_then(|m| m.mean_near(&q))
+                    .or_else(|| self.coarse.deepest_at(&q))?;
+                if b <= s {
+                    return None;
                 }
-            }
-            Some(q)
-        })
-        .collect()
+                let mut q = view.viewpoint + (p - view.viewpoint) * (b / s);
+                if let Some(floor) = floor_z {
+                    if q.z < floor && p.z > floor {
+                        // Where the segment from p to q crosses the floor.
+                        q = p + (q - p) * ((p.z - floor) / (p.z - q.z));
+                    }
+                }
+                Some(q)
+            })
+            .collect()
+    }
+}
+
+/// The depths of the reflected surface gathered in image bins.
+struct BackMap {
+    bins: ImageBins,
+    /// Per bin, the depths folded with the map's rule (summed or the deepest).
+    folded: Vec<f64>,
+    count: Vec<usize>,
+}
+
+impl BackMap {
+    /// Bins of `pixel` over the extent of `image`, folding the depths of `back` with `fold`.
+    fn new(
+        image: &[Vector2<f64>],
+        back: &[(Vector2<f64>, f64)],
+        pixel: f64,
+        fold: fn(f64, f64) -> f64,
+    ) -> Self {
+        let bins = ImageBins::new(image, pixel);
+        let mut folded = vec![0.0; bins.cells.len()];
+        let mut count = vec![0usize; bins.cells.len()];
+        for (q, depth) in back {
+            let c = bins.cell(q);
+            folded[c] = if count[c] == 0 {
+                *depth
+            } else {
+                fold(folded[c], *depth)
+            };
+            count[c] += 1;
+        }
+        Self {
+            bins,
+            folded,
+            count,
+        }
+    }
+
+    /// The deepest depth in the bin of `q` (for a map folded with max).
+    fn deepest_at(&self, q: &Vector2<f64>) -> Option<f64> {
+        let c = self.bins.cell(q);
+        (self.count[c] > 0).then(|| self.folded[c])
+    }
+
+    /// The mean depth in the bin of `q` or, when it holds none, in the bins around it (for a
+    /// map folded by summing).
+    fn mean_near(&self, q: &Vector2<f64>) -> Option<f64> {
+        let c = self.bins.cell(q);
+        if self.count[c] > 0 {
+            return Some(self.folded[c] / self.count[c] as f64);
+        }
+        let (total, n) = self.bins.around(c).fold((0.0, 0), |(t, n), k| {
+            (t + self.folded[k], n + self.count[k])
+        });
+        (n > 0).then(|| total / n as f64)
+    }
 }
 
 /// The longest side of the points' bounding box.
