@@ -4,9 +4,11 @@
 //! the observed surface along the view rays is filled up to a prior on the hidden side: the
 //! observed surface reflected through the object's estimated centre, which is exact for
 //! centrally symmetric objects. The centre is the rim's centroid; a long object's is moved
-//! along its axis to the middle of its outline, and taken as deep behind the surface as the
-//! object is wide there (round across its axis); a compact object's at least half its breadth
-//! deep behind the nearer of its nearest point and the surface in front of the centre.
+//! along its axis to the middle of its outline, and taken as deep behind the surface in front of
+//! it as a round rod's axis lies (half its width over the sine of its tilt from the view); a
+//! compact object's at least half its breadth deep behind the nearer of its nearest point and
+//! the surface in front of the centre. A long object's hidden side follows the reflection pixel
+//! by pixel; a compact object's takes the deepest reflected point of coarser bins.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
@@ -429,7 +431,8 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 /// The object's centre: the centroid of the patch's rim (the silhouette's generator, which a
 /// centrally symmetric object's centre halves), a long object's moved along its axis to the
 /// middle of its outline, then moved back along its ray to the depth floor of `depth_prior`
-/// where it lies in front of it (a cap seen from its pole has its rim in front).
+/// where it lies in front of it (a cap seen from its pole has its rim in front). Also whether the
+/// object was taken as long.
 fn estimated_centre(
     points: &[Vector3<f64>],
     depths: &[f64],
