@@ -12,8 +12,6 @@
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
-use std::ops::Add;
-
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::Serialize;
 
@@ -249,9 +247,9 @@ pub fn complete_view(
     // generous fill that makes up for what the rim's pixels leave out (and an animal is not
     // symmetric; a box seen square to one face would come out thin).
     let fine_pixel = long.then_some(rim_bins.pixel);
-    let reflection = Reflection::new(points, &view, &centre, fine_pixel, bins.pixel);
+    let reflection = Reflection::new(points, &image, &view, &centre, fine_pixel, bins);
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
-    let mirrors = reflection.hidden_side(points, &depths, &view, floor_z);
+    let mirrors = reflection.hidden_side(points, &depths, &image, &view, floor_z);
     let mut surface = points.to_vec();
     surface.extend(mirrors.iter().flatten());
     for (c, cell) in rim_bins.cells.iter().enumerate() {
@@ -539,40 +537,40 @@ impl LongAxis {
 struct Reflection {
     /// Mean depths in bins of about two pixels, where the reflection is followed that closely.
     fine: Option<BackMap>,
-    /// The deepest depth in bins of a few point spacings over the observed points' extent.
+    /// The deepest depth in the coarse bins of the observed points (a few spacings wide).
     coarse: BackMap,
 }
 
 impl Reflection {
-    /// `points` reflected through `centre`, binned in bins of `fine_pixel` (when given) and
-    /// `coarse_pixel`.
+    /// `points` (seen at `image`) reflected through `centre`, gathered in `coarse` (the
+    /// observed points' bins) and, when `fine_pixel` is given, in bins that wide.
     fn new(
         points: &[Vector3<f64>],
+        image: &[Vector2<f64>],
         view: &ViewFrame,
         centre: &Vector3<f64>,
         fine_pixel: Option<f64>,
-        coarse_pixel: f64,
+        coarse: ImageBins,
     ) -> Self {
-        let reflected: Vec<Vector3<f64>> = points
+        let back: Vec<(Vector2<f64>, f64)> = points
             .iter()
             .map(|p| 2.0 * centre - p)
             .filter(|r| view.depth(r) > 0.0)
+            .map(|r| (view.image(&r), view.depth(&r)))
             .collect();
         // The fine grid spans both, so that reflected points beyond the observed outline are
         // not clamped into its edge bins.
-        let image: Vec<Vector2<f64>> = points
-            .iter()
-            .chain(&reflected)
-            .map(|p| view.image(p))
-            .collect();
-        let back: Vec<(Vector2<f64>, f64)> = image[points.len()..]
-            .iter()
-            .zip(&reflected)
-            .map(|(q, r)| (*q, view.depth(r)))
-            .collect();
+        let fine = fine_pixel.map(|pixel| {
+            let spanned: Vec<Vector2<f64>> = image
+                .iter()
+                .copied()
+                .chain(back.iter().map(|b| b.0))
+                .collect();
+            BackMap::new(ImageBins::new(&spanned, pixel), &back)
+        });
         Self {
-            fine: fine_pixel.map(|pixel| BackMap::new(&image, &back, pixel, f64::add)),
-            coarse: BackMap::new(&image[..points.len()], &back, coarse_pixel, f64::max),
+            fine,
+            coarse: BackMap::new(coarse, &back),
         }
     }
 
@@ -586,19 +584,20 @@ impl Reflection {
         &self,
         points: &[Vector3<f64>],
         depths: &[f64],
+        image: &[Vector2<f64>],
         view: &ViewFrame,
         floor_z: Option<f64>,
     ) -> Vec<Option<Vector3<f64>>> {
         points
             .iter()
             .zip(depths)
-            .map(|(p, &s)| {
-                let q = view.image(p);
+            .zip(image)
+            .map(|((p, &s), q)| {
                 let b = self
                     .fine
                     .as_ref()
-                    .and_then(|m| m.mean_near(&q))
-                    .or_else(|| self.coarse.deepest_at(&q))?;
+                    .and_then(|m| m.mean_near(q))
+                    .or_else(|| self.coarse.deepest_at(q))?;
                 if b <= s {
                     return None;
                 }
@@ -618,54 +617,47 @@ impl Reflection {
 /// The depths of the reflected surface gathered in image bins.
 struct BackMap {
     bins: ImageBins,
-    /// Per bin, the depths folded with the map's rule (summed or the deepest).
-    folded: Vec<f64>,
+    /// Per bin, the sum of its depths, the deepest of them and how many there are.
+    sum: Vec<f64>,
+    deepest: Vec<f64>,
     count: Vec<usize>,
 }
 
 impl BackMap {
-    /// Bins of `pixel` over the extent of `image`, folding the depths of `back` with `fold`.
-    fn new(
-        image: &[Vector2<f64>],
-        back: &[(Vector2<f64>, f64)],
-        pixel: f64,
-        fold: fn(f64, f64) -> f64,
-    ) -> Self {
-        let bins = ImageBins::new(image, pixel);
-        let mut folded = vec![0.0; bins.cells.len()];
-        let mut count = vec![0usize; bins.cells.len()];
-        for (q, depth) in back {
-            let c = bins.cell(q);
-            folded[c] = if count[c] == 0 {
-                *depth
-            } else {
-                fold(folded[c], *depth)
-            };
-            count[c] += 1;
-        }
-        Self {
+    /// The depths of `back` (image position, depth) gathered in `bins`.
+    fn new(bins: ImageBins, back: &[(Vector2<f64>, f64)]) -> Self {
+        let cells = bins.cells.len();
+        let mut map = Self {
+            sum: vec![0.0; cells],
+            deepest: vec![f64::NEG_INFINITY; cells],
+            count: vec![0; cells],
             bins,
-            folded,
-            count,
+        };
+        for (q, depth) in back {
+            let c = map.bins.cell(q);
+            map.sum[c] += depth;
+            map.deepest[c] = map.deepest[c].max(*depth);
+            map.count[c] += 1;
         }
+        map
     }
 
-    /// The deepest depth in the bin of `q` (for a map folded with max).
+    /// The deepest depth in the bin of `q`.
     fn deepest_at(&self, q: &Vector2<f64>) -> Option<f64> {
         let c = self.bins.cell(q);
-        (self.count[c] > 0).then(|| self.folded[c])
+        (self.count[c] > 0).then(|| self.deepest[c])
     }
 
-    /// The mean depth in the bin of `q` or, when it holds none, in the bins around it (for a
-    /// map folded by summing).
+    /// The mean depth in the bin of `q` or, when it holds none, in the bins around it.
     fn mean_near(&self, q: &Vector2<f64>) -> Option<f64> {
         let c = self.bins.cell(q);
         if self.count[c] > 0 {
-            return Some(self.folded[c] / self.count[c] as f64);
+            return Some(self.sum[c] / self.count[c] as f64);
         }
-        let (total, n) = self.bins.around(c).fold((0.0, 0), |(t, n), k| {
-            (t + self.folded[k], n + self.count[k])
-        });
+        let (total, n) = self
+            .bins
+            .around(c)
+            .fold((0.0, 0), |(t, n), k| (t + self.sum[k], n + self.count[k]));
         (n > 0).then(|| total / n as f64)
     }
 }
