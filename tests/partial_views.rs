@@ -179,3 +179,39 @@ fn collinear_coplanar_and_zero_area_inputs_are_refused() {
         assert!(e.contains(why), "{e}");
     }
 }
+
+/// A ring seen from above shows its hole: nothing lies in front of its centre, and its breadth
+/// (its outer diameter) says nothing of how deep it is. Completed, it keeps about its volume
+/// and its depth stays near its tube's thickness.
+#[test]
+fn a_ring_seen_through_its_hole_is_not_as_deep_as_it_is_broad() {
+    let (ring, tube) = (0.1, 0.04);
+    let torus = sdf_mesh(
+        &|p: &Vector3<f64>| {
+            let around = (p.x * p.x + p.y * p.y).sqrt() - ring;
+            (around * around + p.z * p.z).sqrt() - tube
+        },
+        0.16,
+        48,
+    );
+    let truth = mesh_volume(&torus);
+    let camera = Camera::looking_at(&torus, Vector3::new(0.3, 0.4, 1.0), 1.5, 240, 180);
+    let points = scan_points(&torus, &camera).unwrap();
+    let view = complete_view(&points, &camera.position, None)
+        .unwrap()
+        .expect("one side's view");
+    let (volume, _) = built_volume(&points, &camera.position);
+    println!(
+        "ring from above: {} points, depth {:.3} m, {:.3} of its volume",
+        points.len(),
+        view.report.depth,
+        volume / truth
+    );
+    // Seen 18 degrees off its axis, the ring is about 2 (tube + ring sin 18) = 0.14 m deep.
+    assert!(view.report.depth < 0.2, "depth {:.3} m", view.report.depth);
+    assert!(
+        (volume / truth - 1.0).abs() <= 0.3,
+        "the ring became {:.3} of its volume",
+        volume / truth
+    );
+}

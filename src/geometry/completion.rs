@@ -352,7 +352,8 @@ impl Outline {
 
 /// The least depth of the object's centre. A compact object is at least half its breadth deep
 /// behind its nearest point, or behind the surface in front of `centre` if that is less (an
-/// animal seen from the side is shallower than it is tall). A long object is round across its
+/// animal seen from the side is shallower than it is tall); no floor where nothing lies in
+/// front of `centre`. A long object is round across its
 /// axis: its axis lies half its width behind the surface in front of it, measured across the
 /// axis, which along a ray tilted from the axis is that over the tilt's sine. The rim alone
 /// would put a thin round object's centre in front of its axis, as no pixel falls exactly on
@@ -396,7 +397,10 @@ fn depth_prior(
         };
     let local = in_front + width / 2.0 / tilt;
     if !local.is_finite() {
-        overall
+        // Nothing in front of the centre: the camera sees through a hole there (a ring from
+        // above), and the object's breadth says nothing of its depth. A ring seen from above
+        // was completed 2.4 times its volume with the breadth's floor.
+        f64::NEG_INFINITY
     } else if outline.is_long() {
         local
     } else {
