@@ -215,3 +215,41 @@ fn a_ring_seen_through_its_hole_is_not_as_deep_as_it_is_broad() {
         volume / truth
     );
 }
+
+/// A long object's completion is as symmetric about its centre as the prior: the rod's far end,
+/// where pixels are fewest and nothing of the near end is reflected into the outline, is not
+/// left short, so the body's centre of mass lies at the rod's middle.
+#[test]
+fn a_scanned_rod_keeps_its_mass_at_its_middle() {
+    let rod = bundled("rod").unwrap();
+    let (lo, hi) = rod.bounds();
+    let middle = (lo + hi) / 2.0;
+    let axis = Vector3::x();
+    for direction in [Vector3::new(1.0, 0.6, 0.8), Vector3::new(-0.7, 1.0, 0.5)] {
+        let camera = Camera::looking_at(&rod, direction, 1.5, 160, 120);
+        let points = scan_points(&rod, &camera).unwrap();
+        let view = complete_view(&points, &camera.position, None)
+            .unwrap()
+            .expect("one side's view");
+        let model = NeuralModel::bundled().unwrap();
+        let options = BodyOptions {
+            support: Support::Free,
+            ..BodyOptions::default()
+        };
+        let body = SoftBody::build_view(&model, &view, &points, &options).unwrap();
+        let grid = body.solid();
+        let cells: Vec<Vector3<f64>> = (0..grid.len())
+            .filter(|&i| grid.solid[i])
+            .map(|i| grid.cell_center(grid.coords(i)))
+            .collect();
+        let centroid = cells.iter().sum::<Vector3<f64>>() / cells.len() as f64;
+        let along = (centroid - middle).dot(&axis);
+        println!(
+            "rod from {direction:?}: centre of mass {:.4} m along its axis from its middle ({} cells of {:.4} m)",
+            along,
+            cells.len(),
+            grid.cell
+        );
+        assert!(along.abs() < 0.5 * grid.cell, "{along:.4} m off");
+    }
+}

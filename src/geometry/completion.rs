@@ -8,7 +8,9 @@
 //! it as a round rod's axis lies (half its width over the sine of its tilt from the view); a
 //! compact object's at least half its breadth deep behind the nearer of its nearest point and
 //! the surface in front of the centre. A long object's hidden side follows the reflection pixel
-//! by pixel; a compact object's takes the deepest reflected point of coarser bins.
+//! by pixel, and its completion is joined by its own reflection (less what the camera saw to
+//! be empty), so that it is as symmetric as the prior; a compact object's takes the deepest
+//! reflected point of coarser bins.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
@@ -271,11 +273,28 @@ pub fn complete_view(
             solid.extend(segment(p, back, fill_step));
         }
     }
+    // Counted before a long object's reflection is added: that copies the hidden side's place.
+    let observed_fraction = points.len() as f64 / surface.len() as f64;
+    if long {
+        // A long object's completion is made symmetric about its centre, as the prior has it:
+        // its ends are where the pixels are fewest and its hidden side least sure, and the
+        // far end came out short where nothing was reflected into its outline. The rod's first
+        // drop in `bench real` went from 0.2300 % to 0.1398 % (printed: `simulate --input`).
+        let carving = Carving::new(&rim_bins, &depths, spacing);
+        for set in [&mut surface, &mut solid] {
+            let reflected = set
+                .iter()
+                .map(|p| 2.0 * centre - p)
+                .filter(|r| carving.keeps(r, &view))
+                .collect::<Vec<_>>();
+            set.extend(reflected);
+        }
+    }
     let added_points = surface.len() - points.len();
     Ok(Some(Completed {
         report: Completion {
             method: METHOD,
-            observed_fraction: points.len() as f64 / surface.len() as f64,
+            observed_fraction,
             two_sided_fraction: two_sided,
             added_points,
             depth,
@@ -615,6 +634,57 @@ impl Reflection {
                 Some(q)
             })
             .collect()
+    }
+}
+
+/// What the camera saw to be empty: the rays outside the observed outline, and the stretch of
+/// each ray in front of the surface it met.
+struct Carving<'a> {
+    bins: &'a ImageBins,
+    /// Per bin, the least observed depth (infinite where nothing was seen).
+    front: Vec<f64>,
+    /// How far in front of the surface seen a point may lie: the scan's noise.
+    tolerance: f64,
+}
+
+impl<'a> Carving<'a> {
+    fn new(bins: &'a ImageBins, depths: &[f64], tolerance: f64) -> Self {
+        let front = bins
+            .cells
+            .iter()
+            .map(|cell| {
+                cell.iter()
+                    .map(|&i| depths[i])
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        Self {
+            bins,
+            front,
+            tolerance,
+        }
+    }
+
+    /// Whether `p` may be part of the object: within a bin of the observed outline and not in
+    /// front of the surface seen there (the nearest in its bin and those around it, so that
+    /// a pixel's jitter keeps it).
+    fn keeps(&self, p: &Vector3<f64>, view: &ViewFrame) -> bool {
+        let q = view.image(p);
+        let at = (q - self.bins.lo) / self.bins.pixel;
+        let inside = [0, 1]
+            .iter()
+            .all(|&a| at[a] >= -1.0 && at[a] < self.bins.dims[a] as f64 + 1.0);
+        if !inside || view.depth(p) <= 0.0 {
+            return false;
+        }
+        let c = self.bins.cell(&q);
+        let seen = self
+            .bins
+            .around(c)
+            .chain(std::iter::once(c))
+            .map(|k| self.front[k])
+            .fold(f64::INFINITY, f64::min);
+        seen.is_finite() && view.depth(p) >= seen - self.tolerance
     }
 }
 
