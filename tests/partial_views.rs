@@ -255,3 +255,35 @@ fn a_scanned_rod_keeps_its_mass_at_its_middle() {
         assert!(along.abs() < 0.5 * grid.cell, "{along:.4} m off");
     }
 }
+
+/// A ring seen almost edge-on has a long outline, but the band across its middle reaches from
+/// its near side to its far one: it is not a rod, and is not completed round across an axis.
+#[test]
+fn a_ring_seen_edge_on_is_not_taken_for_a_rod() {
+    let (ring, tube) = (0.1, 0.04);
+    let torus = sdf_mesh(
+        &|p: &Vector3<f64>| {
+            let around = (p.x * p.x + p.y * p.y).sqrt() - ring;
+            (around * around + p.z * p.z).sqrt() - tube
+        },
+        0.16,
+        48,
+    );
+    let truth = mesh_volume(&torus);
+    for (width, height) in [(160, 120), (240, 180)] {
+        let camera = Camera::looking_at(&torus, Vector3::new(1.0, 0.1, 0.2), 1.5, width, height);
+        let points = scan_points(&torus, &camera).unwrap();
+        let (volume, _) = built_volume(&points, &camera.position);
+        println!(
+            "ring edge-on at {width} x {height}: {} points, {:.3} of its volume",
+            points.len(),
+            volume / truth
+        );
+        // Completed round across its long outline, it made 0.795 and 0.832 of its volume.
+        assert!(
+            (volume / truth - 1.0).abs() <= 0.1,
+            "the ring seen edge-on at {width} x {height} became {:.3} of its volume",
+            volume / truth
+        );
+    }
+}

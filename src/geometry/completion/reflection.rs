@@ -1,0 +1,188 @@
+//! The hidden side of a completed view: the observed surface reflected through the object's
+//! centre, read per view ray, and what the camera saw to be empty, which a reflection may not
+//! fill.
+
+use nalgebra::{Vector2, Vector3};
+
+use super::{ImageBins, ViewFrame};
+
+/// The observed surface reflected through a centre, its depths gathered in image bins: the
+/// prior on the hidden side.
+pub(super) struct Reflection {
+    /// Mean depths in bins of about two pixels, where the reflection is followed that closely.
+    fine: Option<BackMap>,
+    /// The deepest depth in the coarse bins of the observed points (a few spacings wide).
+    coarse: BackMap,
+}
+
+impl Reflection {
+    /// `points` (seen at `image`) reflected through `centre`, gathered in `coarse` (the
+    /// observed points' bins) and, when `fine_pixel` is given, in bins that wide.
+    pub(super) fn new(
+        points: &[Vector3<f64>],
+        image: &[Vector2<f64>],
+        view: &ViewFrame,
+        centre: &Vector3<f64>,
+        fine_pixel: Option<f64>,
+        coarse: ImageBins,
+    ) -> Self {
+        let back: Vec<(Vector2<f64>, f64)> = points
+            .iter()
+            .map(|p| 2.0 * centre - p)
+            .filter(|r| view.depth(r) > 0.0)
+            .map(|r| (view.image(&r), view.depth(&r)))
+            .collect();
+        // The fine grid spans both, so that reflected points beyond the observed outline are
+        // not clamped into its edge bins.
+        let fine = fine_pixel.map(|pixel| {
+            let spanned: Vec<Vector2<f64>> = image
+                .iter()
+                .copied()
+                .chain(back.iter().map(|b| b.0))
+                .collect();
+            BackMap::new(ImageBins::new(&spanned, pixel), &back)
+        });
+        Self {
+            fine,
+            coarse: BackMap::new(coarse, &back),
+        }
+    }
+
+    /// Per observed point, where its ray leaves the object on the hidden side: the reflection's
+    /// mean depth in the point's fine bin or the bins around it (where perspective leaves the
+    /// reflection sparser), so that a tilted hidden side is followed, not flattened to a bin's
+    /// deepest point; where it has none there, or is coarse only, its deepest point in the
+    /// coarse bin. None when that is not behind the point. Stops at the floor when the ray
+    /// reaches it first.
+    pub(super) fn hidden_side(
+        &self,
+        points: &[Vector3<f64>],
+        depths: &[f64],
+        image: &[Vector2<f64>],
+        view: &ViewFrame,
+        floor_z: Option<f64>,
+    ) -> Vec<Option<Vector3<f64>>> {
+        points
+            .iter()
+            .zip(depths)
+            .zip(image)
+            .map(|((p, &s), q)| {
+                let b = self
+                    .fine
+                    .as_ref()
+                    .and_then(|m| m.mean_near(q))
+                    .or_else(|| self.coarse.deepest_at(q))?;
+                if b <= s {
+                    return None;
+                }
+                let mut q = view.viewpoint + (p - view.viewpoint) * (b / s);
+                if let Some(floor) = floor_z {
+                    if q.z < floor && p.z > floor {
+                        // Where the segment from p to q crosses the floor.
+                        q = p + (q - p) * ((p.z - floor) / (p.z - q.z));
+                    }
+                }
+                Some(q)
+            })
+            .collect()
+    }
+}
+
+/// What the camera saw to be empty: the rays outside the observed outline, and the stretch of
+/// each ray in front of the surface it met.
+pub(super) struct Carving<'a> {
+    bins: &'a ImageBins,
+    /// Per bin, the least observed depth (infinite where nothing was seen).
+    front: Vec<f64>,
+    /// How far in front of the surface seen a point may lie: the scan's noise.
+    tolerance: f64,
+}
+
+impl<'a> Carving<'a> {
+    pub(super) fn new(bins: &'a ImageBins, depths: &[f64], tolerance: f64) -> Self {
+        let front = bins
+            .cells
+            .iter()
+            .map(|cell| {
+                cell.iter()
+                    .map(|&i| depths[i])
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        Self {
+            bins,
+            front,
+            tolerance,
+        }
+    }
+
+    /// Whether `p` may be part of the object: within a bin of the observed outline and not in
+    /// front of the surface seen there (the nearest in its bin and those around it, so that
+    /// a pixel's jitter keeps it).
+    pub(super) fn keeps(&self, p: &Vector3<f64>, view: &ViewFrame) -> bool {
+        let q = view.image(p);
+        let at = (q - self.bins.lo) / self.bins.pixel;
+        let inside = [0, 1]
+            .iter()
+            .all(|&a| at[a] >= -1.0 && at[a] < self.bins.dims[a] as f64 + 1.0);
+        if !inside || view.depth(p) <= 0.0 {
+            return false;
+        }
+        let c = self.bins.cell(&q);
+        let seen = self
+            .bins
+            .around(c)
+            .chain(std::iter::once(c))
+            .map(|k| self.front[k])
+            .fold(f64::INFINITY, f64::min);
+        seen.is_finite() && view.depth(p) >= seen - self.tolerance
+    }
+}
+
+/// The depths of the reflected surface gathered in image bins.
+struct BackMap {
+    bins: ImageBins,
+    /// Per bin, the sum of its depths, the deepest of them and how many there are.
+    sum: Vec<f64>,
+    deepest: Vec<f64>,
+    count: Vec<usize>,
+}
+
+impl BackMap {
+    /// The depths of `back` (image position, depth) gathered in `bins`.
+    fn new(bins: ImageBins, back: &[(Vector2<f64>, f64)]) -> Self {
+        let cells = bins.cells.len();
+        let mut map = Self {
+            sum: vec![0.0; cells],
+            deepest: vec![f64::NEG_INFINITY; cells],
+            count: vec![0; cells],
+            bins,
+        };
+        for (q, depth) in back {
+            let c = map.bins.cell(q);
+            map.sum[c] += depth;
+            map.deepest[c] = map.deepest[c].max(*depth);
+            map.count[c] += 1;
+        }
+        map
+    }
+
+    /// The deepest depth in the bin of `q`.
+    fn deepest_at(&self, q: &Vector2<f64>) -> Option<f64> {
+        let c = self.bins.cell(q);
+        (self.count[c] > 0).then(|| self.deepest[c])
+    }
+
+    /// The mean depth in the bin of `q` or, when it holds none, in the bins around it.
+    fn mean_near(&self, q: &Vector2<f64>) -> Option<f64> {
+        let c = self.bins.cell(q);
+        if self.count[c] > 0 {
+            return Some(self.sum[c] / self.count[c] as f64);
+        }
+        let (total, n) = self
+            .bins
+            .around(c)
+            .fold((0.0, 0), |(t, n), k| (t + self.sum[k], n + self.count[k]));
+        (n > 0).then(|| total / n as f64)
+    }
+}
