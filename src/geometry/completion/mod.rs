@@ -403,10 +403,9 @@ fn depth_prior(
     let strip = Strip::new(outline, depths, view, centre, long);
     let tilt = long.map_or(1.0, |l| l.tilt);
     let in_front = strip.in_front(outline);
-    let width = strip.width;
     // Pixels a pitch apart span a pitch less than the outline they sample, on average (left
     // out for a compact object, whose coarse fill makes up for it).
-    let width = width
+    let width = strip.width
         + if long.is_some() {
             pitch * in_front
         } else {
@@ -436,6 +435,7 @@ struct Strip {
     depths: Vec<f64>,
     /// The centre's place across the view.
     middle: Vector2<f64>,
+    /// Half the band's width, across the view.
     band: f64,
     /// The band's extent across the long axis.
     width: f64,
