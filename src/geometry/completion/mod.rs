@@ -491,9 +491,9 @@ impl Strip {
     /// Whether the band's depths span no more than `ROUND_ACROSS` times what a round object's
     /// would, seen tilted by `tilt`: from its ridge to its outline, half its width over the
     /// tilt. A ring seen almost edge-on is long too, but the band across its middle reaches
-    /// from its near side to its far one: 3.83 and 3.85 times that in `bench views` (the torus
-    /// from (1, 0.1, 0.2)), against 0.69 to 1.38 for the rods, capsules, ellipsoid, creature and
-    /// torus it took as long otherwise (printed).
+    /// from its near side to its far one: 3.831 and 3.853 times that in `bench views` (the torus
+    /// from (1, 0.1, 0.2)), against 0.688 to 1.379 for the rods, capsules, ellipsoid, creature
+    /// and torus it took as long otherwise (printed).
     fn is_round(&self, tilt: f64) -> bool {
         extent(self.depths.iter().copied()) <= ROUND_ACROSS * self.width / 2.0 / tilt
     }
