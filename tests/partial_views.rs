@@ -3,7 +3,8 @@
 
 use nalgebra::Vector3;
 use physskin::geometry::{
-    bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, CompletionError, Shape,
+    bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, Completion,
+    CompletionError, Shape,
 };
 use physskin::pipeline::{BodyOptions, SoftBody, Support};
 use physskin::skinning::NeuralModel;
@@ -18,13 +19,18 @@ fn mesh_volume(shape: &Shape) -> f64 {
         .sum()
 }
 
-/// The volume of the body the pipeline builds from `points` seen from `viewpoint`, and the
-/// completion's observed fraction (None: no completion).
-fn built_volume(points: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> (f64, Option<f64>) {
-    let options = BodyOptions {
+/// Free bodies: nothing holds them, so the volume is the whole body's.
+fn free_options() -> BodyOptions {
+    BodyOptions {
         support: Support::Free,
         ..BodyOptions::default()
-    };
+    }
+}
+
+/// The body the pipeline builds from `points` seen from `viewpoint`, and what its completion
+/// did (None: no completion).
+fn built_body(points: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> (SoftBody, Option<Completion>) {
+    let options = free_options();
     let model = NeuralModel::bundled().unwrap();
     let completed = complete_view(points, viewpoint, None).expect("completable");
     let body = match &completed {
@@ -36,8 +42,28 @@ fn built_volume(points: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> (f64, Opti
     }
     .unwrap();
     println!("  {}", body.decision());
-    let observed = completed.map(|c| c.report.observed_fraction);
-    (body.mass() / options.sim.density, observed)
+    (body, completed.map(|c| c.report))
+}
+
+/// The volume of the body the pipeline builds from `points` seen from `viewpoint`, and the
+/// completion's observed fraction (None: no completion).
+fn built_volume(points: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> (f64, Option<f64>) {
+    let (body, report) = built_body(points, viewpoint);
+    let volume = body.mass() / free_options().sim.density;
+    (volume, report.map(|r| r.observed_fraction))
+}
+
+/// A torus: a 0.04 m tube round a 0.1 m ring, about the z axis.
+fn ring() -> Shape {
+    let (ring, tube) = (0.1, 0.04);
+    sdf_mesh(
+        &|p: &Vector3<f64>| {
+            let around = (p.x * p.x + p.y * p.y).sqrt() - ring;
+            (around * around + p.z * p.z).sqrt() - tube
+        },
+        0.16,
+        48,
+    )
 }
 
 /// `count` points spread evenly over the sphere of `radius` (a Fibonacci lattice).
@@ -185,32 +211,23 @@ fn collinear_coplanar_and_zero_area_inputs_are_refused() {
 /// and its depth stays near its tube's thickness.
 #[test]
 fn a_ring_seen_through_its_hole_is_not_as_deep_as_it_is_broad() {
-    let (ring, tube) = (0.1, 0.04);
-    let torus = sdf_mesh(
-        &|p: &Vector3<f64>| {
-            let around = (p.x * p.x + p.y * p.y).sqrt() - ring;
-            (around * around + p.z * p.z).sqrt() - tube
-        },
-        0.16,
-        48,
-    );
+    let torus = ring();
     let truth = mesh_volume(&torus);
     let camera = Camera::looking_at(&torus, Vector3::new(0.3, 0.4, 1.0), 1.5, 240, 180);
     let points = scan_points(&torus, &camera).unwrap();
-    let view = complete_view(&points, &camera.position, None)
-        .unwrap()
-        .expect("one side's view");
-    let (volume, _) = built_volume(&points, &camera.position);
+    let (body, report) = built_body(&points, &camera.position);
+    let report = report.expect("one side's view");
+    let volume = body.mass() / free_options().sim.density;
     println!(
         "ring from above: {} points, depth {:.3} m, {:.3} of its volume",
         points.len(),
-        view.report.depth,
+        report.depth,
         volume / truth
     );
     // Seen 27 degrees off its axis, the ring spans about 2 (tube + ring sin 27) = 0.17 m along
     // the view, its centre about half that behind its nearest point; with its breadth's floor
     // (0.28 m across) the completion was 0.252 m deep and 2.441 times its volume.
-    assert!(view.report.depth < 0.2, "depth {:.3} m", view.report.depth);
+    assert!(report.depth < 0.2, "depth {:.3} m", report.depth);
     assert!(
         (volume / truth - 1.0).abs() <= 0.3,
         "the ring became {:.3} of its volume",
@@ -230,15 +247,8 @@ fn a_scanned_rod_keeps_its_mass_at_its_middle() {
     for direction in [Vector3::new(1.0, 0.6, 0.8), Vector3::new(-0.7, 1.0, 0.5)] {
         let camera = Camera::looking_at(&rod, direction, 1.5, 160, 120);
         let points = scan_points(&rod, &camera).unwrap();
-        let view = complete_view(&points, &camera.position, None)
-            .unwrap()
-            .expect("one side's view");
-        let model = NeuralModel::bundled().unwrap();
-        let options = BodyOptions {
-            support: Support::Free,
-            ..BodyOptions::default()
-        };
-        let body = SoftBody::build_view(&model, &view, &points, &options).unwrap();
+        let (body, report) = built_body(&points, &camera.position);
+        assert!(report.is_some(), "a scan is completed");
         let grid = body.solid();
         let cells: Vec<Vector3<f64>> = (0..grid.len())
             .filter(|&i| grid.solid[i])
@@ -260,15 +270,7 @@ fn a_scanned_rod_keeps_its_mass_at_its_middle() {
 /// its near side to its far one: it is not a rod, and is not completed round across an axis.
 #[test]
 fn a_ring_seen_edge_on_is_not_taken_for_a_rod() {
-    let (ring, tube) = (0.1, 0.04);
-    let torus = sdf_mesh(
-        &|p: &Vector3<f64>| {
-            let around = (p.x * p.x + p.y * p.y).sqrt() - ring;
-            (around * around + p.z * p.z).sqrt() - tube
-        },
-        0.16,
-        48,
-    );
+    let torus = ring();
     let truth = mesh_volume(&torus);
     for (width, height) in [(160, 120), (240, 180)] {
         let camera = Camera::looking_at(&torus, Vector3::new(1.0, 0.1, 0.2), 1.5, width, height);

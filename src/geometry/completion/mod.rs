@@ -382,25 +382,23 @@ impl Outline {
     }
 }
 
-/// The least depth of the object's centre. A compact object is at least half its breadth deep
-/// behind its nearest point, or behind the surface in front of `centre` if that is less (an
-/// animal seen from the side is shallower than it is tall); no floor where nothing lies in
-/// front of `centre`. A long object is round across its axis: its axis lies half its width
-/// behind the surface in front of it, measured across the axis, which along a ray tilted from
-/// the axis is that over the tilt's sine. The rim alone
+/// The least depth of the object's centre, read in `strip`, the band across it. A compact
+/// object is at least half its breadth deep behind its nearest point, or behind the surface in
+/// front of the centre if that is less (an animal seen from the side is shallower than it is
+/// tall); no floor where nothing lies in front of the centre. A long object is round across its
+/// axis: its axis lies half its width behind the surface in front of it, measured across the
+/// axis, which along a ray tilted from the axis is that over the tilt's sine. The rim alone
 /// would put a thin round object's centre in front of its axis, as no pixel falls exactly on
 /// its outline.
 fn depth_prior(
     outline: &Outline,
     depths: &[f64],
-    view: &ViewFrame,
-    centre: &Vector3<f64>,
+    strip: &Strip,
     long: Option<&LongAxis>,
     pitch: f64,
 ) -> f64 {
     let nearest = depths.iter().cloned().fold(f64::INFINITY, f64::min);
     let overall = nearest + outline.breadth / 2.0;
-    let strip = Strip::new(outline, depths, view, centre, long);
     let tilt = long.map_or(1.0, |l| l.tilt);
     let in_front = strip.in_front(outline);
     // Pixels a pitch apart span a pitch less than the outline they sample, on average (left
@@ -550,18 +548,22 @@ fn estimated_centre(
         .is_long()
         .then(|| LongAxis::new(points, view))
         .flatten();
+    let mut round_strip = None;
     if let Some(axis) = &long {
         let moved = axis.to_outline_middle(points, view, &centroid);
-        if Strip::new(&outline, depths, view, &moved, Some(axis)).is_round(axis.tilt) {
+        let strip = Strip::new(&outline, depths, view, &moved, Some(axis));
+        if strip.is_round(axis.tilt) {
             centroid = moved;
+            round_strip = Some(strip);
         } else {
             outline.round = false;
             long = None;
         }
     }
+    let strip = round_strip.unwrap_or_else(|| Strip::new(&outline, depths, view, &centroid, None));
     // The rim bins are two pixels wide.
     let pitch = bins.pixel / 2.0;
-    let at_least = depth_prior(&outline, depths, view, &centroid, long.as_ref(), pitch);
+    let at_least = depth_prior(&outline, depths, &strip, long.as_ref(), pitch);
     let depth = view.depth(&centroid).max(at_least);
     let centre = view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid));
     (centre, long.is_some())
