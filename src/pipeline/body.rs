@@ -8,7 +8,8 @@ use nalgebra::{DMatrix, Isometry3, Vector3};
 use serde::Serialize;
 
 use super::input::{truncate, NetworkInput};
-use super::options::{BodyOptions, SleepRule, Support};
+use super::options::{BodyOptions, SleepRule};
+use super::support::apply_support;
 use super::switch::{refine_on_solid, BasisPlan, PreparedBasis, SwitchReport};
 use crate::geometry::{Completed, ContactSamples, Cubature, Normalization, Shape, VoxelGrid};
 use crate::physics::{Lifter, Obstacle, Poke, ReducedSim, StepReport, Subspace};
@@ -740,55 +741,4 @@ fn bounds_of(xyz: &[f32]) -> (Vector3<f64>, Vector3<f64>) {
         hi = hi.sup(&p);
     }
     (lo, hi)
-}
-
-/// Pins a slab of the cubature points or adds a floor, per `options.support`.
-fn apply_support(
-    sim: &mut ReducedSim,
-    options: &BodyOptions,
-    cubature: &Cubature,
-    surface: &[Vector3<f64>],
-    areas: &[f64],
-) {
-    let g = options.sim.gravity;
-    // "Up" is against gravity; without gravity, +z.
-    let up = if g.norm() > 0.0 {
-        -g.normalize()
-    } else {
-        Vector3::z()
-    };
-    let heights: Vec<f64> = cubature.points.iter().map(|p| p.dot(&up)).collect();
-    let (lo, hi) = heights
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &h| {
-            (a.min(h), b.max(h))
-        });
-    let slab = 0.1 * (hi - lo);
-    let pin_where = |keep: &dyn Fn(f64) -> bool| -> (Vec<Vector3<f64>>, Vec<f64>) {
-        cubature
-            .points
-            .iter()
-            .zip(&cubature.volumes)
-            .zip(&heights)
-            .filter(|(_, &h)| keep(h))
-            .map(|((p, v), _)| (*p, v * options.sim.density))
-            .unzip()
-    };
-    match options.support {
-        Support::Free => {}
-        Support::PinTop => {
-            let (points, masses) = pin_where(&|h| h >= hi - slab);
-            sim.add_pins(&points, &masses);
-        }
-        Support::PinBottom => {
-            let (points, masses) = pin_where(&|h| h <= lo + slab);
-            sim.add_pins(&points, &masses);
-        }
-        Support::Floor => {
-            let lowest = surface.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-            let floor = options.floor_z.unwrap_or(lowest);
-            sim.add_contact_points(surface, areas);
-            sim.add_obstacle(Obstacle::floor(floor));
-        }
-    }
 }

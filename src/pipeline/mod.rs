@@ -5,6 +5,7 @@ mod body;
 mod input;
 mod options;
 mod seen;
+mod support;
 mod switch;
 mod touch;
 

@@ -3,15 +3,15 @@
 //! is such a view (its image bins hold one surface, not a front and a back), what lies behind
 //! the observed surface along the view rays is filled up to a prior on the hidden side: the
 //! observed surface reflected through the object's estimated centre, which is exact for
-//! centrally symmetric objects. The centre is the rim's centroid; a long object's (a long
-//! outline whose middle is no deeper than a round object's: not a ring seen edge-on) is moved
-//! along its axis to the middle of its outline, and taken as deep behind the surface in front of
-//! it as a round rod's axis lies (half its width over the sine of its tilt from the view); a
-//! compact object's at least half its breadth deep behind the nearer of its nearest point and
-//! the surface in front of the centre. A long object's hidden side follows the reflection pixel
+//! centrally symmetric objects. The centre is the rim's centroid, per length of rim; a long
+//! object's (a long outline whose middle is no deeper than a round object's: not a ring seen
+//! edge-on) is moved along its axis to the middle of its outline, and taken as deep behind the
+//! surface in front of it as a round rod's axis lies (half its width over the sine of its tilt
+//! from the view); a compact object's at least half its breadth deep behind the nearer of its
+//! nearest point and the surface in front of the centre. A long object's hidden side follows the reflection pixel
 //! by pixel, and its completion is joined by its own reflection (less what the camera saw to
-//! be empty), so that it is as symmetric as the prior; a compact object's takes the deepest
-//! reflected point of coarser bins.
+//! be empty), so that it is as symmetric as the prior; a compact object's takes a generous
+//! depth (mostly the deepest) of the reflected points in coarser bins.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
@@ -20,7 +20,7 @@ use serde::Serialize;
 
 mod reflection;
 
-use super::point_index::neighbour_distance;
+use super::point_index::{neighbour_distance, PointIndex};
 use super::shape::principal_extents;
 use reflection::{Carving, Reflection};
 
@@ -50,6 +50,10 @@ const LONG_OBJECT: f64 = 2.0;
 /// A long outline is round across its axis where the depths across its middle span at most
 /// this many times a round object's (see `Strip::is_round`).
 const ROUND_ACROSS: f64 = 2.0;
+/// A rim point's weight in the centre is the summed distance to this many other rim points.
+const RIM_NEIGHBOURS: usize = 4;
+/// No rim point weighs more than this many times the median rim point.
+const RIM_WEIGHT_CAP: f64 = 1.5;
 /// The name of the method, as reported.
 pub const METHOD: &str = "reflected_through_centre";
 
@@ -253,7 +257,7 @@ pub fn complete_view(
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
     let (centre, long) = estimated_centre(points, &depths, &view, &rim_bins);
     // The reflection is followed pixel by pixel where the object is long, taken round across
-    // its axis. A compact object's is not: its bins' deepest reflected points are kept, a
+    // its axis. A compact object's is not: its bins' mostly deepest reflected depths are kept, a
     // generous fill that makes up for what the rim's pixels leave out (and an animal is not
     // symmetric; a box seen square to one face would come out thin).
     let fine_pixel = long.then_some(rim_bins.pixel);
@@ -541,8 +545,7 @@ fn estimated_centre(
                 .max_by(|&a, &b| depths[a].total_cmp(&depths[b]))
         })
         .collect();
-    let mut centroid =
-        rim.iter().map(|&i| points[i]).sum::<Vector3<f64>>() / rim.len().max(1) as f64;
+    let mut centroid = rim_centroid(points, &rim);
     let mut outline = Outline::new(points, view);
     let mut long = outline
         .is_long()
@@ -567,6 +570,48 @@ fn estimated_centre(
     let depth = view.depth(&centroid).max(at_least);
     let centre = view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid));
     (centre, long.is_some())
+}
+
+/// The centroid of the rim points (indices into `points`), each weighted by the length of rim
+/// it stands for: the summed distance to its `RIM_NEIGHBOURS` nearest rim points, at most
+/// `RIM_WEIGHT_CAP` times the median. One point per two-pixel bin samples the silhouette's
+/// generator evenly in the image, not along the object: an edge receding from the camera, or
+/// the far side of a round one, gets fewer points per metre than a near edge across the view,
+/// and the plain centroid leaned towards the near edges and the camera. Weighted, the centres
+/// of `bench views`' 82 scans moved from 0.044 to 0.035 of the diagonal off on average
+/// (printed); a box seen from `bench real`'s first side from 0.075 to 0.012 of its half-depth
+/// across the view. The cap keeps a few lone points (a foreshortened edge's one bin) from
+/// standing for a long stretch they do not sample.
+fn rim_centroid(points: &[Vector3<f64>], rim: &[usize]) -> Vector3<f64> {
+    let positions: Vec<Vector3<f64>> = rim.iter().map(|&i| points[i]).collect();
+    if positions.len() <= RIM_NEIGHBOURS {
+        return positions.iter().sum::<Vector3<f64>>() / positions.len().max(1) as f64;
+    }
+    let index = PointIndex::for_surface(&positions);
+    let mut weights: Vec<f64> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let near = index.nearest(p, RIM_NEIGHBOURS, Some(i));
+            near.iter().map(|&j| (positions[j] - p).norm()).sum()
+        })
+        .collect();
+    let mut sorted = weights.clone();
+    sorted.sort_by(f64::total_cmp);
+    let cap = RIM_WEIGHT_CAP * sorted[sorted.len() / 2];
+    for w in &mut weights {
+        *w = w.min(cap);
+    }
+    let total: f64 = weights.iter().sum();
+    if total <= 0.0 {
+        return positions.iter().sum::<Vector3<f64>>() / positions.len() as f64;
+    }
+    positions
+        .iter()
+        .zip(&weights)
+        .map(|(p, w)| p * *w)
+        .sum::<Vector3<f64>>()
+        / total
 }
 
 /// A long object's axis (the points' longest principal axis) and how it lies in the view.

@@ -6,12 +6,15 @@ use nalgebra::{Vector2, Vector3};
 
 use super::{ImageBins, ViewFrame};
 
+/// The share of a coarse bin's deepest reflected depth in its hidden side (the rest: the mean).
+const DEEPEST_SHARE: f64 = 0.8;
+
 /// The observed surface reflected through a centre, its depths gathered in image bins: the
 /// prior on the hidden side.
 pub(super) struct Reflection {
     /// Mean depths in bins of about two pixels, where the reflection is followed that closely.
     fine: Option<BackMap>,
-    /// The deepest depth in the coarse bins of the observed points (a few spacings wide).
+    /// Depths in the coarse bins of the observed points (a few spacings wide), read generously.
     coarse: BackMap,
 }
 
@@ -51,8 +54,8 @@ impl Reflection {
     /// Per observed point, where its ray leaves the object on the hidden side: the reflection's
     /// mean depth in the point's fine bin or the bins around it (where perspective leaves the
     /// reflection sparser), so that a tilted hidden side is followed, not flattened to a bin's
-    /// deepest point; where it has none there, or is coarse only, its deepest point in the
-    /// coarse bin. None when that is not behind the point. Stops at the floor when the ray
+    /// deepest point; where it has none there, or is coarse only, the coarse bin's generous
+    /// depth (mostly its deepest). None when that is not behind the point. Stops at the floor when the ray
     /// reaches it first.
     pub(super) fn hidden_side(
         &self,
@@ -71,7 +74,7 @@ impl Reflection {
                     .fine
                     .as_ref()
                     .and_then(|m| m.mean_near(q))
-                    .or_else(|| self.coarse.deepest_at(q))?;
+                    .or_else(|| self.coarse.generous_at(q))?;
                 if b <= s {
                     return None;
                 }
@@ -167,10 +170,19 @@ impl BackMap {
         map
     }
 
-    /// The deepest depth in the bin of `q`.
-    fn deepest_at(&self, q: &Vector2<f64>) -> Option<f64> {
+    /// A generous depth for the bin of `q`: mostly its deepest, `DEEPEST_SHARE` of it, the rest
+    /// its mean. The deepest point of a bin a few pixels wide lies behind the hidden surface
+    /// at the bin's middle wherever that surface slopes, and more so the steeper; it makes up
+    /// for a centre estimated short of a round object's (the rim lies in front of its centre).
+    /// With the rim's centroid weighted along the rim, closer to the centre, the deepest alone
+    /// completed the creature from `bench real`'s first side to 1.328 of its volume (printed);
+    /// mixed, 1.257, and the sphere's first side from 1.092 to 1.070.
+    fn generous_at(&self, q: &Vector2<f64>) -> Option<f64> {
         let c = self.bins.cell(q);
-        (self.count[c] > 0).then(|| self.deepest[c])
+        (self.count[c] > 0).then(|| {
+            let mean = self.sum[c] / self.count[c] as f64;
+            DEEPEST_SHARE * self.deepest[c] + (1.0 - DEEPEST_SHARE) * mean
+        })
     }
 
     /// The mean depth in the bin of `q` or, when it holds none, in the bins around it.
