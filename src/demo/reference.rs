@@ -101,7 +101,7 @@ fn fem_error(
 ) -> Result<ReferenceError> {
     let mesh = &t.reference.mesh;
     let mut fem = FemSim::new(mesh.clone(), params.clone())?;
-    fem.pin_vertices(&bottom_vertices(&mesh.vertices, &params.gravity));
+    fem.pin_vertices(&bottom_vertices(mesh, &params.gravity));
     let first = t
         .first_step_ns
         .expect("a trajectory with steps has a start");

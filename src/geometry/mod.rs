@@ -24,7 +24,7 @@ pub use mesh_io::{
 };
 pub use point_index::median_spacing;
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
-pub use reference_mesh::{bottom_vertices, reference_mesh, ReferenceMesh};
+pub use reference_mesh::{bottom_vertices, pinned_slab_top, reference_mesh, ReferenceMesh};
 pub use sampling::{sample_surface, SurfaceSamples, SurfaceSampling};
 pub use scan::{scan, scan_points, Camera};
 pub use shape::{content_hash, Normalization, Shape};

@@ -148,11 +148,11 @@ impl Probe {
             (Vector3::y() - up * up.y).normalize()
         };
         let mut fem = FemSim::new(mesh.clone(), options.sim.clone())?;
-        fem.pin_vertices(&bottom_vertices(&mesh.vertices, &g));
+        fem.pin_vertices(&bottom_vertices(&mesh, &g));
         let mass: f64 = fem.vertex_masses().iter().sum();
         // The push is spread over the top slab: a point load on one vertex would measure the
         // FEM's local dent, which no smooth subspace has, rather than the object's motion.
-        let top: Vec<Vector3<f64>> = bottom_vertices(&mesh.vertices, &-g)
+        let top: Vec<Vector3<f64>> = bottom_vertices(&mesh, &-g)
             .into_iter()
             .map(|v| mesh.vertices[v])
             .collect();

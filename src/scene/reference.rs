@@ -170,8 +170,8 @@ impl FemRun {
         let mut fem = FemSim::new(t.mesh.clone(), setup.sim.clone())?;
         let g = setup.sim.gravity;
         match setup.support {
-            Support::PinBottom => fem.pin_vertices(&bottom_vertices(vertices, &g)),
-            Support::PinTop => fem.pin_vertices(&bottom_vertices(vertices, &-g)),
+            Support::PinBottom => fem.pin_vertices(&bottom_vertices(&t.mesh, &g)),
+            Support::PinTop => fem.pin_vertices(&bottom_vertices(&t.mesh, &-g)),
             Support::Free | Support::Floor => {}
         }
         if let Some(z) = setup.floor {
