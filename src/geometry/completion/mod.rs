@@ -8,10 +8,10 @@
 //! edge-on) is moved along its axis to the middle of its outline, and taken as deep behind the
 //! surface in front of it as a round rod's axis lies (half its width over the sine of its tilt
 //! from the view); a compact object's at least half its breadth deep behind the nearer of its
-//! nearest point and the surface in front of the centre. A long object's hidden side follows the reflection pixel
-//! by pixel, and its completion is joined by its own reflection (less what the camera saw to
-//! be empty), so that it is as symmetric as the prior; a compact object's takes a generous
-//! depth (mostly the deepest) of the reflected points in coarser bins.
+//! nearest point and the surface in front of the centre. A long object's hidden side follows
+//! the reflection pixel by pixel, and its completion is joined by its own reflection (less what
+//! the camera saw to be empty), so that it is as symmetric as the prior; a compact object's
+//! takes a generous depth (mostly the deepest) of the reflected points in coarser bins.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 

@@ -55,8 +55,8 @@ impl Reflection {
     /// mean depth in the point's fine bin or the bins around it (where perspective leaves the
     /// reflection sparser), so that a tilted hidden side is followed, not flattened to a bin's
     /// deepest point; where it has none there, or is coarse only, the coarse bin's generous
-    /// depth (mostly its deepest). None when that is not behind the point. Stops at the floor when the ray
-    /// reaches it first.
+    /// depth (mostly its deepest). None when that is not behind the point. Stops at the floor
+    /// when the ray reaches it first.
     pub(super) fn hidden_side(
         &self,
         points: &[Vector3<f64>],
