@@ -14,9 +14,11 @@ pub enum Support {
     Free,
     /// A floor (z = the object's lowest point), penalty contact.
     Floor,
-    /// The top 10% of the object (against gravity) is pinned: it hangs.
+    /// The top 10% of the object (against gravity) is pinned, and at least a sixteenth of its
+    /// volume (`pinned_slab_top`): it hangs.
     PinTop,
-    /// The bottom 10% (along gravity) is pinned: it stands.
+    /// The bottom 10% (along gravity) is pinned, and at least a sixteenth of its volume: it
+    /// stands.
     PinBottom,
 }
 
