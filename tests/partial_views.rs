@@ -53,6 +53,20 @@ fn built_volume(points: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> (f64, Opti
     (volume, report.map(|r| r.observed_fraction))
 }
 
+/// The two sides `bench real` scans from.
+const REAL_BENCH_SIDES: [Vector3<f64>; 2] =
+    [Vector3::new(1.0, 0.6, 0.8), Vector3::new(-0.7, 1.0, 0.5)];
+
+/// The camera scanning `shape` from `direction` as `bench real` does (160 x 120, 1.5 bounding
+/// diagonals away), and the body built from its completed scan.
+fn scanned_body(shape: &Shape, direction: Vector3<f64>) -> (Camera, SoftBody) {
+    let camera = Camera::looking_at(shape, direction, 1.5, 160, 120);
+    let points = scan_points(shape, &camera).unwrap();
+    let (body, report) = built_body(&points, &camera.position);
+    assert!(report.is_some(), "a scan is completed");
+    (camera, body)
+}
+
 /// A torus: a 0.04 m tube round a 0.1 m ring, about the z axis.
 fn ring() -> Shape {
     let (ring, tube) = (0.1, 0.04);
@@ -244,22 +258,14 @@ fn a_scanned_rod_keeps_its_mass_at_its_middle() {
     let (lo, hi) = rod.bounds();
     let middle = (lo + hi) / 2.0;
     let axis = Vector3::x();
-    for direction in [Vector3::new(1.0, 0.6, 0.8), Vector3::new(-0.7, 1.0, 0.5)] {
-        let camera = Camera::looking_at(&rod, direction, 1.5, 160, 120);
-        let points = scan_points(&rod, &camera).unwrap();
-        let (body, report) = built_body(&points, &camera.position);
-        assert!(report.is_some(), "a scan is completed");
+    for direction in REAL_BENCH_SIDES {
+        let (_, body) = scanned_body(&rod, direction);
         let grid = body.solid();
-        let cells: Vec<Vector3<f64>> = (0..grid.len())
-            .filter(|&i| grid.solid[i])
-            .map(|i| grid.cell_center(grid.coords(i)))
-            .collect();
-        let centroid = cells.iter().sum::<Vector3<f64>>() / cells.len() as f64;
-        let along = (centroid - middle).dot(&axis);
+        let along = (grid.solid_centroid() - middle).dot(&axis);
         println!(
             "rod from {direction:?}: centre of mass {:.4} m along its axis from its middle ({} cells of {:.4} m)",
             along,
-            cells.len(),
+            grid.solid_count(),
             grid.cell
         );
         assert!(along.abs() < 0.5 * grid.cell, "{along:.4} m off");
@@ -273,17 +279,9 @@ fn a_scanned_box_is_centred_across_the_view() {
     let block = bundled("box").unwrap();
     let (lo, hi) = block.bounds();
     let (middle, diagonal) = ((lo + hi) / 2.0, (hi - lo).norm());
-    for direction in [Vector3::new(1.0, 0.6, 0.8), Vector3::new(-0.7, 1.0, 0.5)] {
-        let camera = Camera::looking_at(&block, direction, 1.5, 160, 120);
-        let points = scan_points(&block, &camera).unwrap();
-        let (body, report) = built_body(&points, &camera.position);
-        assert!(report.is_some(), "a scan is completed");
-        let grid = body.solid();
-        let cells: Vec<Vector3<f64>> = (0..grid.len())
-            .filter(|&i| grid.solid[i])
-            .map(|i| grid.cell_center(grid.coords(i)))
-            .collect();
-        let offset = cells.iter().sum::<Vector3<f64>>() / cells.len() as f64 - middle;
+    for direction in REAL_BENCH_SIDES {
+        let (camera, body) = scanned_body(&block, direction);
+        let offset = body.solid().solid_centroid() - middle;
         let forward = (middle - camera.position).normalize();
         let across = (offset - forward * offset.dot(&forward)).norm();
         println!(

@@ -145,22 +145,14 @@ fn compare(
     let (lo, hi) = shape.bounds();
     row.volume_ratio = solid_volume(&grid) / solid_volume(truth);
     row.overlap = overlap(truth, &grid);
-    row.centroid_offset = (centroid(&grid) - centroid(truth)).norm() / (hi - lo).norm();
+    row.centroid_offset =
+        (grid.solid_centroid() - truth.solid_centroid()).norm() / (hi - lo).norm();
     row
 }
 
 /// Whole cells only: both grids are compared cell by cell.
 fn solid_volume(grid: &VoxelGrid) -> f64 {
     grid.solid_count() as f64 * grid.cell.powi(3)
-}
-
-fn centroid(grid: &VoxelGrid) -> Vector3<f64> {
-    let cells: Vec<usize> = (0..grid.len()).filter(|&i| grid.solid[i]).collect();
-    cells
-        .iter()
-        .map(|&i| grid.cell_center(grid.coords(i)))
-        .sum::<Vector3<f64>>()
-        / cells.len().max(1) as f64
 }
 
 /// Intersection over union, the intersection counted on `truth`'s cells.

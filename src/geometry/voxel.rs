@@ -158,6 +158,17 @@ impl VoxelGrid {
         self.solid.iter().filter(|&&s| s).count()
     }
 
+    /// The mean centre of the solid cells: the solid's centre of mass at uniform density (the
+    /// origin when no cell is solid).
+    pub fn solid_centroid(&self) -> Vector3<f64> {
+        let cells: Vec<usize> = (0..self.len()).filter(|&i| self.solid[i]).collect();
+        cells
+            .iter()
+            .map(|&i| self.cell_center(self.coords(i)))
+            .sum::<Vector3<f64>>()
+            / cells.len().max(1) as f64
+    }
+
     /// Volume of the solid, counting cells the surface cuts as half full.
     pub fn solid_volume(&self) -> f64 {
         let (mut full, mut cut) = (0usize, 0usize);

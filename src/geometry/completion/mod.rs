@@ -587,8 +587,9 @@ fn estimated_centre(
 /// unweighted, 0.020: the one view of the six the weights set back).
 fn rim_centroid(points: &[Vector3<f64>], rim: &[usize]) -> Vector3<f64> {
     let positions: Vec<Vector3<f64>> = rim.iter().map(|&i| points[i]).collect();
+    let unweighted = || positions.iter().sum::<Vector3<f64>>() / positions.len().max(1) as f64;
     if positions.len() <= RIM_NEIGHBOURS {
-        return positions.iter().sum::<Vector3<f64>>() / positions.len().max(1) as f64;
+        return unweighted();
     }
     let index = PointIndex::for_surface(&positions);
     let mut weights: Vec<f64> = positions
@@ -607,7 +608,7 @@ fn rim_centroid(points: &[Vector3<f64>], rim: &[usize]) -> Vector3<f64> {
     }
     let total: f64 = weights.iter().sum();
     if total <= 0.0 {
-        return positions.iter().sum::<Vector3<f64>>() / positions.len() as f64;
+        return unweighted();
     }
     positions
         .iter()
