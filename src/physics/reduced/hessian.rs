@@ -14,6 +14,10 @@ use crate::physics::material::Matrix9;
 /// 2 threads 512 points took 0.09 ms against 0.03 ms on one, 1024 points 0.076 ms against
 /// 0.071 ms (printed, a scratch timing of `bench sim` on the rod).
 const PARALLEL_STRESS_DERIVATIVES: usize = 8192;
+/// The same for projected stress derivatives, each an SVD and an eigensystem: the poked
+/// creature's 512 points took 0.66-0.73 ms on one thread, 0.38-0.42 ms on two in most of its
+/// refreshes (0.8-1.3 ms where the other thread was slow to wake; printed).
+const PARALLEL_PROJECTED_DERIVATIVES: usize = 256;
 
 /// What an elastic Hessian is for, which decides the digits it is summed with.
 #[derive(Clone, Copy)]
@@ -152,7 +156,12 @@ impl ReducedSim {
     ) -> DMatrix<f64> {
         let material = self.material;
         let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, project);
-        let hessians: Vec<Matrix9> = if gradients.len() >= PARALLEL_STRESS_DERIVATIVES {
+        let parallel_from = if project {
+            PARALLEL_PROJECTED_DERIVATIVES
+        } else {
+            PARALLEL_STRESS_DERIVATIVES
+        };
+        let hessians: Vec<Matrix9> = if gradients.len() >= parallel_from {
             gradients.par_iter().map(hessian_of).collect()
         } else {
             gradients.iter().map(hessian_of).collect()

@@ -102,14 +102,29 @@ impl PinConstraint {
         let n = hessian.nrows();
         let scale = hessian.trace() / n as f64;
         let w = &self.flat_basis;
-        let hw = &*hessian * w;
-        let whw = w.transpose() * &hw;
-        // P H P = H - W (HW)^T - (HW) W^T + W (W^T H W) W^T
-        hessian.gemm(-1.0, w, &hw.transpose(), 1.0);
-        hessian.gemm(-1.0, &hw, &w.transpose(), 1.0);
-        let w_whw = w * whw;
-        hessian.gemm(1.0, &w_whw, &w.transpose(), 1.0);
-        hessian.gemm(scale, w, &w.transpose(), 1.0);
+        // With P = I - W W^T and Y = H W - W (W^T H W) / 2 - s W / 2,
+        //   P H P + s (I - P) = H - W Y^T - Y W^T,
+        // one update of rank 2 x 3r: the four products it was written as took 0.13-0.16 ms of
+        // the poked creature's refreshes (printed).
+        let mut y = &*hessian * w;
+        let whw = w.transpose() * &y;
+        y.gemm(-0.5, w, &whw, 1.0);
+        y -= w * (0.5 * scale);
+        let left = DMatrix::from_fn(n, 2 * w.ncols(), |i, j| {
+            if j < w.ncols() {
+                w[(i, j)]
+            } else {
+                y[(i, j - w.ncols())]
+            }
+        });
+        let right = DMatrix::from_fn(n, 2 * w.ncols(), |i, j| {
+            if j < w.ncols() {
+                y[(i, j)]
+            } else {
+                w[(i, j - w.ncols())]
+            }
+        });
+        hessian.gemm(-1.0, &left, &right.transpose(), 1.0);
     }
 
     /// How many directions of the 4K are held exactly.
@@ -172,6 +187,31 @@ mod tests {
                 residual[i]
             );
         }
+    }
+
+    /// The rank-2 x 3r update equals P H P + s (I - P) written out with the projector.
+    #[test]
+    fn restriction_equals_the_projector_written_out() {
+        let n = 24;
+        let a = DMatrix::from_fn(n, n, |i, j| ((i * 5 + j * 3) % 7) as f64 - 3.0);
+        let hessian = &a * a.transpose() + DMatrix::identity(n, n);
+        let mut pin_phi = DMatrix::zeros(8, 8);
+        pin_phi[(1, 1)] = 1.0;
+        pin_phi[(2, 2)] = 2.0;
+        pin_phi[(1, 2)] = 0.5;
+        pin_phi[(2, 1)] = 0.5;
+        let constraint =
+            PinConstraint::dominant(&pin_phi, 1e9, &DMatrix::identity(n, n), DOMINANT_PINS)
+                .expect("held");
+        assert_eq!(constraint.held_directions(), 2);
+        let w = &constraint.flat_basis;
+        let p = DMatrix::identity(n, n) - w * w.transpose();
+        let scale = hessian.trace() / n as f64;
+        let expected = &p * &hessian * &p + (DMatrix::identity(n, n) - &p) * scale;
+        let mut restricted = hessian.clone();
+        constraint.restrict_hessian(&mut restricted);
+        let error = (&restricted - &expected).norm() / expected.norm();
+        assert!(error < 1e-13, "relative difference {error:e}");
     }
 
     #[test]
