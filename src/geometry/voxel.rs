@@ -161,12 +161,12 @@ impl VoxelGrid {
     /// The mean centre of the solid cells: the solid's centre of mass at uniform density (the
     /// origin when no cell is solid).
     pub fn solid_centroid(&self) -> Vector3<f64> {
-        let cells: Vec<usize> = (0..self.len()).filter(|&i| self.solid[i]).collect();
-        cells
-            .iter()
-            .map(|&i| self.cell_center(self.coords(i)))
-            .sum::<Vector3<f64>>()
-            / cells.len().max(1) as f64
+        let (sum, count) = (0..self.len())
+            .filter(|&i| self.solid[i])
+            .fold((Vector3::zeros(), 0usize), |(sum, count), i| {
+                (sum + self.cell_center(self.coords(i)), count + 1)
+            });
+        sum / count.max(1) as f64
     }
 
     /// Volume of the solid, counting cells the surface cuts as half full.

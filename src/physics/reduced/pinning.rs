@@ -110,20 +110,12 @@ impl PinConstraint {
         let whw = w.transpose() * &y;
         y.gemm(-0.5, w, &whw, 1.0);
         y -= w * (0.5 * scale);
-        let left = DMatrix::from_fn(n, 2 * w.ncols(), |i, j| {
-            if j < w.ncols() {
-                w[(i, j)]
-            } else {
-                y[(i, j - w.ncols())]
-            }
-        });
-        let right = DMatrix::from_fn(n, 2 * w.ncols(), |i, j| {
-            if j < w.ncols() {
-                y[(i, j)]
-            } else {
-                w[(i, j - w.ncols())]
-            }
-        });
+        let held = w.ncols();
+        // [W Y] [Y W]^T.
+        let mut left = w.clone().resize_horizontally(2 * held, 0.0);
+        left.columns_mut(held, held).copy_from(&y);
+        let mut right = y.resize_horizontally(2 * held, 0.0);
+        right.columns_mut(held, held).copy_from(w);
         hessian.gemm(-1.0, &left, &right.transpose(), 1.0);
     }
 
