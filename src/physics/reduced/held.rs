@@ -22,6 +22,9 @@ const CONTACT_CHANGE: f64 = 0.5;
 /// Iterations of a converged step past which its held Hessian is refreshed for the next one
 /// (see `ReducedSim::refresh_ahead`).
 const REFRESH_AHEAD_ITERATIONS: usize = 7;
+/// Iterations within which a solve whose budget ran out must be set to converge to go on
+/// without a refresh (see `nearly_done`).
+const EXTENSION_GRACE: usize = 4;
 /// Iterations more than a fresh held Hessian's first step took that show it stale.
 const STALE_ITERATIONS: usize = 3;
 
@@ -166,6 +169,34 @@ impl ReducedSim {
             .expect("inertia plus a PSD Hessian is positive definite")
     }
 
+    /// Renews the held matrix where a solve at `z` (evaluated in `at`) progresses slowly: it
+    /// no longer describes the state. Where the contact springs acting differ from those it
+    /// was factored with (a landing's come and go within its step), or the body has turned, it
+    /// is factored again as it is now: one small factorization, where a new elastic Hessian
+    /// costs an assembly over the cubature points. A scanned rod's landing took 8.5 to 10.1 ms
+    /// with three elastic refreshes in its step; with its springs refactored first, no step of
+    /// its drop took over 2.9 ms (printed): its springs had changed, its elastic Hessian
+    /// hardly had. Otherwise a new elastic Hessian is held from now on, and the curvature
+    /// `history` measured against the old one, which would pull it back, is dropped. It
+    /// outlives a refactor for springs: it holds the elasticity's curvature the factor still
+    /// lacks. Dropped there too, the creature's landing steps slowed after it (step lengths of
+    /// a half and a quarter) and ran into their budget: slowest step 5.764 ms, 23 iterations
+    /// and two elastic refreshes in its drop, against 2.383 ms, 17 and none with it kept
+    /// (printed, FEM left out).
+    pub(super) fn refresh_held(
+        &mut self,
+        z: &DMatrix<f64>,
+        at: &Evaluation,
+        report: &mut StepReport,
+        history: &mut VecDeque<(DVector<f64>, DVector<f64>)>,
+    ) {
+        if !self.hold_at(z) {
+            self.hold_new(self.held_elastic_at(z, refresh_use(at)), z);
+            report.refreshes += 1;
+            history.clear();
+        }
+    }
+
     /// Keeps count of how a held Hessian fares, and refreshes it at `z`, where the step that
     /// `report`s ending in `end` shows it stale (see `refresh_ahead`).
     pub(super) fn refresh_if_stale(
@@ -245,6 +276,17 @@ pub(super) fn refresh_due(since: usize, decrements: &[f64], tolerance: f64) -> b
     since == REFRESH_AFTER_ITERATIONS && !converging_within(decrements, tolerance, REFRESH_GRACE)
 }
 
+/// Whether a solve whose budget has run out, its decrements (one per iteration since the last
+/// refresh) falling fast enough to reach `tolerance` within `EXTENSION_GRACE` iterations, goes
+/// on over the matrix it holds: a refresh there buys one or two iterations. The poked
+/// creature's slowest steps had refreshed at iteration 11, ran out at 20 and refreshed again
+/// for their last two iterations; going on instead took its slowest step from 8.138 to
+/// 4.731-5.512 ms (printed, FEM left out). A solve not nearly done is refreshed: the violent
+/// poke on `bench stress`'s soft box needs it to converge.
+pub(super) fn nearly_done(decrements: &[f64], tolerance: f64) -> bool {
+    converging_within(decrements, tolerance, EXTENSION_GRACE)
+}
+
 /// Whether the decrements, falling at their rate over the last two iterations, reach
 /// `tolerance` within `iterations` more.
 fn converging_within(decrements: &[f64], tolerance: f64, iterations: usize) -> bool {
@@ -291,7 +333,7 @@ pub(super) fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
 /// 1.829 and 1.927 ms against 2.679 and 2.742 ms (printed); in contact, the scanned rod's
 /// landing took 9.586 ms coarse against 7.249 ms on every point (printed): where the springs
 /// hold the stiff directions, the soft ones left to elasticity need its Hessian's digits.
-pub(super) fn refresh_use(at: &Evaluation) -> HessianUse {
+fn refresh_use(at: &Evaluation) -> HessianUse {
     if at.touching.is_empty() {
         HessianUse::Refresh
     } else {

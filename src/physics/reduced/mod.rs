@@ -33,7 +33,7 @@ use super::subspace::Subspace;
 use crate::error::Result;
 use crate::linalg::{product, DenseCholesky};
 use contact::ContactSignature;
-use held::{refresh_due, refresh_use};
+use held::{nearly_done, refresh_due};
 use pinning::PinConstraint;
 use point::{Gathered, ReducedPoint};
 use search::{objective_change, quadratic_change};
@@ -47,8 +47,9 @@ pub enum Solver {
     Newton,
     /// L-BFGS (32 pairs, kept across steps) over a held, factored Hessian: the rest-state one
     /// at first, refactored at the current state whenever a step has taken 11 iterations. A step
-    /// still descending when its budget runs out gets it again over a refreshed Hessian; one it
-    /// cannot descend in, or still cannot finish, is handed to full Newton.
+    /// still descending when its budget runs out gets it again, over a refreshed Hessian unless
+    /// it is nearly done; one it cannot descend in, or still cannot finish, is handed to full
+    /// Newton.
     QuasiNewton,
 }
 
@@ -516,20 +517,7 @@ impl ReducedSim {
             if mode == Solver::QuasiNewton
                 && refresh_due(since_refresh, &decrements, self.decrement_tolerance)
             {
-                // Slow progress: the held matrix no longer describes the state. Where the
-                // contact springs acting differ from those it was factored with (a landing's
-                // come and go within its step), or the body has turned, it is factored again
-                // as it is now first: one small factorization, where a new elastic Hessian
-                // costs an assembly over the cubature points. Either way it is held from now
-                // on; pairs measured against the old one would pull the new one back.
-                // A scanned rod's landing took 8.5 to 10.1 ms with three elastic refreshes in
-                // its step; with its springs refactored first, no step of its drop took over
-                // 2.9 ms (printed): its springs had changed, its elastic Hessian hardly had.
-                if !self.hold_at(z) {
-                    self.hold_new(self.held_elastic_at(z, refresh_use(&current)), z);
-                    report.refreshes += 1;
-                }
-                history.clear();
+                self.refresh_held(z, &current, report, &mut history);
                 since_refresh = 0;
                 decrements.clear();
             }
@@ -557,18 +545,21 @@ impl ReducedSim {
             };
             let Some((step, next)) = searched else {
                 // A solver still descending when its budget runs out gets it again, as
-                // L-BFGS over a Hessian refreshed here: it converges in a few iterations after
-                // the refresh, where full Newton would assemble a Hessian for each of its own
-                // (a plate's impact took 36 ms that way). Quasi-Newton hands a step it cannot
-                // descend in, or still cannot finish, to full Newton once. Otherwise the step
-                // ends unconverged.
+                // L-BFGS over a Hessian refreshed here unless it is nearly done: it converges
+                // in a few iterations after the refresh, where full Newton would assemble a
+                // Hessian for each of its own (a plate's impact took 36 ms that way).
+                // Quasi-Newton hands a step it cannot descend in, or still cannot finish, to
+                // full Newton once. Otherwise the step ends unconverged.
                 if budget == 0 && extensions < BUDGET_EXTENSIONS {
                     extensions += 1;
                     budget = self.params.max_iterations;
-                    mode = Solver::QuasiNewton;
-                    // Refreshed at once: no decrements say it is nearly done.
-                    since_refresh = REFRESH_AFTER_ITERATIONS;
-                    decrements.clear();
+                    let tolerance = self.decrement_tolerance;
+                    if mode == Solver::Newton || !nearly_done(&decrements, tolerance) {
+                        // Refreshed at once: the held matrix is what holds it back.
+                        mode = Solver::QuasiNewton;
+                        since_refresh = REFRESH_AFTER_ITERATIONS;
+                        decrements.clear();
+                    }
                     continue;
                 }
                 if mode == Solver::QuasiNewton && !newton_tried {
