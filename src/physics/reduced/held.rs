@@ -343,7 +343,21 @@ fn refresh_use(at: &Evaluation) -> HessianUse {
 
 #[cfg(test)]
 mod tests {
-    use super::changed_past_share;
+    use super::{changed_past_share, nearly_done, EXTENSION_GRACE};
+
+    /// A solve whose decrements fall tenfold an iteration, 10^EXTENSION_GRACE above the
+    /// tolerance less a little, goes on without a refresh; one a little further off, or one
+    /// falling slowly, or with too few decrements to tell, does not.
+    #[test]
+    fn nearly_done_when_the_decrements_reach_the_tolerance_within_the_grace() {
+        let tolerance = 1e-4;
+        let falling = |last: f64| [last * 100.0, last * 10.0, last];
+        let within = tolerance * 10f64.powi(EXTENSION_GRACE as i32) * 0.9;
+        assert!(nearly_done(&falling(within), tolerance));
+        assert!(!nearly_done(&falling(within * 1.2), tolerance));
+        assert!(!nearly_done(&[1e-3, 0.9e-3, 0.8e-3], tolerance), "slow");
+        assert!(!nearly_done(&[within], tolerance), "one decrement");
+    }
 
     fn pairs(points: std::ops::Range<usize>) -> Vec<(usize, usize)> {
         points.map(|c| (c, 0)).collect()
