@@ -10,22 +10,21 @@ use nalgebra::{Matrix3, Vector2, Vector3};
 const FITTED_FROM: usize = 12;
 /// The fitted circle's radius, against half the outline's width across the axis, must lie
 /// within these bounds: a section that is no circle (a ring, a flattened body) fits one far off.
-/// A circle fits half an ellipse with little misfit (within 0.018 of its radius at any ratio
-/// of its axes, 20 points), but not with the radius its outline shows: 1.22 and 2.03 times
-/// its half-width for one 0.6 as broad as it is long, seen across either axis.
+/// A circle fits half an ellipse with little misfit (within 0.018 of its radius for ratios of
+/// its axes from 0.3 to 0.9, 20 points), but not with the radius its outline shows: 1.22 and
+/// 2.03 times its half-width for one 0.6 as broad as it is long, seen across either axis.
 const RADIUS_BOUNDS: (f64, f64) = (0.85, 1.2);
 /// The points must lie this close to the fitted circle (root mean square, against its radius)
 /// for the section to be taken as round. `bench views`' rods and capsules fitted within 0.005
-/// to 0.015 of their radius, its turned ellipsoid (its band across a tapering middle) 0.029 to
-/// 0.043, a creature and a torus taken as long 0.053 and 0.45 (printed).
+/// to 0.015 of their radius, its turned ellipsoid 0.029 to 0.043, a creature and a torus taken
+/// as long 0.053 and 0.45 (printed).
 const ROUNDNESS: f64 = 0.02;
 
 /// The axis of the round object whose surface `points` sample, given its unit direction `axis`:
 /// the centre of the circle fitted to them seen along it (see `fit_circle`), as the axis's
-/// point in the plane through `near` across the axis; None with fewer
-/// than `FITTED_FROM` points, a degenerate fit, a radius out of `RADIUS_BOUNDS` of `half_width`
-/// (half the outline's width across the axis), or points off the circle by more than
-/// `ROUNDNESS`.
+/// point in the plane through `near` across the axis. None with fewer than `FITTED_FROM`
+/// points, a degenerate fit, a radius out of `RADIUS_BOUNDS` of `half_width` (half the
+/// outline's width across the axis), or points off the circle by more than `ROUNDNESS`.
 pub(super) fn round_axis(
     points: &[Vector3<f64>],
     axis: &Vector3<f64>,
