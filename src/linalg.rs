@@ -6,6 +6,8 @@ use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{MatMut, Par, Side};
 
+use nalgebra::Vector3;
+
 use crate::error::{Error, Result};
 
 /// The upper triangle (row <= column) of a symmetric matrix whose nonzeros couple the nodes of
@@ -292,6 +294,20 @@ impl DenseCholesky {
             faer::dyn_stack::MemStack::new(&mut buffer),
         );
     }
+}
+
+/// Two unit vectors orthogonal to the unit `normal` and to each other, (normal x helper,
+/// normal x that) for a helper axis well away from `normal`: contact tangents, a view's axes,
+/// the plane across a long object's axis.
+pub(crate) fn tangents(normal: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let helper = if normal.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let t1 = normal.cross(&helper).normalize();
+    let t2 = normal.cross(&t1);
+    [t1, t2]
 }
 
 #[cfg(test)]

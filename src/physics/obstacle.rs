@@ -10,6 +10,7 @@ use parry3d::math::{Pose, Vector};
 use parry3d::shape::SharedShape;
 
 use super::hull::ConvexHull;
+use crate::linalg::tangents;
 
 /// A static rigid obstacle in the world.
 #[derive(Clone)]
@@ -227,18 +228,6 @@ pub(crate) fn carried_by(
         (Some(from), Some(to)) if before.len() == now.len() => from.carry(to, x),
         _ => *x,
     }
-}
-
-/// Two unit tangents orthogonal to `normal` and to each other.
-pub(crate) fn tangents(normal: &Vector3<f64>) -> [Vector3<f64>; 2] {
-    let helper = if normal.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let t1 = normal.cross(&helper).normalize();
-    let t2 = normal.cross(&t1);
-    [t1, t2]
 }
 
 /// A hasher for the small integer keys of ties (indices of points, obstacles and bodies):

@@ -12,7 +12,8 @@
 
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
-use super::obstacle::{tangents, Ties, STICK_SLIP};
+use super::obstacle::{Ties, STICK_SLIP};
+use crate::linalg::tangents;
 
 /// Surface travel (m) at which rolling friction reaches its limit: the same slip as point
 /// friction, turned into an angle by the body's half diagonal.

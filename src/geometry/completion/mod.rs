@@ -24,6 +24,7 @@ mod section;
 
 use super::point_index::{neighbour_distance, PointIndex};
 use super::shape::principal_extents;
+use crate::linalg::tangents;
 use reflection::{Carving, Reflection};
 use section::round_axis;
 
@@ -123,13 +124,9 @@ impl ViewFrame {
     fn new(points: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> Option<Self> {
         let centroid = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
         let forward = (centroid - viewpoint).try_normalize(1e-12)?;
-        let helper = if forward.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let right = forward.cross(&helper).normalize();
-        let up = right.cross(&forward);
+        // right x forward = -(forward x right), the same products: `up` as it was.
+        let [right, down] = tangents(&forward);
+        let up = -down;
         let frame = Self {
             viewpoint: *viewpoint,
             forward,

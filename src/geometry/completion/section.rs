@@ -6,6 +6,8 @@
 
 use nalgebra::{Matrix3, Vector2, Vector3};
 
+use crate::linalg::tangents;
+
 /// Fewer points than this do not fit a circle to trust.
 const FITTED_FROM: usize = 12;
 /// The fitted circle's radius, against half the outline's width across the axis, must lie
@@ -34,13 +36,7 @@ pub(super) fn round_axis(
     if points.len() < FITTED_FROM {
         return None;
     }
-    let helper = if axis.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let first = axis.cross(&helper).normalize();
-    let second = axis.cross(&first);
+    let [first, second] = tangents(axis);
     let flat: Vec<Vector2<f64>> = points
         .iter()
         .map(|p| Vector2::new((p - near).dot(&first), (p - near).dot(&second)))

@@ -5,8 +5,8 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::curvature::Springs;
 use super::held::turn_blocks;
+use crate::linalg::tangents;
 use crate::linalg::DenseCholesky;
-use crate::physics::obstacle::tangents;
 use rand::{Rng, SeedableRng};
 
 /// d(n . x)/dz for x = X + Z phi: the flat vector phi (x) n.
