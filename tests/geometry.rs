@@ -287,3 +287,66 @@ fn bundled_shapes_are_closed_and_their_voxel_volume_matches() {
         );
     }
 }
+
+/// A thin rod's points, on its surface (`fill` false) or through it, symmetric through `centre`:
+/// each point comes with its reflection.
+fn symmetric_rod(centre: &Vector3<f64>, fill: bool) -> Vec<Vector3<f64>> {
+    let axis = Vector3::new(1.0, 0.004, -0.003).normalize();
+    let across = axis.cross(&Vector3::z()).normalize();
+    let third = axis.cross(&across);
+    let radii: &[f64] = if fill {
+        &[0.0, 0.02, 0.035, 0.05]
+    } else {
+        &[0.05]
+    };
+    let mut points = Vec::new();
+    for s in 0..=60 {
+        let along = axis * (0.6 * s as f64 / 60.0);
+        for &radius in radii {
+            for t in 0..32 {
+                let angle = std::f64::consts::TAU * (t as f64 + 0.3) / 32.0;
+                let p = along + (across * angle.cos() + third * angle.sin()) * radius;
+                points.extend([centre + p, centre - p]);
+            }
+        }
+    }
+    points
+}
+
+#[test]
+fn a_filled_cloud_symmetric_through_its_centre_is_voxelized_symmetric_through_it() {
+    let centre = Vector3::new(0.0123, -0.0077, 0.0051);
+    let shape = |points| Shape::new(points, None, Vec::new()).unwrap();
+    let (solid, surface) = (
+        shape(symmetric_rod(&centre, true)),
+        shape(symmetric_rod(&centre, false)),
+    );
+    let grid = VoxelGrid::from_filled_cloud(&solid, &surface, 64, &centre);
+    // A cell corner at the centre: every cell has its reflection's cell.
+    let corner = (centre - grid.origin) / grid.cell;
+    assert!(
+        corner.iter().all(|c| (c - c.round()).abs() < 1e-9),
+        "{corner:?}"
+    );
+    let mut solid_cells = 0;
+    for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
+        let mirrored = 2.0 * centre - grid.cell_center(grid.coords(index));
+        assert!(
+            grid.contains(&mirrored),
+            "cell {index}'s reflection is not solid"
+        );
+        solid_cells += 1;
+    }
+    let offset = (grid.solid_centroid() - centre).norm();
+    // Laid out from the cloud's corner instead (`from_shape`), the same points' solid was 7.6 mm
+    // off the centre (printed).
+    let unanchored = VoxelGrid::from_shape(&solid, 64, None).solid_centroid() - centre;
+    println!(
+        "{solid_cells} cells, centroid {offset:.2e} m off (from the corner {:.2e})",
+        unanchored.norm()
+    );
+    assert!(
+        offset < 1e-9,
+        "the solid's centroid is {offset} m off the centre"
+    );
+}

@@ -140,7 +140,7 @@ fn compare(
         row.outcome = "the completed cloud is not a shape".into();
         return row;
     };
-    let mut grid = VoxelGrid::from_filled_cloud(&solid, &surface, RESOLUTION);
+    let mut grid = VoxelGrid::from_filled_cloud(&solid, &surface, RESOLUTION, &view.centre);
     grid.keep_largest_component();
     let (lo, hi) = shape.bounds();
     row.volume_ratio = solid_volume(&grid) / solid_volume(truth);

@@ -58,12 +58,29 @@ impl VoxelGrid {
     /// `closing_radius` cells of dilation seal holes up to about twice that width before the
     /// flood fill; `None` picks 1 for meshes and, for clouds, enough to bridge the point spacing.
     pub fn from_shape(shape: &Shape, resolution: usize, closing_radius: Option<usize>) -> Self {
+        Self::voxelized(shape, resolution, closing_radius, None)
+    }
+
+    /// `from_shape` with a cell corner at `anchor` when one is given: the grid is then
+    /// symmetric through it, and so is the solid of a shape symmetric through it.
+    fn voxelized(
+        shape: &Shape,
+        resolution: usize,
+        closing_radius: Option<usize>,
+        anchor: Option<&Vector3<f64>>,
+    ) -> Self {
         let (lo, hi) = shape.bounds();
         let cell = (hi - lo).max() / resolution.max(1) as f64;
         let radius = closing_radius.unwrap_or_else(|| default_closing_radius(shape, cell));
-        let pad = radius + 2;
-        let origin = lo - Vector3::repeat(pad as f64 * cell);
-        let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 2 * pad + 1);
+        let pad = (radius + 2) as f64;
+        let origin = match anchor {
+            Some(a) => a - (a - lo).map(|d| ((d / cell).ceil() + pad) * cell),
+            None => lo - Vector3::repeat(pad * cell),
+        };
+        // Written from `lo` without an anchor: the same cells as ever, to the last bit.
+        let start = anchor.map_or(lo, |_| origin + Vector3::repeat(pad * cell));
+        let dims =
+            [0, 1, 2].map(|a| ((hi[a] - start[a]) / cell).ceil() as usize + 2 * pad as usize + 1);
         let mut grid = Self {
             origin,
             cell,
@@ -89,11 +106,17 @@ impl VoxelGrid {
 
     /// The solid of `solid` (points on and inside a surface), its holes closed by the spacing
     /// of `surface`'s points: a dense fill must not shrink the closing to its own spacing.
-    pub fn from_filled_cloud(solid: &Shape, surface: &Shape, resolution: usize) -> Self {
+    /// The grid has a cell corner at `centre` (see `voxelized`).
+    pub fn from_filled_cloud(
+        solid: &Shape,
+        surface: &Shape,
+        resolution: usize,
+        centre: &Vector3<f64>,
+    ) -> Self {
         let (lo, hi) = solid.bounds();
         let cell = (hi - lo).max() / resolution.max(1) as f64;
         let radius = default_closing_radius(surface, cell);
-        let mut grid = Self::from_shape(solid, resolution, Some(radius));
+        let mut grid = Self::voxelized(solid, resolution, Some(radius), Some(centre));
         // Only the surface's cells are cut by it (and count half in the volume); the fill's
         // other cells are whole.
         grid.surface.iter_mut().for_each(|s| *s = false);

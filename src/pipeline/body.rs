@@ -7,7 +7,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, Isometry3, Vector3};
 use serde::Serialize;
 
-use super::input::{truncate, NetworkInput};
+use super::input::{truncate, Fill, NetworkInput};
 use super::options::{BodyOptions, SleepRule};
 use super::support::apply_support;
 use super::switch::{refine_on_solid, BasisPlan, PreparedBasis, SwitchReport};
@@ -100,7 +100,11 @@ impl SoftBody {
     ) -> Result<Self> {
         let surface = Shape::new(view.surface.clone(), None, Vec::new())?;
         let solid = Shape::new(view.solid.clone(), None, Vec::new())?;
-        let mut body = Self::build_filled(model, &surface, Some(&solid), points, options)?;
+        let fill = Fill {
+            solid: &solid,
+            centre: &view.centre,
+        };
+        let mut body = Self::build_filled(model, &surface, Some(fill), points, options)?;
         let r = &view.report;
         body.decision = format!(
             "{}; completed one view ({}): observed {:.1} % of the surface, {:.3e} m^3, {:.3} m deep",
@@ -116,12 +120,12 @@ impl SoftBody {
     fn build_filled(
         model: &Arc<NeuralModel>,
         shape: &Shape,
-        solid: Option<&Shape>,
+        fill: Option<Fill>,
         points: &[Vector3<f64>],
         options: &BodyOptions,
     ) -> Result<Self> {
         let started = Instant::now();
-        let input = NetworkInput::new(shape, solid, options)?;
+        let input = NetworkInput::new(shape, fill, options)?;
         let t = Instant::now();
         let field: Arc<dyn SkinningField> =
             Arc::new(model.field(&input.surface, &input.reference, input.map)?);

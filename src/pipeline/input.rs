@@ -16,6 +16,14 @@ use crate::geometry::{
 use crate::skinning::{SkinningField, TruncatedField};
 use crate::Result;
 
+/// A completed view's fill: points on and inside its surface, and the centre its prior reflects
+/// through, where the inside test's grid puts a cell corner so that a solid the prior made
+/// symmetric stays symmetric (see `VoxelGrid::from_filled_cloud`).
+pub(super) struct Fill<'a> {
+    pub(super) solid: &'a Shape,
+    pub(super) centre: &'a Vector3<f64>,
+}
+
 /// What the network reads from a shape: `surface_points` surface samples (in world units, and
 /// in the normalized frame) and `reference_points` stratified interior points (normalized) that
 /// fix the output normalization. A fixed seed: the same geometry always gives the same input.
@@ -30,13 +38,18 @@ pub(super) struct NetworkInput {
 }
 
 impl NetworkInput {
-    /// `solid`: points filling `shape` (a completed view's), voxelized in its place.
-    pub(super) fn new(shape: &Shape, solid: Option<&Shape>, options: &BodyOptions) -> Result<Self> {
+    /// `fill`: points filling `shape` (a completed view's), voxelized in its place.
+    pub(super) fn new(shape: &Shape, fill: Option<Fill>, options: &BodyOptions) -> Result<Self> {
         options.sim.validate()?;
         shape.check_solid()?;
         let started = Instant::now();
-        let grid = match solid {
-            Some(solid) => VoxelGrid::from_filled_cloud(solid, shape, options.voxel_resolution),
+        let grid = match fill {
+            Some(fill) => VoxelGrid::from_filled_cloud(
+                fill.solid,
+                shape,
+                options.voxel_resolution,
+                fill.centre,
+            ),
             None => VoxelGrid::from_shape(shape, options.voxel_resolution, None),
         };
         if grid.solid_volume() <= 0.0 {

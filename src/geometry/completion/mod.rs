@@ -106,6 +106,8 @@ pub struct Completed {
     /// The surface and points filling it along the view rays: what the inside test voxelizes,
     /// so that no gap in a sparse hidden side lets the outside in.
     pub solid: Vec<Vector3<f64>>,
+    /// The object's estimated centre, through which the prior reflects what was seen.
+    pub centre: Vector3<f64>,
     /// What the completion did.
     pub report: Completion,
 }
@@ -315,6 +317,7 @@ pub fn complete_view(
         },
         surface,
         solid,
+        centre,
     }))
 }
 
