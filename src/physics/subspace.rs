@@ -7,7 +7,7 @@
 //! so each handle owns 12 consecutive numbers. The deformation gradient is F = I + Z G(X) with
 //! G = d phi / dX (4K x 3): row 4i + c of G is w_i e_c^T + X~_c grad w_i^T.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
@@ -107,6 +107,9 @@ pub struct Subspace {
     mean_gradient: DMatrix<f64>,
     total_mass: f64,
     density: f64,
+    /// The elastic Hessian at rest for a material, kept once assembled (see
+    /// [`Subspace::rest_elastic_hessian`]).
+    rest_hessian: Mutex<Option<(Material, Arc<DMatrix<f64>>)>>,
 }
 
 impl Subspace {
@@ -142,7 +145,23 @@ impl Subspace {
             mass_moment,
             total_mass: density * cubature.total_volume(),
             density,
+            rest_hessian: Mutex::new(None),
         }
+    }
+
+    /// The elastic Hessian at rest for `material`: assembled over every cubature point on first
+    /// use and kept, so that a basis prepared off the stepping thread
+    /// (`pipeline::BasisPlan::prepare`) brings it along and a switch to it does not assemble it
+    /// between two ticks.
+    pub fn rest_elastic_hessian(&self, material: &Material) -> Arc<DMatrix<f64>> {
+        let mut kept = self.rest_hessian.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, hessian)) = kept.as_ref().filter(|(m, _)| m == material) {
+            return hessian.clone();
+        }
+        let h = material.stress_derivative(&Matrix3::identity(), true);
+        let hessian = Arc::new(self.elastic_hessian(&vec![h; self.cubature_len()]));
+        *kept = Some((*material, hessian.clone()));
+        hessian
     }
 
     /// The skinning field sampled.

@@ -325,6 +325,7 @@ impl SoftBody {
             points: self.lifter.rest_points(),
             contacts: self.sim.contact_rests(),
             density: self.sim.params().density,
+            material: self.sim.params().material(),
             grid: self.grid.clone(),
         }
     }

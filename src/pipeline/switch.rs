@@ -10,7 +10,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::error::{Error, Result};
 use crate::geometry::{Cubature, Normalization, TetMesh, VoxelGrid};
-use crate::physics::{sample, state_projection, Lifter, Subspace};
+use crate::physics::{sample, state_projection, Lifter, Material, Subspace};
 use crate::skinning::{refine_field_until, RefineOptions, RefineReport, Refined, SkinningField};
 
 /// Tet mesh cells across the solid's longest side for the refinement: the eigenmodes' own
@@ -27,6 +27,8 @@ pub struct BasisPlan {
     /// The simulation's contact points (rest positions, in its order).
     pub(super) contacts: Vec<Vector3<f64>>,
     pub(super) density: f64,
+    /// The body's material: its rest Hessian in the new subspace is assembled with the rest.
+    pub(super) material: Material,
     pub(super) grid: VoxelGrid,
 }
 
@@ -109,6 +111,9 @@ impl BasisPlan {
     pub fn prepare(&self, field: Arc<dyn SkinningField>) -> Result<PreparedBasis> {
         let started = Instant::now();
         let subspace = Subspace::build(field.clone(), self.map, &self.cubature, self.density);
+        // Kept by the subspace: the switch's first preconditioner then costs one factorization
+        // on the stepping thread, not an assembly over every cubature point.
+        subspace.rest_elastic_hessian(&self.material);
         let masses: Vec<f64> = self
             .cubature
             .volumes

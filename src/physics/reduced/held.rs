@@ -137,7 +137,7 @@ impl ReducedSim {
     pub(super) fn held_matrix(&mut self) -> &DMatrix<f64> {
         if self.held.is_none() {
             let matrix = if self.z.amax() == 0.0 {
-                self.rest_elastic_hessian().clone()
+                (*self.rest_elastic_hessian()).clone()
             } else {
                 self.held_elastic_at(&self.z, HessianUse::Preconditioner)
                     .matrix

@@ -220,7 +220,6 @@ pub struct ReducedSim {
     /// The object's bounding-box diagonal, m.
     diagonal: f64,
     pokes: Vec<(DVector<f64>, Poke)>,
-    rest_hessian: Option<DMatrix<f64>>,
     /// What the quasi-Newton preconditioner holds besides contact: elasticity (at rest, or at
     /// the state of the last refresh) plus inertia, damping and pins.
     held: Option<DMatrix<f64>>,
@@ -289,7 +288,6 @@ impl ReducedSim {
             roll_anchors: RollAnchors::default(),
             diagonal,
             pokes: Vec::new(),
-            rest_hessian: None,
             held: None,
             held_rotation: Matrix3::identity(),
             factored_contact: None,
@@ -344,13 +342,9 @@ impl ReducedSim {
         self.time = 0.0;
     }
 
-    /// The elastic Hessian at rest (PSD-projected), assembled on first use.
-    fn rest_elastic_hessian(&mut self) -> &DMatrix<f64> {
-        let (material, subspace) = (&self.material, &self.subspace);
-        self.rest_hessian.get_or_insert_with(|| {
-            let h = material.stress_derivative(&Matrix3::identity(), true);
-            subspace.elastic_hessian(&vec![h; subspace.cubature_len()])
-        })
+    /// The elastic Hessian at rest (PSD-projected), kept by the subspace.
+    fn rest_elastic_hessian(&self) -> Arc<DMatrix<f64>> {
+        self.subspace.rest_elastic_hessian(&self.material)
     }
 
     /// Adds a static obstacle; contact points collide with it.

@@ -115,7 +115,7 @@ impl ReducedSim {
             return;
         }
         let inertia = self.inertia_part();
-        let mut body = self.rest_elastic_hessian().clone();
+        let mut body = (*self.rest_elastic_hessian()).clone();
         add_kron_identity(&mut body, &inertia);
         let k = self.params.pin_stiffness;
         self.pinning = PinConstraint::dominant(&self.pin_phi, k, &body, DOMINANT_PINS);

@@ -191,3 +191,58 @@ fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
     let held = held.expect("touching");
     assert!((&held - &fresh).amax() <= 1e-12 * fresh.amax());
 }
+
+/// A rebased body's preconditioner holds the new subspace's rest Hessian, the one the subspace
+/// keeps (assembled where the basis was prepared, not between two ticks), turned with the
+/// body; it goes on stepping and converging.
+#[test]
+fn a_rebased_body_holds_its_new_subspaces_kept_rest_hessian() {
+    use crate::geometry::{box_mesh, Cubature, TetMesh, VoxelGrid};
+    use crate::physics::{ReducedSim, SimParams, Solver, Subspace};
+    use crate::skinning::{EigenmodeField, EigenmodeOptions};
+    use std::sync::Arc;
+
+    let shape = box_mesh(Vector3::new(0.4, 0.2, 0.1));
+    let grid = VoxelGrid::from_shape(&shape, 64, None).resample(8);
+    let mesh = TetMesh::from_grid(&grid);
+    let options = EigenmodeOptions {
+        modes: 2,
+        ..Default::default()
+    };
+    let field =
+        Arc::new(EigenmodeField::compute(mesh.clone(), shape.normalization(), &options).unwrap());
+    let cubature = Cubature::stratified(&grid, 64, mesh.volume());
+    let build = || {
+        Arc::new(Subspace::build(
+            field.clone(),
+            shape.normalization(),
+            &cubature,
+            1000.0,
+        ))
+    };
+    let params = SimParams::default();
+    let mut sim = ReducedSim::new(build(), params.clone(), Solver::QuasiNewton, 0.46).unwrap();
+    let pinned: Vec<_> = mesh
+        .vertices
+        .iter()
+        .filter(|v| v.x < -0.15)
+        .cloned()
+        .collect();
+    sim.add_pins(&pinned, &vec![0.01; pinned.len()]);
+    for _ in 0..5 {
+        sim.step();
+    }
+    let next = build();
+    let kept = next.rest_elastic_hessian(&params.material());
+    assert!(
+        Arc::ptr_eq(&kept, &next.rest_elastic_hessian(&params.material())),
+        "kept"
+    );
+    let identity = DMatrix::identity(4 * next.handles(), 4 * next.handles());
+    let contacts = Vec::new();
+    sim.rebase(next, &identity, contacts).unwrap();
+    assert_eq!(sim.held.as_ref().expect("held"), &*kept);
+    for _ in 0..5 {
+        assert!(sim.step().converged);
+    }
+}
