@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::material::MaterialModel;
 
 /// Material and integration parameters (SI units).
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SimParams {
     /// Young's modulus, Pa. Default 1e5.
     pub young: f64,

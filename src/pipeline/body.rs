@@ -325,7 +325,7 @@ impl SoftBody {
             points: self.lifter.rest_points(),
             contacts: self.sim.contact_rests(),
             density: self.sim.params().density,
-            material: self.sim.params().material(),
+            setup: self.sim.setup(),
             grid: self.grid.clone(),
         }
     }
@@ -341,11 +341,8 @@ impl SoftBody {
                 reason: "prepared from a field this body no longer runs (it was rebuilt)".into(),
             });
         }
-        self.sim.rebase(
-            prepared.subspace,
-            &prepared.projection,
-            prepared.contact_phis,
-        )?;
+        self.sim
+            .rebase(prepared.twin, &prepared.projection, prepared.contact_phis)?;
         let handles = prepared.field.handle_count();
         let lifter = prepared.lifter;
         let mut deformed = vec![0.0f32; self.deformed.len()];

@@ -10,7 +10,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::error::{Error, Result};
 use crate::geometry::{Cubature, Normalization, TetMesh, VoxelGrid};
-use crate::physics::{sample, state_projection, Lifter, Material, Subspace};
+use crate::physics::{sample, state_projection, Lifter, ReducedSim, SimSetup, Subspace};
 use crate::skinning::{refine_field_until, RefineOptions, RefineReport, Refined, SkinningField};
 
 /// Tet mesh cells across the solid's longest side for the refinement: the eigenmodes' own
@@ -27,8 +27,8 @@ pub struct BasisPlan {
     /// The simulation's contact points (rest positions, in its order).
     pub(super) contacts: Vec<Vector3<f64>>,
     pub(super) density: f64,
-    /// The body's material: its rest Hessian in the new subspace is assembled with the rest.
-    pub(super) material: Material,
+    /// The simulation's setup, for its twin in the new subspace.
+    pub(super) setup: SimSetup,
     pub(super) grid: VoxelGrid,
 }
 
@@ -38,7 +38,8 @@ pub struct PreparedBasis {
     /// on new geometry) refuses the switch.
     pub(super) from: Arc<dyn SkinningField>,
     pub(super) field: Arc<dyn SkinningField>,
-    pub(super) subspace: Arc<Subspace>,
+    /// The simulation in the new subspace, set up as the body's was when the plan was made.
+    pub(super) twin: ReducedSim,
     /// The state's map from the old subspace to the new ([`state_projection`]).
     pub(super) projection: DMatrix<f64>,
     /// The contact points in the new subspace.
@@ -105,15 +106,19 @@ impl BasisPlan {
         Ok(prepared)
     }
 
-    /// `field` sampled where the body needs it: everything a switch needs but the pins (which
-    /// may change meanwhile), so that the switch itself costs little on the stepping thread.
-    /// Fails when the new field is degenerate on the cubature points.
+    /// `field` sampled where the body needs it, and the simulation's twin in its subspace with
+    /// the pins as they were when the plan was made (see `ReducedSim::prepared_twin`; a switch
+    /// after they changed sets them up anew), so that the switch itself costs little on the
+    /// stepping thread. Fails when the new field is degenerate on the cubature points.
     pub fn prepare(&self, field: Arc<dyn SkinningField>) -> Result<PreparedBasis> {
         let started = Instant::now();
-        let subspace = Subspace::build(field.clone(), self.map, &self.cubature, self.density);
-        // Kept by the subspace: the switch's first preconditioner then costs one factorization
-        // on the stepping thread, not an assembly over every cubature point.
-        subspace.rest_elastic_hessian(&self.material);
+        let subspace = Arc::new(Subspace::build(
+            field.clone(),
+            self.map,
+            &self.cubature,
+            self.density,
+        ));
+        let twin = ReducedSim::prepared_twin(subspace.clone(), &self.setup)?;
         let masses: Vec<f64> = self
             .cubature
             .volumes
@@ -133,7 +138,7 @@ impl BasisPlan {
             contact_phis: subspace.phis(&self.contacts),
             lifter: Lifter::from_weights(field.handle_count(), &weights, &self.points),
             field,
-            subspace: Arc::new(subspace),
+            twin,
             projection,
             weights: weights.iter().map(|&w| w as f32).collect(),
             refine: None,

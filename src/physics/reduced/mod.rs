@@ -23,7 +23,7 @@ mod point;
 mod rebase;
 mod search;
 
-pub use rebase::state_projection;
+pub use rebase::{state_projection, SimSetup};
 
 use super::material::Material;
 use super::obstacle::{Anchors, Obstacle, Stick};

@@ -2,42 +2,80 @@
 //! arrives while the body moves). The state is carried over by least squares on the cubature
 //! points, everything sampled from the field (pins, contact points, pokes) is sampled anew,
 //! and what was cached for the old subspace (Hessians, preconditioner, curvature pairs) is
-//! dropped; obstacles, friction anchors and the clock carry on.
+//! dropped; obstacles, friction anchors and the clock carry on. What does not depend on the
+//! state (the pins' samples and pinning, the preconditioner's factor) is prepared beforehand,
+//! off the stepping thread, in a twin of the simulation.
 
 use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::{ReducedPoint, ReducedSim};
+use super::{ReducedPoint, ReducedSim, Solver};
 use crate::error::{Error, Result};
 use crate::geometry::Normalization;
 use crate::physics::subspace::{phis, Subspace};
+use crate::physics::SimParams;
 use crate::skinning::SkinningField;
 
+/// How a simulation is set up apart from its subspace and its state: what preparing its twin
+/// in another subspace needs ([`ReducedSim::prepared_twin`]), owned, for another thread.
+#[derive(Clone)]
+pub struct SimSetup {
+    params: SimParams,
+    solver: Solver,
+    diagonal: f64,
+    pins: Vec<ReducedPoint>,
+}
+
 impl ReducedSim {
-    /// Continues in `subspace` from where the body is now, the state mapped by `projection`
-    /// ([`state_projection`]: the least-squares fit on the cubature points, so the velocity
-    /// carries over too). `contact_phis` are the contact points sampled in the new subspace,
-    /// in their order ([`ReducedSim::contact_rests`]); sampled here when they do not match.
+    /// This simulation's setup: parameters, solver, size and pins.
+    pub fn setup(&self) -> SimSetup {
+        SimSetup {
+            params: self.params.clone(),
+            solver: self.solver,
+            diagonal: self.diagonal,
+            pins: self.pins.clone(),
+        }
+    }
+
+    /// A simulation set up as `setup` in `subspace`, at rest, with its pins sampled, their
+    /// pinning found and its preconditioner factored on the rest Hessian: what
+    /// [`ReducedSim::rebase`] would otherwise do on the stepping thread, done where this is
+    /// called (where a refined basis is prepared). In `bench latency`'s switches that work took
+    /// 0.74 to 2.98 ms of the stepping thread (printed).
+    pub fn prepared_twin(subspace: Arc<Subspace>, setup: &SimSetup) -> Result<ReducedSim> {
+        let mut twin =
+            ReducedSim::new(subspace, setup.params.clone(), setup.solver, setup.diagonal)?;
+        twin.pins = resampled(&twin.subspace, &setup.pins);
+        twin.pins_changed();
+        twin.prepare();
+        Ok(twin)
+    }
+
+    /// Continues in `twin`'s subspace from where the body is now, the state mapped by
+    /// `projection` ([`state_projection`]: the least-squares fit on the cubature points, so the
+    /// velocity carries over too). `twin` is a [`ReducedSim::prepared_twin`] of this
+    /// simulation, or any simulation in the new subspace: one set up otherwise than this one
+    /// now is (its pins added or released since) is set up anew here. `contact_phis` are the
+    /// contact points sampled in the new subspace, in their order
+    /// ([`ReducedSim::contact_rests`]); sampled here when they do not match.
     pub fn rebase(
         &mut self,
-        subspace: Arc<Subspace>,
+        twin: ReducedSim,
         projection: &DMatrix<f64>,
         contact_phis: Vec<DVector<f64>>,
     ) -> Result<()> {
-        let (rows, columns) = (4 * self.subspace.handles(), 4 * subspace.handles());
+        let (rows, columns) = (4 * self.subspace.handles(), 4 * twin.subspace.handles());
         if projection.shape() != (rows, columns) {
             return Err(Error::LinearAlgebra(format!(
                 "a {:?} state projection between {rows} and {columns} coordinates",
                 projection.shape()
             )));
         }
-        let mut next = ReducedSim::new(subspace, self.params.clone(), self.solver, self.diagonal)?;
+        let mut next = self.set_up_like_this(twin)?;
         next.z = &self.z * projection;
         next.z_prev = &self.z_prev * projection;
         next.time = self.time;
-        next.pins = resampled(&next.subspace, &self.pins);
-        next.pins_changed();
         next.contacts = if contact_phis.len() == self.contacts.len() {
             (self.contacts.iter().zip(contact_phis))
                 .map(|(p, phi)| ReducedPoint { phi, ..p.clone() })
@@ -56,17 +94,47 @@ impl ReducedSim {
         next.colliders_before = std::mem::take(&mut self.colliders_before);
         next.anchors = std::mem::take(&mut self.anchors);
         next.roll_anchors = std::mem::take(&mut self.roll_anchors);
-        // The preconditioner holds the new subspace's rest Hessian (assembled where the basis
-        // was prepared), turned with the body. One at the state was assembled over every
-        // cubature point between two ticks: `prepare` below took 3.0 to 7.0 ms of the node's
-        // stepping thread in `bench latency`'s switches on 2 cores, 0.74 to 2.98 ms without
-        // (printed). A held Hessian that does not describe the state is refreshed by the steps
-        // that find it stale.
-        next.held = Some((*next.rest_elastic_hessian()).clone());
-        next.held_rotation = Matrix3::identity();
         *self = next;
         self.prepare();
         Ok(())
+    }
+
+    /// `twin` with this simulation's setup: as it is where it was prepared with the same one
+    /// (the pins' targets, which may have moved, taken over), else a new simulation in its
+    /// subspace with this setup. The preconditioner holds the new subspace's rest Hessian
+    /// (kept by the subspace), turned with the body: one at the state was assembled over every
+    /// cubature point between two ticks, 3.0 to 7.0 ms of the node's stepping thread in
+    /// `bench latency`'s switches on 2 cores (printed). A held Hessian that does not describe
+    /// the state is refreshed by the steps that find it stale.
+    fn set_up_like_this(&self, twin: ReducedSim) -> Result<ReducedSim> {
+        let same_pins = twin.pins.len() == self.pins.len()
+            && twin
+                .pins
+                .iter()
+                .zip(&self.pins)
+                .all(|(a, b)| a.rest == b.rest && a.weight == b.weight && a.group == b.group);
+        let mut next = if same_pins && twin.params == self.params && twin.solver == self.solver {
+            twin
+        } else {
+            let mut next = ReducedSim::new(
+                twin.subspace,
+                self.params.clone(),
+                self.solver,
+                self.diagonal,
+            )?;
+            next.pins = resampled(&next.subspace, &self.pins);
+            next.pins_changed();
+            next
+        };
+        for (pin, now) in next.pins.iter_mut().zip(&self.pins) {
+            pin.target = now.target;
+        }
+        next.update_pin_offsets();
+        if next.held.is_none() {
+            next.held = Some((*next.rest_elastic_hessian()).clone());
+            next.held_rotation = Matrix3::identity();
+        }
+        Ok(next)
     }
 }
 
