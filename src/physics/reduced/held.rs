@@ -197,24 +197,40 @@ impl ReducedSim {
         }
     }
 
-    /// Keeps count of how a held Hessian fares, and refreshes it at `z`, where the step that
-    /// `report`s ending in `end` shows it stale (see `refresh_ahead`).
-    pub(super) fn refresh_if_stale(
-        &mut self,
-        z: &DMatrix<f64>,
-        end: &Evaluation,
-        report: &mut StepReport,
-    ) {
-        if report.refreshes > 0 || report.fallback {
+    /// Keeps count of how a held Hessian fares, and asks the next step to refresh it where the
+    /// step that `report`s ending in `end` shows it stale (see `refresh_ahead`). `ahead`: the
+    /// refreshes this step made before its solve, which start a fresh Hessian's count.
+    pub(super) fn refresh_if_stale(&mut self, end: &Evaluation, report: &StepReport, ahead: usize) {
+        if report.refreshes > ahead || report.fallback {
             self.fresh_iterations = None;
         } else if self.refresh_ahead(report, end) {
-            self.hold_new(self.held_elastic_at(z, HessianUse::Refresh), z);
-            self.history.clear();
-            report.refreshes += 1;
+            self.refresh_due = true;
             self.fresh_iterations = None;
         } else {
             self.fresh_iterations.get_or_insert(report.iterations);
         }
+    }
+
+    /// The refresh a slow step asked for, made at the start of the next one, at the state that
+    /// step ended in: the same Hessian as at the end of the slow step, paid by a step whose
+    /// solve it makes short. Made at the end of the slow step, that step paid both: the pinned
+    /// rod's hanging took 1.65-2.09 ms in its refreshing steps, 7 iterations and a refresh;
+    /// ahead of the next, 1.34-2.18 ms, 3 or 4 iterations and a refresh. Over alternating runs
+    /// (FEM left out, 2 cores; printed) the p99 step of `bench sim`'s hanging rows went from
+    /// 2.534 to 2.323 ms on average for the rod (8 runs each), 2.489 to 2.039 ms for the plate
+    /// (6), 3.439 to 3.135 ms for the creature (4); the rod's poke, 3.715 and 3.831 ms (6), and
+    /// the medians stayed within the runs' spread. Returns the refreshes made (0 or 1).
+    pub(super) fn refresh_if_due(&mut self) -> usize {
+        if !std::mem::take(&mut self.refresh_due) {
+            return 0;
+        }
+        if self.pinning_stale {
+            self.update_pinning();
+        }
+        let z = self.z.clone();
+        self.hold_new(self.held_elastic_at(&z, HessianUse::Refresh), &z);
+        self.history.clear();
+        1
     }
 
     /// Whether a quasi-Newton step that `report`s ending in `end` should refresh its held
@@ -222,9 +238,9 @@ impl ReducedSim {
     /// touching, in `REFRESH_AHEAD_ITERATIONS` or more, `STALE_ITERATIONS` more than the first
     /// step over the held Hessian took. A bending or swinging body's held Hessian goes stale
     /// step by step: a pinned rod's steps took 4, 5, 6, 7, 9 iterations, and the next one 11
-    /// with a refresh within it (2.5 ms, printed). Refreshed at the end of the slow step
-    /// instead, no step pays both a stale solve's iterations and the refresh. Where a fresh
-    /// Hessian is no faster (a poked rod's steps took 7 to 9 iterations after a refresh too),
+    /// with a refresh within it (2.5 ms, printed). Refreshed ahead of the next step instead
+    /// (`refresh_if_due`), no step pays both a stale solve's iterations and the refresh. Where
+    /// a fresh Hessian is no faster (a poked rod's steps took 7 to 9 iterations after a refresh too),
     /// refreshing ahead only cost time: its median step went from 0.584 to 1.401 ms (printed).
     /// In contact, iterations come from springs coming and going, not from a stale Hessian.
     fn refresh_ahead(&self, report: &StepReport, end: &Evaluation) -> bool {

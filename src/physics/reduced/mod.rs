@@ -173,6 +173,9 @@ pub struct ReducedSim {
     /// Iterations of the first step solved wholly over the held elastic Hessian (None until
     /// one has been): what it costs while fresh (see `refresh_ahead`).
     fresh_iterations: Option<usize>,
+    /// A slow step found the held Hessian stale: the next step refreshes it first (see
+    /// `ReducedSim::refresh_if_due`).
+    refresh_due: bool,
     time: f64,
     pins: Vec<ReducedPoint>,
     /// The pin energy is quadratic in Z, so it is kept in closed form whatever the number of
@@ -261,6 +264,7 @@ impl ReducedSim {
             z_before: None,
             calm_steps: 0,
             fresh_iterations: None,
+            refresh_due: false,
             last_iterations: 0,
             time: 0.0,
             pins: Vec::new(),
@@ -340,6 +344,7 @@ impl ReducedSim {
         self.z_prev.fill(0.0);
         self.z_before = None;
         self.time = 0.0;
+        self.refresh_due = false;
     }
 
     /// The elastic Hessian at rest (PSD-projected), kept by the subspace.
@@ -410,6 +415,8 @@ impl ReducedSim {
             // The springs go back to their own stiffness after a step that stiffened them.
             self.set_pin_boost(1.0);
         }
+        let ahead = self.refresh_if_due();
+        report.refreshes += ahead;
         self.prepare();
         let mut z = self.placed_on_pins(&predicted);
         self.find_candidates(&z);
@@ -435,7 +442,7 @@ impl ReducedSim {
             self.held = None;
             self.history.clear();
         }
-        self.refresh_if_stale(&z, &current, &mut report);
+        self.refresh_if_stale(&current, &report, ahead);
         let before = std::mem::replace(&mut self.z_prev, std::mem::replace(&mut self.z, z));
         // A step that needed more than its budget met an impulse (a landing, a poke's start):
         // the changes of velocity around it are no trend. Carried into the next steps' guesses
