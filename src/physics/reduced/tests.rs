@@ -128,31 +128,59 @@ fn refresh_waits_only_for_a_solve_about_to_converge() {
     assert!(!refresh_due(AFTER + GRACE - 1, &fast, tolerance));
 }
 
+/// A 0.4 x 0.2 x 0.1 m box on a grid 8 cells across: its tet mesh, a two-mode eigenmode field
+/// and 64 cubature points, the small body of the solver's unit tests.
+struct SmallBox {
+    shape: crate::geometry::Shape,
+    mesh: crate::geometry::TetMesh,
+    field: std::sync::Arc<crate::skinning::EigenmodeField>,
+    cubature: crate::geometry::Cubature,
+}
+
+impl SmallBox {
+    fn new() -> Self {
+        use crate::geometry::{box_mesh, Cubature, TetMesh, VoxelGrid};
+        use crate::skinning::{EigenmodeField, EigenmodeOptions};
+
+        let shape = box_mesh(Vector3::new(0.4, 0.2, 0.1));
+        let grid = VoxelGrid::from_shape(&shape, 64, None).resample(8);
+        let mesh = TetMesh::from_grid(&grid);
+        let options = EigenmodeOptions {
+            modes: 2,
+            ..Default::default()
+        };
+        let field = EigenmodeField::compute(mesh.clone(), shape.normalization(), &options).unwrap();
+        let cubature = Cubature::stratified(&grid, 64, mesh.volume());
+        Self {
+            shape,
+            mesh,
+            field: std::sync::Arc::new(field),
+            cubature,
+        }
+    }
+
+    /// A new subspace of the box's field at its cubature (density 1000 kg/m^3).
+    fn subspace(&self) -> std::sync::Arc<crate::physics::Subspace> {
+        let map = self.shape.normalization();
+        let field = self.field.clone();
+        std::sync::Arc::new(crate::physics::Subspace::build(
+            field,
+            map,
+            &self.cubature,
+            1000.0,
+        ))
+    }
+}
+
 /// A body turned on the floor about the vertical keeps the same springs: its preconditioner is
 /// refactored for the turn with the contact curvature it holds, which equals the one made
 /// afresh at the turned state.
 #[test]
 fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
-    use crate::geometry::{box_mesh, Cubature, TetMesh, VoxelGrid};
-    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver, Subspace};
-    use crate::skinning::{EigenmodeField, EigenmodeOptions};
-    use std::sync::Arc;
+    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver};
 
-    let shape = box_mesh(Vector3::new(0.4, 0.2, 0.1));
-    let grid = VoxelGrid::from_shape(&shape, 64, None).resample(8);
-    let mesh = TetMesh::from_grid(&grid);
-    let options = EigenmodeOptions {
-        modes: 2,
-        ..Default::default()
-    };
-    let field = EigenmodeField::compute(mesh.clone(), shape.normalization(), &options).unwrap();
-    let cubature = Cubature::stratified(&grid, 64, mesh.volume());
-    let subspace = Arc::new(Subspace::build(
-        Arc::new(field),
-        shape.normalization(),
-        &cubature,
-        1000.0,
-    ));
+    let body = SmallBox::new();
+    let (mesh, subspace) = (&body.mesh, body.subspace());
     let params = SimParams {
         friction: 0.0,
         ..Default::default()
@@ -198,25 +226,10 @@ fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
 /// body's now is set up anew. Either goes on stepping and converging.
 #[test]
 fn a_rebased_body_takes_its_prepared_twin_or_sets_one_up_anew() {
-    use crate::geometry::{box_mesh, Cubature, TetMesh, VoxelGrid};
-    use crate::physics::{ReducedSim, SimParams, Solver, Subspace};
-    use crate::skinning::{EigenmodeField, EigenmodeOptions};
-    use std::sync::Arc;
+    use crate::physics::{ReducedSim, SimParams, Solver};
 
-    let shape = box_mesh(Vector3::new(0.4, 0.2, 0.1));
-    let grid = VoxelGrid::from_shape(&shape, 64, None).resample(8);
-    let mesh = TetMesh::from_grid(&grid);
-    let options = EigenmodeOptions {
-        modes: 2,
-        ..Default::default()
-    };
-    let field = EigenmodeField::compute(mesh.clone(), shape.normalization(), &options).unwrap();
-    let field = Arc::new(field);
-    let cubature = Cubature::stratified(&grid, 64, mesh.volume());
-    let build = || {
-        let map = shape.normalization();
-        Arc::new(Subspace::build(field.clone(), map, &cubature, 1000.0))
-    };
+    let body = SmallBox::new();
+    let (mesh, build) = (&body.mesh, || body.subspace());
     let params = SimParams::default();
     let mut sim = ReducedSim::new(build(), params.clone(), Solver::QuasiNewton, 0.46).unwrap();
     let pinned: Vec<_> = mesh
