@@ -324,7 +324,6 @@ impl SoftBody {
             cubature: self.cubature.clone(),
             points: self.lifter.rest_points(),
             contacts: self.sim.contact_rests(),
-            density: self.sim.params().density,
             setup: self.sim.setup(),
             grid: self.grid.clone(),
         }

@@ -26,8 +26,8 @@ pub struct BasisPlan {
     pub(super) points: Vec<Vector3<f64>>,
     /// The simulation's contact points (rest positions, in its order).
     pub(super) contacts: Vec<Vector3<f64>>,
-    pub(super) density: f64,
-    /// The simulation's setup, for its twin in the new subspace.
+    /// The simulation's setup (its density among its parameters), for its twin in the new
+    /// subspace.
     pub(super) setup: SimSetup,
     pub(super) grid: VoxelGrid,
 }
@@ -112,19 +112,15 @@ impl BasisPlan {
     /// stepping thread. Fails when the new field is degenerate on the cubature points.
     pub fn prepare(&self, field: Arc<dyn SkinningField>) -> Result<PreparedBasis> {
         let started = Instant::now();
+        let density = self.setup.params().density;
         let subspace = Arc::new(Subspace::build(
             field.clone(),
             self.map,
             &self.cubature,
-            self.density,
+            density,
         ));
         let twin = ReducedSim::prepared_twin(subspace.clone(), &self.setup)?;
-        let masses: Vec<f64> = self
-            .cubature
-            .volumes
-            .iter()
-            .map(|v| self.density * v)
-            .collect();
+        let masses: Vec<f64> = self.cubature.volumes.iter().map(|v| density * v).collect();
         let projection = state_projection(
             self.field.as_ref(),
             field.as_ref(),

@@ -27,6 +27,13 @@ pub struct SimSetup {
     pins: Vec<ReducedPoint>,
 }
 
+impl SimSetup {
+    /// The simulation's parameters.
+    pub fn params(&self) -> &SimParams {
+        &self.params
+    }
+}
+
 impl ReducedSim {
     /// This simulation's setup: parameters, solver, size and pins.
     pub fn setup(&self) -> SimSetup {
@@ -44,12 +51,18 @@ impl ReducedSim {
     /// called (where a refined basis is prepared). In `bench latency`'s switches that work took
     /// 0.74 to 2.98 ms of the stepping thread (printed).
     pub fn prepared_twin(subspace: Arc<Subspace>, setup: &SimSetup) -> Result<ReducedSim> {
-        let mut twin =
-            ReducedSim::new(subspace, setup.params.clone(), setup.solver, setup.diagonal)?;
-        twin.pins = resampled(&twin.subspace, &setup.pins);
-        twin.pins_changed();
+        let mut twin = Self::set_up_in(subspace, setup)?;
         twin.prepare();
         Ok(twin)
+    }
+
+    /// A simulation at rest in `subspace`, set up as `setup` says, its pins sampled there.
+    fn set_up_in(subspace: Arc<Subspace>, setup: &SimSetup) -> Result<ReducedSim> {
+        let mut sim =
+            ReducedSim::new(subspace, setup.params.clone(), setup.solver, setup.diagonal)?;
+        sim.pins = resampled(&sim.subspace, &setup.pins);
+        sim.pins_changed();
+        Ok(sim)
     }
 
     /// Continues in `twin`'s subspace from where the body is now, the state mapped by
@@ -116,15 +129,7 @@ impl ReducedSim {
         let mut next = if same_pins && twin.params == self.params && twin.solver == self.solver {
             twin
         } else {
-            let mut next = ReducedSim::new(
-                twin.subspace,
-                self.params.clone(),
-                self.solver,
-                self.diagonal,
-            )?;
-            next.pins = resampled(&next.subspace, &self.pins);
-            next.pins_changed();
-            next
+            Self::set_up_in(twin.subspace, &self.setup())?
         };
         for (pin, now) in next.pins.iter_mut().zip(&self.pins) {
             pin.target = now.target;
