@@ -202,7 +202,26 @@ fn settle_thread_count() {
     }
 }
 
+/// Keeps freed memory in the process instead of handing it back to the kernel: every build
+/// allocates and frees tens of megabytes (the network's activations, voxel grids), and fresh
+/// pages fault in one by one, a tenth of a scan's build in `perf` (a 6000-point scan built eight
+/// times, four runs each: median 75.0 ms against 89.7 ms, printed). Blocks under 32 MB come from
+/// the heap, which is trimmed past 1 GB of free space only.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn keep_freed_memory() {
+    // SAFETY: mallopt only sets allocator tunables; called first in main, before any thread.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 1 << 30);
+        libc::mallopt(libc::M_TOP_PAD, 64 << 20);
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn keep_freed_memory() {}
+
 fn main() -> ExitCode {
+    keep_freed_memory();
     settle_thread_count();
     // rcl's arguments (`--ros-args ... [--]`) are taken out before clap reads the rest.
     let argv: Vec<String> = std::env::args().collect();

@@ -96,6 +96,7 @@ impl<'a> PointIndex<'a> {
             .map(|a| center[a].abs().max((self.dims[a] - 1 - center[a]).abs()))
             .max()
             .unwrap_or(0);
+        let margin = self.depth_in_cell(query, center);
         let mut found: Vec<(f64, usize)> = Vec::new();
         for ring in 0..=last_ring {
             self.visit_ring(center, ring, |i| {
@@ -103,11 +104,11 @@ impl<'a> PointIndex<'a> {
                     found.push(((self.points[i] - query).norm_squared(), i));
                 }
             });
-            // Every point not yet seen is farther than `ring` whole cells away.
-            let reach = ring as f64 * self.cell;
+            // Every point not yet seen is at least `ring` whole cells and the margin away.
+            let reach = ring as f64 * self.cell + margin;
             if found.len() >= wanted {
                 found.select_nth_unstable_by(wanted - 1, |a, b| a.0.total_cmp(&b.0));
-                if found[wanted - 1].0.sqrt() <= reach {
+                if found[wanted - 1].0.sqrt() < reach {
                     break;
                 }
             }
@@ -122,27 +123,46 @@ impl<'a> PointIndex<'a> {
         found.into_iter().map(|(_, i)| i).collect()
     }
 
-    /// Calls `visit` with every point in the cells `ring` cells (Chebyshev) from `center`.
+    /// Calls `visit` with every point in the cells `ring` cells (Chebyshev) from `center`. Cells
+    /// are sorted x fastest, so a row of cells is one run of `order`: rows on the ring's faces are
+    /// visited whole, the other rows at their two ends.
     fn visit_ring(&self, center: [i64; 3], ring: i64, mut visit: impl FnMut(usize)) {
-        for dz in -ring..=ring {
-            for dy in -ring..=ring {
-                // On the ring's top and bottom faces every cell of the row; elsewhere its ends.
-                let whole_row = dz.abs() == ring || dy.abs() == ring;
-                let step = if whole_row || ring == 0 {
-                    1
+        let [nx, ny, nz] = self.dims;
+        for k in (center[2] - ring).max(0)..=(center[2] + ring).min(nz - 1) {
+            for j in (center[1] - ring).max(0)..=(center[1] + ring).min(ny - 1) {
+                let row = nx * (j + ny * k);
+                let on_face = (k - center[2]).abs() == ring || (j - center[1]).abs() == ring;
+                let (first, last) = (center[0] - ring, center[0] + ring);
+                if on_face {
+                    let (first, last) = (first.max(0), last.min(nx - 1));
+                    if first <= last {
+                        self.visit_run((row + first) as usize, (row + last) as usize, &mut visit);
+                    }
                 } else {
-                    2 * ring as usize
-                };
-                for dx in (-ring..=ring).step_by(step) {
-                    let cell = [center[0] + dx, center[1] + dy, center[2] + dz];
-                    let Some(c) = self.linear(cell) else {
-                        continue;
-                    };
-                    let run = self.starts[c] as usize..self.starts[c + 1] as usize;
-                    self.order[run].iter().for_each(|&i| visit(i as usize));
+                    for i in [first, last].into_iter().filter(|i| (0..nx).contains(i)) {
+                        self.visit_run((row + i) as usize, (row + i) as usize, &mut visit);
+                    }
                 }
             }
         }
+    }
+
+    /// Calls `visit` with every point in the cells `first..=last` (linear indices).
+    fn visit_run(&self, first: usize, last: usize, visit: &mut impl FnMut(usize)) {
+        let run = self.starts[first] as usize..self.starts[last + 1] as usize;
+        self.order[run].iter().for_each(|&i| visit(i as usize));
+    }
+
+    /// How far `p` lies inside its own cell: every point of a cell `ring + 1` cells away is at
+    /// least `ring` cells plus this far.
+    fn depth_in_cell(&self, p: &Vector3<f64>, key: [i64; 3]) -> f64 {
+        (0..3)
+            .map(|a| {
+                let lo = self.origin[a] + key[a] as f64 * self.cell;
+                (p[a] - lo).min(lo + self.cell - p[a])
+            })
+            .fold(f64::INFINITY, f64::min)
+            .max(0.0)
     }
 
     fn key(&self, p: &Vector3<f64>) -> [i64; 3] {

@@ -4,6 +4,7 @@
 use candle_core::{DType, Module, Tensor, D};
 use candle_nn::Linear;
 
+use super::inference_ops::{self, elu};
 use super::params::{Init, ParamBuilder};
 use crate::Result;
 
@@ -117,7 +118,7 @@ impl Attention {
             .transpose(0, 1)?
             .contiguous()?;
         let scores = q.matmul(&kv.keys_t)?;
-        let attention = candle_nn::ops::softmax(&scores, D::Minus1)?;
+        let attention = inference_ops::softmax_last(&scores)?;
         let mixed = attention
             .matmul(&kv.values)?
             .transpose(0, 1)?
@@ -169,7 +170,7 @@ impl EluBlock {
 
 impl Module for EluBlock {
     fn forward(&self, x: &Tensor) -> CResult<Tensor> {
-        let hidden = self.first.forward(&x.elu(1.0)?)?.elu(1.0)?;
+        let hidden = elu(&self.first.forward(&elu(x)?)?)?;
         x + self.second.forward(&hidden)?
     }
 }

@@ -2,6 +2,7 @@
 //! skinning weights in one forward pass (PhysSkin, section 3).
 
 mod field;
+mod inference_ops;
 mod layers;
 mod model;
 mod network;

@@ -5,6 +5,7 @@ use candle_core::{Module, Tensor, D};
 use candle_nn::Linear;
 use serde::{Deserialize, Serialize};
 
+use super::inference_ops;
 use super::layers::{
     encoding_width, linear, positional_encoding, Attention, EluBlock, FeedForward, KeyValues,
     OniLinear,
@@ -219,7 +220,8 @@ impl Network {
         for block in &self.head_blocks {
             hidden = block.forward(&hidden)?;
         }
-        self.head_out.forward_with(head_weight, &hidden.elu(1.0)?)
+        self.head_out
+            .forward_with(head_weight, &inference_ops::elu(&hidden)?)
     }
 }
 
