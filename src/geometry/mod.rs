@@ -5,6 +5,7 @@ mod completion;
 mod contact_samples;
 mod cubature;
 mod downsample;
+mod islands;
 mod mesh_io;
 mod point_index;
 mod primitives;

@@ -172,16 +172,25 @@ fn sample_cloud(
 /// Surface area of the solid as the count of exposed cell faces, scaled by 2/3 (the mean ratio
 /// of a staircase to the smooth surface it approximates, over all orientations).
 pub(super) fn estimated_area(grid: &VoxelGrid) -> f64 {
+    let [nx, ny, nz] = grid.dims;
+    let solid = &grid.solid;
+    // A face is open where the cell beyond it is off the grid or not solid.
+    let open = |inside: bool, n: usize| usize::from(!inside || !solid[n]);
     let mut faces = 0usize;
-    for index in (0..grid.len()).filter(|&i| grid.solid[i]) {
-        let [i, j, k] = grid.coords(index);
-        for (a, d) in [(0usize, -1isize), (0, 1), (1, -1), (1, 1), (2, -1), (2, 1)] {
-            let mut c = [i as isize, j as isize, k as isize];
-            c[a] += d;
-            let open = c[a] < 0
-                || c[a] as usize >= grid.dims[a]
-                || !grid.solid[grid.index(c.map(|x| x as usize))];
-            faces += usize::from(open);
+    let mut index = 0;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if solid[index] {
+                    faces += open(i > 0, index.wrapping_sub(1))
+                        + open(i + 1 < nx, index + 1)
+                        + open(j > 0, index.wrapping_sub(nx))
+                        + open(j + 1 < ny, index + nx)
+                        + open(k > 0, index.wrapping_sub(nx * ny))
+                        + open(k + 1 < nz, index + nx * ny);
+                }
+                index += 1;
+            }
         }
     }
     faces as f64 * grid.cell * grid.cell * 2.0 / 3.0
@@ -239,4 +248,30 @@ fn pick(cumulative: &[f64], rng: &mut impl Rng) -> usize {
     cumulative
         .partition_point(|&c| c <= x)
         .min(cumulative.len() - 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3 x 4 x 5 block of cells, touching the grid's low x side, counts 2 (12 + 20 + 15) faces.
+    #[test]
+    fn a_block_of_cells_shows_its_six_sides() {
+        let dims = [5, 6, 7];
+        let mut solid = vec![false; dims.iter().product()];
+        for (k, j, i) in
+            (1..6).flat_map(|k| (1..5).flat_map(move |j| (0..3).map(move |i| (k, j, i))))
+        {
+            solid[i + dims[0] * (j + dims[1] * k)] = true;
+        }
+        let grid = VoxelGrid {
+            origin: Vector3::zeros(),
+            cell: 0.5,
+            dims,
+            surface: vec![false; solid.len()],
+            solid,
+        };
+        let faces = 2.0 * (12.0 + 20.0 + 15.0);
+        assert!((estimated_area(&grid) - faces * 0.25 * 2.0 / 3.0).abs() < 1e-12);
+    }
 }

@@ -314,35 +314,7 @@ impl VoxelGrid {
     /// corner, the connectivity of the tetrahedral mesh built on them: a second island would be
     /// a second free body, with a second null mode in every stiffness matrix.
     pub fn keep_largest_component(&mut self) {
-        let mut label = vec![u32::MAX; self.len()];
-        let mut sizes = Vec::new();
-        let mut stack = Vec::new();
-        let steps = self.corner_steps();
-        for seed in 0..self.len() {
-            if !self.solid[seed] || label[seed] != u32::MAX {
-                continue;
-            }
-            let id = sizes.len() as u32;
-            let mut size = 0usize;
-            label[seed] = id;
-            stack.push(seed);
-            while let Some(index) = stack.pop() {
-                size += 1;
-                self.for_corner_neighbours(index, &steps, |n| {
-                    if self.solid[n] && label[n] == u32::MAX {
-                        label[n] = id;
-                        stack.push(n);
-                    }
-                });
-            }
-            sizes.push(size);
-        }
-        let Some(largest) = (0..sizes.len()).max_by_key(|&i| sizes[i]) else {
-            return;
-        };
-        for (s, l) in self.solid.iter_mut().zip(&label) {
-            *s = *s && *l == largest as u32;
-        }
+        super::islands::keep_largest_island(self.dims, &mut self.solid);
     }
 
     /// Bounding box of the solid cells (whole cells).
@@ -474,49 +446,6 @@ impl VoxelGrid {
         ]
         .into_iter()
         .filter_map(|(inside, n)| inside.then_some(n))
-    }
-
-    /// The 26 steps to the cells sharing at least a corner with a cell: (i, j, k) and the
-    /// index offset.
-    fn corner_steps(&self) -> [([isize; 3], isize); 26] {
-        let (row, slab) = (
-            self.dims[0] as isize,
-            (self.dims[0] * self.dims[1]) as isize,
-        );
-        let mut steps = [([0; 3], 0); 26];
-        let around = (0..27isize).filter(|&o| o != 13);
-        for (step, o) in steps.iter_mut().zip(around) {
-            let d = [o % 3 - 1, (o / 3) % 3 - 1, o / 9 - 1];
-            *step = (d, d[0] + d[1] * row + d[2] * slab);
-        }
-        steps
-    }
-
-    /// Calls `visit` with the index of every cell sharing at least a corner with the cell at
-    /// `index`; `steps` from [`Self::corner_steps`].
-    fn for_corner_neighbours(
-        &self,
-        index: usize,
-        steps: &[([isize; 3], isize); 26],
-        mut visit: impl FnMut(usize),
-    ) {
-        let c = self.coords(index);
-        // Away from the grid's faces every step lands inside, and needs no check.
-        if (0..3).all(|a| c[a] > 0 && c[a] + 1 < self.dims[a]) {
-            steps
-                .iter()
-                .for_each(|&(_, offset)| visit((index as isize + offset) as usize));
-            return;
-        }
-        for &(d, offset) in steps {
-            let inside = (0..3).all(|a| {
-                let n = c[a] as isize + d[a];
-                n >= 0 && (n as usize) < self.dims[a]
-            });
-            if inside {
-                visit((index as isize + offset) as usize);
-            }
-        }
     }
 }
 
