@@ -21,6 +21,7 @@ use serde::Serialize;
 
 mod reflection;
 mod section;
+mod silhouette;
 
 use super::point_index::{neighbour_distance, PointIndex};
 use super::shape::principal_extents;
@@ -577,7 +578,17 @@ fn estimated_centre(
     // The rim bins are two pixels wide.
     let pitch = bins.pixel / 2.0;
     let at_least = depth_prior(&outline, depths, &strip, long.as_ref(), pitch);
-    let depth = view.depth(&centroid).max(at_least);
+    // A long object's centre is on its axis (below); a long outline whose middle is deeper than
+    // a round object's (a ring seen edge-on) has no one surface in front of its centre.
+    let rim_depth = if long.is_none() && outline.round {
+        let image: Vec<Vector2<f64>> = points.iter().map(|p| view.image(p)).collect();
+        let front = strip.in_front(&outline);
+        let rim = view.depth(&centroid);
+        silhouette::depth_behind_rim(&image, depths, &view.image(&centroid), rim, front)
+    } else {
+        view.depth(&centroid)
+    };
+    let depth = rim_depth.max(at_least);
     let centre = view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid));
     if let Some(axis) = &long {
         let half_width = strip.outline_width(&outline, pitch) / 2.0;
