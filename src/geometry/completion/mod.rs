@@ -258,7 +258,7 @@ pub fn complete_view(
     // The rim is found on bins of about two pixels: coarser bins would reach far into the
     // patch where faces are foreshortened, and pull the centre towards the camera.
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
-    let (centre, long) = estimated_centre(points, &depths, &view, &rim_bins);
+    let (centre, long) = estimated_centre(points, &depths, &image, &view, &rim_bins);
     // The reflection is followed pixel by pixel where the object is long, taken round across
     // its axis. A compact object's is not: its bins' mostly deepest reflected depths are kept, a
     // generous fill that makes up for what the rim's pixels leave out (and an animal is not
@@ -538,10 +538,11 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 /// whose surface across its middle fits a circle is then put on that circle's axis (see
 /// `LongAxis::section`): the bundled rod scanned from `bench real`'s two sides had its centre
 /// 1.6 and 3.4 mm off its axis, then 0.5 and 0.1 mm (printed). Also whether the object was
-/// taken as long.
+/// taken as long. `depths` and `image` are the points' depths and image coordinates in `view`.
 fn estimated_centre(
     points: &[Vector3<f64>],
     depths: &[f64],
+    image: &[Vector2<f64>],
     view: &ViewFrame,
     bins: &ImageBins,
 ) -> (Vector3<f64>, bool) {
@@ -580,16 +581,15 @@ fn estimated_centre(
     let at_least = depth_prior(&outline, depths, &strip, long.as_ref(), pitch);
     // A long object's centre is on its axis (below); a long outline whose middle is deeper than
     // a round object's (a ring seen edge-on) has no one surface in front of its centre.
-    let rim_depth = if long.is_none() && outline.round {
-        let image: Vec<Vector2<f64>> = points.iter().map(|p| view.image(p)).collect();
+    let rim = view.depth(&centroid);
+    let behind_rim = if long.is_none() && outline.round {
         let front = strip.in_front(&outline);
-        let rim = view.depth(&centroid);
-        silhouette::depth_behind_rim(&image, depths, &view.image(&centroid), rim, front)
+        silhouette::depth_behind_rim(image, depths, &view.image(&centroid), rim, front)
     } else {
-        view.depth(&centroid)
+        rim
     };
-    let depth = rim_depth.max(at_least);
-    let centre = view.viewpoint + (centroid - view.viewpoint) * (depth / view.depth(&centroid));
+    let depth = behind_rim.max(at_least);
+    let centre = view.viewpoint + (centroid - view.viewpoint) * (depth / rim);
     if let Some(axis) = &long {
         let half_width = strip.outline_width(&outline, pitch) / 2.0;
         if let Some(on_axis) = axis.section(points, &strip, &centre, half_width) {
