@@ -3,8 +3,12 @@
 //! that circle, wherever the object is tilted, so its centre holds the information of every
 //! point; the outline's width holds that of its two outermost pixels only, and over the sine of
 //! the tilt (how deep the axis lies behind the ridge) their pitch's shortfall is magnified.
+//! A section that is no circle (a turned ellipsoid's) is fitted with an ellipse instead, whose
+//! centre lies midway between where it turns away from the camera on either side.
 
 use nalgebra::{Matrix3, Vector2, Vector3};
+
+use super::quadric::Quadric;
 
 use crate::linalg::tangents;
 
@@ -46,6 +50,48 @@ pub(super) fn round_axis(
     let plausible = radius >= low * half_width && radius <= high * half_width;
     (plausible && misfit <= ROUNDNESS * radius).then(|| near + first * middle.x + second * middle.y)
 }
+
+/// The axis of the long object whose surface across its middle `points` sample, where that
+/// section is an ellipse rather than a circle (a turned ellipsoid's, a flattened bottle's): the
+/// centre of the ellipse fitted to them seen along `axis` (see `Quadric::fit`), as the axis's
+/// point in the plane through `near` across the axis. `forward` is the view's direction. A
+/// centrally symmetric section's centre lies midway between the two points where it turns away
+/// from the camera, which the last pixels before the outline miss; the ellipse through the
+/// whole visible half finds them. None with fewer than `FITTED_FROM` points, a fit that is no
+/// ellipse, an extent across the view out of `ACROSS_BOUNDS` of `half_width`, a depth out of
+/// `DEPTH_BOUNDS` of it, or points off the ellipse by more than `ROUNDNESS` of its smaller
+/// semi-axis.
+pub(super) fn elliptic_axis(
+    points: &[Vector3<f64>],
+    axis: &Vector3<f64>,
+    near: &Vector3<f64>,
+    half_width: f64,
+    forward: &Vector3<f64>,
+) -> Option<Vector3<f64>> {
+    if points.len() < FITTED_FROM {
+        return None;
+    }
+    // The section's own axes: along the view (in the plane across the object's axis) and across.
+    let deep = (forward - axis * forward.dot(axis)).try_normalize(1e-9)?;
+    let across = axis.cross(&deep);
+    let flat: Vec<Vector2<f64>> = points
+        .iter()
+        .map(|p| Vector2::new((p - near).dot(&across), (p - near).dot(&deep)))
+        .collect();
+    let ellipse = Quadric::fit(&flat)?;
+    let wide = ellipse.half_extent(&Vector2::x()) / half_width;
+    let deep_extent = ellipse.half_extent(&Vector2::y()) / half_width;
+    let plausible = ACROSS_BOUNDS.contains(&wide) && DEPTH_BOUNDS.contains(&deep_extent);
+    (plausible && ellipse.misfit <= ROUNDNESS * ellipse.minor())
+        .then(|| near + across * ellipse.centre.x + deep * ellipse.centre.y)
+}
+
+/// The fitted ellipse's extent across the view, against half the outline's width, must lie in
+/// this range: the outline shows it, as it shows a circle's radius.
+const ACROSS_BOUNDS: std::ops::Range<f64> = 0.85..1.2;
+/// Its half-depth along the view, against half the outline's width: a section three times as
+/// deep as it is wide seen along its depth is not trusted to a fit of its near side.
+const DEPTH_BOUNDS: std::ops::Range<f64> = 0.33..3.0;
 
 /// The circle (centre, radius) that best fits `points` in the algebraic sense (Kasa's fit: the
 /// least squares of x^2 + y^2 + D x + E y + F over the points), which is exact for points on a
@@ -128,6 +174,68 @@ mod tests {
         let (_, radius, misfit) = fit_circle(&half).expect("fits");
         assert!((radius / 0.05 - 1.22).abs() < 0.01, "{radius}");
         assert!(misfit < ROUNDNESS * radius, "{misfit} against {radius}");
+    }
+
+    /// Points on half of a turned ellipse (axes 0.09 and 0.05, turned 0.6 rad from the view),
+    /// their section seen along an axis tilted from every coordinate axis: the fit finds the
+    /// object's axis, which the circle fit refuses.
+    #[test]
+    fn a_half_elliptic_section_fits_its_axis() {
+        let axis = Vector3::new(1.0, 0.6, 0.8).normalize();
+        let forward = Vector3::new(0.2, -1.0, 0.1).normalize();
+        let deep = (forward - axis * forward.dot(&axis)).normalize();
+        let across = axis.cross(&deep);
+        let on_axis = Vector3::new(0.3, -0.2, 1.1);
+        let (a, b, turn) = (0.09_f64, 0.05_f64, 0.6_f64);
+        let (u, v) = (
+            across * turn.cos() + deep * turn.sin(),
+            deep * turn.cos() - across * turn.sin(),
+        );
+        // The visible half: where the outward normal faces the camera (against `forward`).
+        let points: Vec<Vector3<f64>> = (0..400)
+            .filter_map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / 400.0;
+                let normal = u * (t.cos() / a) + v * (t.sin() / b);
+                let along = 0.02 * ((k * 7) % 11) as f64 - 0.1;
+                (normal.dot(&forward) < 0.0)
+                    .then(|| on_axis + axis * along + u * (a * t.cos()) + v * (b * t.sin()))
+            })
+            .collect();
+        let half_width = {
+            let spread: Vec<f64> = points.iter().map(|p| (p - on_axis).dot(&across)).collect();
+            (spread.iter().cloned().fold(f64::MIN, f64::max)
+                - spread.iter().cloned().fold(f64::MAX, f64::min))
+                / 2.0
+        };
+        let near = on_axis + axis * 0.3 + across * 0.01 - deep * 0.02;
+        assert!(round_axis(&points, &axis, &near, half_width).is_none());
+        let centre = elliptic_axis(&points, &axis, &near, half_width, &forward).expect("fits");
+        let expected = on_axis + axis * 0.3;
+        assert!(
+            (centre - expected).norm() < 1e-9,
+            "{centre} against {expected}"
+        );
+    }
+
+    /// In the section's own axes (across = x, deep = y): a half ellipse 4 times as deep as wide
+    /// is refused, and so is one whose width is not the outline's, or too few points.
+    #[test]
+    fn implausible_elliptic_sections_are_refused() {
+        let arc = |rx: f64, ry: f64| -> Vec<Vector3<f64>> {
+            (0..40)
+                .map(|k| {
+                    let t = std::f64::consts::PI * (1.0 + k as f64 / 39.0);
+                    Vector3::new(-rx * t.cos(), ry * t.sin(), 0.0)
+                })
+                .collect()
+        };
+        let (axis, forward, near) = (Vector3::z(), Vector3::y(), Vector3::zeros());
+        let deep = arc(0.02, 0.08);
+        assert!(elliptic_axis(&deep, &axis, &near, 0.02, &forward).is_none());
+        let fair = arc(0.05, 0.08);
+        assert!(elliptic_axis(&fair, &axis, &near, 0.05, &forward).is_some());
+        assert!(elliptic_axis(&fair, &axis, &near, 0.08, &forward).is_none());
+        assert!(elliptic_axis(&fair[..FITTED_FROM - 1], &axis, &near, 0.05, &forward).is_none());
     }
 
     /// Too few points, points on a line, a radius far from the outline's (half an ellipse seen

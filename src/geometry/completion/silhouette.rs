@@ -7,7 +7,9 @@
 //! A box's silhouette is its back edges and its rim's centroid lies at its centre: the
 //! correction is made only where the surface rises towards the outline as a smooth cap does.
 
-use nalgebra::Vector2;
+use nalgebra::{Vector2, Vector3};
+
+use super::quadric::Quadric;
 
 /// Sectors around the centre in the image, each with its own reach to the outline.
 const SECTORS: usize = 36;
@@ -21,6 +23,36 @@ const HALFWAY: std::ops::Range<f64> = 0.4..0.6;
 /// rim is right and 0.097 to 0.177 seen low (its rim then in front too), the creature 0.148 to
 /// 0.280.
 const SMOOTH_PROFILE: f64 = 0.2;
+
+/// The fitted ellipsoid's extent along either of the outline's axes, against half the
+/// outline's, must lie in this range: the outline shows it (its last pixels a little short).
+const ACROSS_BOUNDS: std::ops::Range<f64> = 0.85..1.2;
+/// Its half-depth along the view, against half the outline's breadth: an ellipsoid three times
+/// as deep as it is broad is not trusted to a fit of the side that faces the camera.
+const DEPTH_BOUNDS: std::ops::Range<f64> = 0.33..3.0;
+/// The points must lie this close to the fitted ellipsoid (root mean square, against its
+/// smallest semi-axis) for the object to be taken as one.
+const ELLIPSOIDAL: f64 = 0.02;
+
+/// The centre of the ellipsoid fitted to the points seen (see `Quadric::fit`), where they lie
+/// on one within `ELLIPSOIDAL` and it spans the outline: `axes` are the outline's two axes
+/// across the view, with half its extent along each, and `forward` the view's direction. The
+/// ellipsoid's centre holds the information of every point of the visible half; the rim's, of
+/// the outline's last pixels, which fall short of where the surface turns away. None for a
+/// box, an animal, a ring: anything the visible half of no ellipsoid describes.
+pub(super) fn ellipsoid_centre(
+    points: &[Vector3<f64>],
+    axes: [(Vector3<f64>, f64); 2],
+    forward: &Vector3<f64>,
+) -> Option<Vector3<f64>> {
+    let fitted = Quadric::fit(points)?;
+    let spans = axes
+        .iter()
+        .all(|(axis, half)| ACROSS_BOUNDS.contains(&(fitted.half_extent(axis) / half)));
+    let breadth = axes[0].1.min(axes[1].1);
+    let deep = DEPTH_BOUNDS.contains(&(fitted.half_extent(forward) / breadth));
+    (spans && deep && fitted.misfit <= ELLIPSOIDAL * fitted.minor()).then_some(fitted.centre)
+}
 
 /// The centre's depth behind a rim centroid at depth `rim`, whose image position is `centre`,
 /// with the surface in front of it at depth `front`: moved back as an ellipsoid's would be when
