@@ -388,8 +388,8 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
     let out = succeeded(physskin().args(["bench", "views", "--json"]));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let rows = report["rows"].as_array().expect("rows");
-    // Seven shapes, six sides, two image sizes.
-    assert_eq!(rows.len(), 84);
+    // Fourteen shapes, six sides, two image sizes.
+    assert_eq!(rows.len(), 168);
     let completed: Vec<_> = rows
         .iter()
         .filter(|r| r["outcome"] == "completed")
@@ -404,6 +404,20 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
         // The sphere is centrally symmetric: every side completes it.
         if row["shape"] == "sphere" {
             assert!(overlap > 0.8, "{row}");
+        }
+        // Balls, ellipsoids and the two boxes along the axes complete from every side within
+        // 15 % of their volume: fitted as an ellipsoid, or as a box with two faces in view.
+        let fitted = [
+            "sphere",
+            "ellipsoid",
+            "small ball",
+            "egg",
+            "box",
+            "long box",
+        ];
+        if fitted.contains(&row["shape"].as_str().unwrap()) {
+            let ratio = row["volume_ratio"].as_f64().unwrap();
+            assert!((ratio - 1.0).abs() <= 0.15, "{row}");
         }
         // `bench real`'s sides complete the shapes it simulates within the target.
         let real_side =

@@ -1,7 +1,8 @@
-//! `bench views`: how one camera's view of an object completes from many sides. Seven shapes
-//! (the bundled sphere, box, creature and rod, and three the network and the completion were
-//! not tuned on: a 0.3 m capsule, a turned ellipsoid, a torus) are scanned from six sides at
-//! two image sizes; each scan is completed and its solid voxelized against the whole mesh's.
+//! `bench views`: how one camera's view of an object completes from many sides. Fourteen
+//! shapes (the bundled sphere, box, creature and rod; three the network and the completion
+//! were not tuned on at first: a 0.3 m capsule, a turned ellipsoid, a torus; and seven variants
+//! of those kinds, see `variants`) are scanned from six sides at two image sizes; each scan is
+//! completed and its solid voxelized against the whole mesh's.
 //! Geometry only: `bench real` simulates the bundled shapes' scans.
 
 use nalgebra::{Rotation3, Vector3};
@@ -9,7 +10,7 @@ use serde::Serialize;
 
 use physskin::error::Result;
 use physskin::geometry::{
-    bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, Shape, VoxelGrid,
+    box_mesh, bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, Shape, VoxelGrid,
 };
 
 /// The sides the camera looks from: `bench real`'s two, a low one almost square to a long
@@ -64,6 +65,46 @@ pub struct ViewsReport {
     pub worst_volume_factor: f64,
 }
 
+/// Seven more, one of each kind above but the creature and the rod, sized and turned otherwise:
+/// a smaller ball, an egg, a ring standing up, a turned cylinder, a turned box, a shorter
+/// capsule and a box of other proportions. Added with the ellipsoid and box fits of the
+/// completion, to check them on shapes they were not made on.
+fn variants() -> Vec<(&'static str, Shape)> {
+    let turned = |x, y, z| Rotation3::from_euler_angles(x, y, z).inverse();
+    let egg_turn = turned(-0.5, 0.4, 1.2);
+    let egg = move |p: &Vector3<f64>| {
+        let q = egg_turn * p;
+        (Vector3::new(q.x / 0.08, q.y / 0.11, q.z / 0.07).norm() - 1.0) * 0.07
+    };
+    let upright_ring = |p: &Vector3<f64>| {
+        let ring = (p.x * p.x + p.z * p.z).sqrt() - 0.08;
+        (ring * ring + p.y * p.y).sqrt() - 0.025
+    };
+    let cylinder_turn = turned(0.2, 0.6, -0.3);
+    let cylinder = move |p: &Vector3<f64>| {
+        let q = cylinder_turn * p;
+        let (r, h) = ((q.x * q.x + q.y * q.y).sqrt() - 0.05, q.z.abs() - 0.12);
+        r.max(h).min(0.0) + Vector3::new(r.max(0.0), h.max(0.0), 0.0).norm()
+    };
+    let box_turn = turned(0.4, -0.3, 0.7);
+    let turned_box = move |p: &Vector3<f64>| {
+        let q = (box_turn * p).abs() - Vector3::new(0.12, 0.08, 0.05);
+        q.map(|x| x.max(0.0)).norm() + q.max().min(0.0)
+    };
+    vec![
+        (
+            "small ball",
+            sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.07, 0.09, 40),
+        ),
+        ("egg", sdf_mesh(&egg, 0.14, 48)),
+        ("upright ring", sdf_mesh(&upright_ring, 0.13, 48)),
+        ("cylinder", sdf_mesh(&cylinder, 0.16, 48)),
+        ("turned box", sdf_mesh(&turned_box, 0.16, 48)),
+        ("short capsule", capsule_mesh(0.2, 0.05)),
+        ("long box", box_mesh(Vector3::new(0.3, 0.2, 0.15))),
+    ]
+}
+
 /// The shapes scanned, by name.
 fn shapes() -> Vec<(&'static str, Shape)> {
     let turned = Rotation3::from_euler_angles(0.3, 0.2, 0.5).inverse();
@@ -82,6 +123,7 @@ fn shapes() -> Vec<(&'static str, Shape)> {
     shapes.push(("capsule", capsule_mesh(0.3, 0.04)));
     shapes.push(("ellipsoid", sdf_mesh(&ellipsoid, 0.2, 48)));
     shapes.push(("torus", sdf_mesh(&torus, 0.16, 48)));
+    shapes.extend(variants());
     shapes
 }
 

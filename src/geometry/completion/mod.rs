@@ -23,6 +23,7 @@
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::Serialize;
 
+mod cuboid;
 mod quadric;
 mod reflection;
 mod section;
@@ -64,6 +65,8 @@ const ROUND_ACROSS: f64 = 2.0;
 const RIM_NEIGHBOURS: usize = 4;
 /// No rim point weighs more than this many times the median rim point.
 const RIM_WEIGHT_CAP: f64 = 1.5;
+/// A box's points must lie this many point spacings from its fitted faces.
+const BOX_TOLERANCE: f64 = 2.0;
 /// The name of the method, as reported.
 pub const METHOD: &str = "reflected_through_centre";
 
@@ -263,7 +266,7 @@ pub fn complete_view(
     // The rim is found on bins of about two pixels: coarser bins would reach far into the
     // patch where faces are foreshortened, and pull the centre towards the camera.
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
-    let (centre, symmetric) = estimated_centre(points, &depths, &image, &view, &rim_bins);
+    let (centre, symmetric) = estimated_centre(points, &depths, &image, &view, &rim_bins, spacing);
     // The reflection is followed pixel by pixel where the object is long, taken round across
     // its axis, or an ellipsoid. Another compact object's is not: its bins' mostly deepest
     // reflected depths are kept, a generous fill that makes up for what the rim's pixels leave
@@ -565,6 +568,7 @@ fn estimated_centre(
     image: &[Vector2<f64>],
     view: &ViewFrame,
     bins: &ImageBins,
+    spacing: f64,
 ) -> (Vector3<f64>, bool) {
     // Per rim bin its deepest point: where the surface turns away. The nearer points of a bin
     // on a face seen at a grazing angle lie towards the camera and would pull the centre in.
@@ -599,6 +603,9 @@ fn estimated_centre(
     if long.is_none() && outline.round {
         let axes = outline.axes(view);
         if let Some(centre) = silhouette::ellipsoid_centre(points, axes, &view.forward) {
+            return (centre, true);
+        }
+        if let Some(centre) = cuboid::box_centre(points, BOX_TOLERANCE * spacing) {
             return (centre, true);
         }
     }
