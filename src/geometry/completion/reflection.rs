@@ -95,7 +95,8 @@ impl Reflection {
 /// each ray in front of the surface it met.
 pub(super) struct Carving<'a> {
     bins: &'a ImageBins,
-    /// Per bin, the least observed depth (infinite where nothing was seen).
+    /// Per bin, the least observed depth in it and the bins around it (infinite where nothing
+    /// was seen there), taken once: every reflected point of a completion asks for it.
     front: Vec<f64>,
     /// How far in front of the surface seen a point may lie: the scan's noise.
     tolerance: f64,
@@ -103,7 +104,7 @@ pub(super) struct Carving<'a> {
 
 impl<'a> Carving<'a> {
     pub(super) fn new(bins: &'a ImageBins, depths: &[f64], tolerance: f64) -> Self {
-        let front = bins
+        let own: Vec<f64> = bins
             .cells
             .iter()
             .map(|cell| {
@@ -111,6 +112,9 @@ impl<'a> Carving<'a> {
                     .map(|&i| depths[i])
                     .fold(f64::INFINITY, f64::min)
             })
+            .collect();
+        let front = (0..own.len())
+            .map(|c| bins.around(c).map(|k| own[k]).fold(own[c], f64::min))
             .collect();
         Self {
             bins,
@@ -123,22 +127,20 @@ impl<'a> Carving<'a> {
     /// front of the surface seen there (the nearest in its bin and those around it, so that
     /// a pixel's jitter keeps it).
     pub(super) fn keeps(&self, p: &Vector3<f64>, view: &ViewFrame) -> bool {
+        let depth = view.depth(p);
+        if depth <= 0.0 {
+            return false;
+        }
         let q = view.image(p);
         let at = (q - self.bins.lo) / self.bins.pixel;
         let inside = [0, 1]
             .iter()
             .all(|&a| at[a] >= -1.0 && at[a] < self.bins.dims[a] as f64 + 1.0);
-        if !inside || view.depth(p) <= 0.0 {
+        if !inside {
             return false;
         }
-        let c = self.bins.cell(&q);
-        let seen = self
-            .bins
-            .around(c)
-            .chain(std::iter::once(c))
-            .map(|k| self.front[k])
-            .fold(f64::INFINITY, f64::min);
-        seen.is_finite() && view.depth(p) >= seen - self.tolerance
+        let seen = self.front[self.bins.cell(&q)];
+        seen.is_finite() && depth >= seen - self.tolerance
     }
 }
 
