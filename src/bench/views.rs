@@ -71,11 +71,7 @@ pub struct ViewsReport {
 /// completion, to check them on shapes they were not made on.
 fn variants() -> Vec<(&'static str, Shape)> {
     let turned = |x, y, z| Rotation3::from_euler_angles(x, y, z).inverse();
-    let egg_turn = turned(-0.5, 0.4, 1.2);
-    let egg = move |p: &Vector3<f64>| {
-        let q = egg_turn * p;
-        (Vector3::new(q.x / 0.08, q.y / 0.11, q.z / 0.07).norm() - 1.0) * 0.07
-    };
+    let egg = ellipsoid(Vector3::new(0.08, 0.11, 0.07), (-0.5, 0.4, 1.2));
     let upright_ring = |p: &Vector3<f64>| {
         let ring = (p.x * p.x + p.z * p.z).sqrt() - 0.08;
         (ring * ring + p.y * p.y).sqrt() - 0.025
@@ -96,7 +92,7 @@ fn variants() -> Vec<(&'static str, Shape)> {
             "small ball",
             sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.07, 0.09, 40),
         ),
-        ("egg", sdf_mesh(&egg, 0.14, 48)),
+        ("egg", sdf_mesh(&*egg, 0.14, 48)),
         ("upright ring", sdf_mesh(&upright_ring, 0.13, 48)),
         ("cylinder", sdf_mesh(&cylinder, 0.16, 48)),
         ("turned box", sdf_mesh(&turned_box, 0.16, 48)),
@@ -105,13 +101,17 @@ fn variants() -> Vec<(&'static str, Shape)> {
     ]
 }
 
+/// The signed distance (to first order) of an ellipsoid with semi-axes `radii`, turned by the
+/// Euler angles `turn`.
+fn ellipsoid(radii: Vector3<f64>, turn: (f64, f64, f64)) -> Box<dyn Fn(&Vector3<f64>) -> f64> {
+    let turned = Rotation3::from_euler_angles(turn.0, turn.1, turn.2).inverse();
+    let smallest = radii.min();
+    Box::new(move |p| ((turned * p).component_div(&radii).norm() - 1.0) * smallest)
+}
+
 /// The shapes scanned, by name.
 fn shapes() -> Vec<(&'static str, Shape)> {
-    let turned = Rotation3::from_euler_angles(0.3, 0.2, 0.5).inverse();
-    let ellipsoid = move |p: &Vector3<f64>| {
-        let q = turned * p;
-        (Vector3::new(q.x / 0.16, q.y / 0.09, q.z / 0.06).norm() - 1.0) * 0.06
-    };
+    let turned_ellipsoid = ellipsoid(Vector3::new(0.16, 0.09, 0.06), (0.3, 0.2, 0.5));
     let torus = |p: &Vector3<f64>| {
         let ring = (p.x * p.x + p.y * p.y).sqrt() - 0.1;
         (ring * ring + p.z * p.z).sqrt() - 0.04
@@ -121,7 +121,7 @@ fn shapes() -> Vec<(&'static str, Shape)> {
         .map(|name| (name, bundled(name).expect("bundled")))
         .collect();
     shapes.push(("capsule", capsule_mesh(0.3, 0.04)));
-    shapes.push(("ellipsoid", sdf_mesh(&ellipsoid, 0.2, 48)));
+    shapes.push(("ellipsoid", sdf_mesh(&*turned_ellipsoid, 0.2, 48)));
     shapes.push(("torus", sdf_mesh(&torus, 0.16, 48)));
     shapes.extend(variants());
     shapes

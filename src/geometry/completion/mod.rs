@@ -10,9 +10,10 @@
 //! there where it is elliptic (else taken as deep behind the surface in front of it as a round
 //! rod's axis lies: half its width over the sine of its tilt from the view). A compact object
 //! that the visible half of an ellipsoid describes (a ball, an egg) is centred on the ellipsoid
-//! fitted to what was seen; another compact object's centre is at least half its breadth deep
-//! behind the nearer of its nearest point and the surface in front of the centre, and at least
-//! midway between the nearest and the deepest point seen. A long object's and an ellipsoid's
+//! fitted to what was seen, and a box with two or three faces in view on the box they give;
+//! another compact object's centre is at least half its breadth deep behind the nearer of its
+//! nearest point and the surface in front of the centre, and at least midway between the
+//! nearest and the deepest point seen. A long object's and a fitted one's
 //! hidden side follows the reflection pixel by pixel, and the completion is joined by its own
 //! reflection (less what the camera saw to be empty), so that it is as symmetric as the prior;
 //! another compact object's takes a generous depth (mostly the deepest) of the reflected points
@@ -26,13 +27,15 @@ use serde::Serialize;
 mod cuboid;
 mod quadric;
 mod reflection;
+mod rim;
 mod section;
 mod silhouette;
 
-use super::point_index::{neighbour_distance, PointIndex};
+use super::point_index::neighbour_distance;
 use super::shape::principal_extents;
 use crate::linalg::tangents;
 use reflection::{Carving, Reflection};
+use rim::rim_centroid;
 use section::{elliptic_axis, round_axis};
 
 /// Clouds with fewer points are not examined: too few to tell one side from two.
@@ -61,11 +64,7 @@ const LONG_OBJECT: f64 = 2.0;
 /// A long outline is round across its axis where the depths across its middle span at most
 /// this many times a round object's (see `Strip::is_round`).
 const ROUND_ACROSS: f64 = 2.0;
-/// A rim point's weight in the centre is the summed distance to this many other rim points.
-const RIM_NEIGHBOURS: usize = 4;
-/// No rim point weighs more than this many times the median rim point.
-const RIM_WEIGHT_CAP: f64 = 1.5;
-/// A box's points must lie this many point spacings from its fitted faces.
+/// A box's points must lie within this many point spacings of its fitted faces.
 const BOX_TOLERANCE: f64 = 2.0;
 /// The name of the method, as reported.
 pub const METHOD: &str = "reflected_through_centre";
@@ -268,9 +267,10 @@ pub fn complete_view(
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
     let (centre, symmetric) = estimated_centre(points, &depths, &image, &view, &rim_bins, spacing);
     // The reflection is followed pixel by pixel where the object is long, taken round across
-    // its axis, or an ellipsoid. Another compact object's is not: its bins' mostly deepest
-    // reflected depths are kept, a generous fill that makes up for what the rim's pixels leave
-    // out (and an animal is not symmetric; a box seen square to one face would come out thin).
+    // its axis, or fitted (an ellipsoid, a box). Another compact object's is not: its bins'
+    // mostly deepest reflected depths are kept, a generous fill that makes up for what the rim's
+    // pixels leave out (and an animal is not symmetric; a box seen square to one face would
+    // come out thin).
     let fine_pixel = symmetric.then_some(rim_bins.pixel);
     let reflection = Reflection::new(points, &image, &view, &centre, fine_pixel, bins);
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
@@ -304,8 +304,10 @@ pub fn complete_view(
         // far end came out short where nothing was reflected into its outline. The bundled rod
         // scanned from `bench real`'s first side, dropped (`simulate --input`), went from an
         // error of 0.2300 % to 0.1398 %, its centre of mass from 2.74 to 0.77 cm off (printed).
-        // An ellipsoid's centre is fitted as closely: `bench views`' sphere went from a mean
-        // overlap of 0.900 with the rim's centre and the coarse fill to 0.933 (printed).
+        // A fitted ellipsoid's or box's centre is as sure: `bench views`' sphere went from a
+        // mean overlap of 0.900 with the rim's centre and the coarse fill to 0.933 (printed);
+        // without this union the bundled box's overlap fell in 11 of its 12 views, by up to
+        // 0.111 (printed).
         // The solid begins with the surface: each point is reflected and carved once.
         let carving = Carving::new(&rim_bins, &depths, spacing);
         let kept: Vec<(usize, Vector3<f64>)> = solid
@@ -564,9 +566,11 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 /// `LongAxis::section`): the bundled rod scanned from `bench real`'s two sides had its centre
 /// 1.6 and 3.4 mm off its axis, then 0.5 and 0.1 mm (printed); one whose surface there fits an
 /// ellipse and no circle, on the ellipse's. A compact object that the visible half of an
-/// ellipsoid describes is centred on it (`silhouette::ellipsoid_centre`); another is at least
-/// midway between the nearest and the deepest point seen (`seen_depths_middle`). Also whether
-/// the completion is to be as symmetric as the prior: a long object's or an ellipsoid's.
+/// ellipsoid describes is centred on it (`silhouette::ellipsoid_centre`), a box with two faces
+/// in view on its box (`cuboid::box_centre`: its points within `BOX_TOLERANCE` point
+/// spacings, `spacing`, of the box's faces); another is at least midway between the nearest
+/// and the deepest point seen (`seen_depths_middle`). Also whether the completion is to be as
+/// symmetric as the prior: a long object's or a fitted one's.
 /// `depths` and `image` are the points' depths and image coordinates in `view`.
 fn estimated_centre(
     points: &[Vector3<f64>],
@@ -652,52 +656,6 @@ fn seen_depths_middle(depths: &[f64]) -> f64 {
     sorted.sort_by(f64::total_cmp);
     let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
     (at(OUTLINE_QUANTILE) + at(1.0 - OUTLINE_QUANTILE)) / 2.0
-}
-
-/// The centroid of the rim points (indices into `points`), each weighted by the length of rim
-/// it stands for: the summed distance to its `RIM_NEIGHBOURS` nearest rim points, at most
-/// `RIM_WEIGHT_CAP` times the median. One point per two-pixel bin samples the silhouette's
-/// generator evenly in the image, not along the object: an edge receding from the camera, or
-/// the far side of a round one, gets fewer points per metre than a near edge across the view,
-/// and the plain centroid leaned towards the near edges and the camera. Weighted, the centre of
-/// a box seen from `bench real`'s first side went from 0.075 to 0.012 of its half-depth off
-/// across the view, and the completed solids of `bench views`' 82 scans (with the hidden
-/// side's mix, `reflection::DEEPEST_SHARE`) from 0.044 to 0.036 of the diagonal off the mesh's
-/// centroid on average (printed). The cap keeps a few lone points (a foreshortened edge's one
-/// bin) from standing for a long stretch they do not sample: uncapped, the box seen from
-/// above had its centre 0.172 of its half-depth off across the view, capped 0.080 (printed;
-/// unweighted, 0.020: the one view of the six the weights set back).
-fn rim_centroid(points: &[Vector3<f64>], rim: &[usize]) -> Vector3<f64> {
-    let positions: Vec<Vector3<f64>> = rim.iter().map(|&i| points[i]).collect();
-    let unweighted = || positions.iter().sum::<Vector3<f64>>() / positions.len().max(1) as f64;
-    if positions.len() <= RIM_NEIGHBOURS {
-        return unweighted();
-    }
-    let index = PointIndex::for_surface(&positions);
-    let mut weights: Vec<f64> = positions
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let near = index.nearest(p, RIM_NEIGHBOURS, Some(i));
-            near.iter().map(|&j| (positions[j] - p).norm()).sum()
-        })
-        .collect();
-    let mut sorted = weights.clone();
-    sorted.sort_by(f64::total_cmp);
-    let cap = RIM_WEIGHT_CAP * sorted[sorted.len() / 2];
-    for w in &mut weights {
-        *w = w.min(cap);
-    }
-    let total: f64 = weights.iter().sum();
-    if total <= 0.0 {
-        return unweighted();
-    }
-    positions
-        .iter()
-        .zip(&weights)
-        .map(|(p, w)| p * *w)
-        .sum::<Vector3<f64>>()
-        / total
 }
 
 /// A long object's axis (the points' longest principal axis) and how it lies in the view.
