@@ -6,6 +6,14 @@
 
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 
+/// A fitted ellipse's or ellipsoid's extent across the view, against half the outline's along
+/// the same direction, lies in this range where it is the object's: the outline shows it (its
+/// last pixels a little short of it), as it shows a circle's radius.
+pub(super) const ACROSS_BOUNDS: std::ops::Range<f64> = 0.85..1.2;
+/// Its half-depth along the view, against half the outline's breadth: a shape three times as
+/// deep as it is broad is not trusted to a fit of the side that faces the camera.
+pub(super) const DEPTH_BOUNDS: std::ops::Range<f64> = 0.33..3.0;
+
 /// An ellipse (D = 2) or ellipsoid (D = 3): the points x with (x - centre)^T shape (x - centre)
 /// = 1.
 pub(super) struct Quadric<const D: usize> {

@@ -8,7 +8,7 @@
 
 use nalgebra::{Matrix3, Vector2, Vector3};
 
-use super::quadric::Quadric;
+use super::quadric::{Quadric, ACROSS_BOUNDS, DEPTH_BOUNDS};
 
 use crate::linalg::tangents;
 
@@ -85,13 +85,6 @@ pub(super) fn elliptic_axis(
     (plausible && ellipse.misfit <= ROUNDNESS * ellipse.minor())
         .then(|| near + across * ellipse.centre.x + deep * ellipse.centre.y)
 }
-
-/// The fitted ellipse's extent across the view, against half the outline's width, must lie in
-/// this range: the outline shows it, as it shows a circle's radius.
-const ACROSS_BOUNDS: std::ops::Range<f64> = 0.85..1.2;
-/// Its half-depth along the view, against half the outline's width: a section three times as
-/// deep as it is wide seen along its depth is not trusted to a fit of its near side.
-const DEPTH_BOUNDS: std::ops::Range<f64> = 0.33..3.0;
 
 /// The circle (centre, radius) that best fits `points` in the algebraic sense (Kasa's fit: the
 /// least squares of x^2 + y^2 + D x + E y + F over the points), which is exact for points on a

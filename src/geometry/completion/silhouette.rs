@@ -6,10 +6,12 @@
 //! `bench views`' turned ellipsoid, which came out 0.54 to 0.68 of its volume from four sides.
 //! A box's silhouette is its back edges and its rim's centroid lies at its centre: the
 //! correction is made only where the surface rises towards the outline as a smooth cap does.
+//! Where the points seen lie on an ellipsoid, its centre is fitted instead (`ellipsoid_centre`),
+//! and the correction is left to smooth objects that are no ellipsoid.
 
 use nalgebra::{Vector2, Vector3};
 
-use super::quadric::Quadric;
+use super::quadric::{Quadric, ACROSS_BOUNDS, DEPTH_BOUNDS};
 
 /// Sectors around the centre in the image, each with its own reach to the outline.
 const SECTORS: usize = 36;
@@ -24,12 +26,6 @@ const HALFWAY: std::ops::Range<f64> = 0.4..0.6;
 /// 0.280.
 const SMOOTH_PROFILE: f64 = 0.2;
 
-/// The fitted ellipsoid's extent along either of the outline's axes, against half the
-/// outline's, must lie in this range: the outline shows it (its last pixels a little short).
-const ACROSS_BOUNDS: std::ops::Range<f64> = 0.85..1.2;
-/// Its half-depth along the view, against half the outline's breadth: an ellipsoid three times
-/// as deep as it is broad is not trusted to a fit of the side that faces the camera.
-const DEPTH_BOUNDS: std::ops::Range<f64> = 0.33..3.0;
 /// The points must lie this close to the fitted ellipsoid (root mean square, against its
 /// smallest semi-axis) for the object to be taken as one.
 const ELLIPSOIDAL: f64 = 0.02;
