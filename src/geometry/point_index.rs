@@ -2,7 +2,7 @@
 //! cell's run found by offset (no hashing on the query path).
 //! Also a cloud's spacing statistics measured with it: `neighbour_distance`, `median_spacing`.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 /// At most this many cells per point (and at least 2^16 allowed): a cell asked for smaller
 /// than that is widened, so sparse outliers cannot make the grid huge.
@@ -198,6 +198,39 @@ pub fn neighbour_distance(points: &[Vector3<f64>], k: usize, quantile: f64) -> f
         .collect();
     d.sort_by(f64::total_cmp);
     d[((d.len() as f64 * quantile) as usize).min(d.len() - 1)]
+}
+
+/// The plane fitted through a neighbourhood of points (principal components of their scatter).
+pub(crate) struct NeighbourhoodPlane {
+    /// Unit normal, of either sign: the direction of least spread.
+    pub normal: Vector3<f64>,
+    /// The scatter's eigenvalues, smallest first: the neighbourhood is flat where the first
+    /// is small beside the second.
+    pub spread: [f64; 3],
+}
+
+/// The plane through `points[neighbours]`; None for fewer than three points, which fix none.
+pub(crate) fn neighbourhood_plane(
+    points: &[Vector3<f64>],
+    neighbours: &[usize],
+) -> Option<NeighbourhoodPlane> {
+    if neighbours.len() < 3 {
+        return None;
+    }
+    let mean =
+        neighbours.iter().map(|&j| points[j]).sum::<Vector3<f64>>() / neighbours.len() as f64;
+    let mut scatter = Matrix3::zeros();
+    for &j in neighbours {
+        let d = points[j] - mean;
+        scatter += d * d.transpose();
+    }
+    let eigen = scatter.symmetric_eigen();
+    let mut order = [0, 1, 2];
+    order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+    Some(NeighbourhoodPlane {
+        normal: eigen.eigenvectors.column(order[0]).into_owned(),
+        spread: order.map(|i| eigen.eigenvalues[i]),
+    })
 }
 
 fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {

@@ -1,10 +1,10 @@
 //! Surface samples with normals: area-weighted on triangles, concentrated on sharp edges, or
 //! drawn from a bare cloud with normals estimated from its neighbours.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 use rand::Rng;
 
-use super::point_index::PointIndex;
+use super::point_index::{neighbourhood_plane, NeighbourhoodPlane, PointIndex};
 use super::shape::Shape;
 use super::voxel::VoxelGrid;
 
@@ -204,19 +204,9 @@ fn estimate_normal(
     grid: &VoxelGrid,
 ) -> Vector3<f64> {
     let neighbours = index.nearest(&points[i], 16, None);
-    if neighbours.len() < 3 {
+    let Some(NeighbourhoodPlane { normal, .. }) = neighbourhood_plane(points, &neighbours) else {
         return Vector3::z();
-    }
-    let mean =
-        neighbours.iter().map(|&j| points[j]).sum::<Vector3<f64>>() / neighbours.len() as f64;
-    let mut cov = Matrix3::zeros();
-    for &j in &neighbours {
-        let d = points[j] - mean;
-        cov += d * d.transpose();
-    }
-    let eig = cov.symmetric_eigen();
-    let smallest = eig.eigenvalues.imin();
-    let normal: Vector3<f64> = eig.eigenvectors.column(smallest).into_owned();
+    };
     // Probe a few cells out along both directions: the one that leaves the solid is outward.
     let probe = 3.0 * grid.cell;
     let outward_score = |n: &Vector3<f64>| {

@@ -7,7 +7,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::super::point_index::PointIndex;
+use super::super::point_index::{neighbourhood_plane, PointIndex};
+use super::quantile_span;
 
 /// Normals are estimated at about this many of the points.
 const SAMPLED: usize = 1500;
@@ -59,16 +60,8 @@ fn flat_normals(points: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
         .step_by(stride)
         .filter_map(|i| {
             let near = index.nearest(&points[i], NEIGHBOURS, None);
-            let mean = near.iter().map(|&j| points[j]).sum::<Vector3<f64>>() / near.len() as f64;
-            let scatter = near
-                .iter()
-                .map(|&j| (points[j] - mean) * (points[j] - mean).transpose())
-                .sum::<Matrix3<f64>>();
-            let eigen = scatter.symmetric_eigen();
-            let mut order = [0, 1, 2];
-            order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
-            let (smallest, middle) = (eigen.eigenvalues[order[0]], eigen.eigenvalues[order[1]]);
-            (smallest < FLAT * middle).then(|| eigen.eigenvectors.column(order[0]).into_owned())
+            let plane = neighbourhood_plane(points, &near)?;
+            (plane.spread[0] < FLAT * plane.spread[1]).then_some(plane.normal)
         })
         .collect()
 }
@@ -131,11 +124,8 @@ fn extents(points: &[Vector3<f64>], axes: &Matrix3<f64>) -> (Vector3<f64>, Vecto
     let mut lo = Vector3::zeros();
     let mut hi = Vector3::zeros();
     for a in 0..3 {
-        let mut along: Vec<f64> = points.iter().map(|p| p.dot(&axes.column(a))).collect();
-        along.sort_by(f64::total_cmp);
-        let at = |q: f64| along[((along.len() - 1) as f64 * q).round() as usize];
-        lo[a] = at(EXTENT_QUANTILE);
-        hi[a] = at(1.0 - EXTENT_QUANTILE);
+        let along = points.iter().map(|p| p.dot(&axes.column(a)));
+        (lo[a], hi[a]) = quantile_span(along, EXTENT_QUANTILE);
     }
     (lo, hi)
 }

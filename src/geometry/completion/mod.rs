@@ -652,10 +652,17 @@ fn estimated_centre(
 /// shows its top face to the far edge, which the rim's centroid (its silhouette lies at the
 /// near and far edges alike) does not weigh.
 fn seen_depths_middle(depths: &[f64]) -> f64 {
-    let mut sorted = depths.to_vec();
+    let (near, deep) = quantile_span(depths.iter().copied(), OUTLINE_QUANTILE);
+    (near + deep) / 2.0
+}
+
+/// The values at quantile `q` and `1 - q` (the nearest ranks): how far a set of values
+/// spans, a few strays at either end left out. Panics on no values.
+pub(super) fn quantile_span(values: impl Iterator<Item = f64>, q: f64) -> (f64, f64) {
+    let mut sorted: Vec<f64> = values.collect();
     sorted.sort_by(f64::total_cmp);
     let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
-    (at(OUTLINE_QUANTILE) + at(1.0 - OUTLINE_QUANTILE)) / 2.0
+    (at(q), at(1.0 - q))
 }
 
 /// A long object's axis (the points' longest principal axis) and how it lies in the view.
@@ -731,13 +738,9 @@ impl LongAxis {
         view: &ViewFrame,
         centre: &Vector3<f64>,
     ) -> Vector3<f64> {
-        let mut along: Vec<f64> = points
-            .iter()
-            .map(|p| (p - view.viewpoint).dot(&self.across))
-            .collect();
-        along.sort_by(f64::total_cmp);
-        let at = |q: f64| along[((along.len() - 1) as f64 * q).round() as usize];
-        let middle = (at(OUTLINE_QUANTILE) + at(1.0 - OUTLINE_QUANTILE)) / 2.0;
+        let along = points.iter().map(|p| (p - view.viewpoint).dot(&self.across));
+        let (lo, hi) = quantile_span(along, OUTLINE_QUANTILE);
+        let middle = (lo + hi) / 2.0;
         centre + self.axis * ((middle - (centre - view.viewpoint).dot(&self.across)) / self.tilt)
     }
 }
