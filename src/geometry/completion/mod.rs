@@ -738,7 +738,9 @@ impl LongAxis {
         view: &ViewFrame,
         centre: &Vector3<f64>,
     ) -> Vector3<f64> {
-        let along = points.iter().map(|p| (p - view.viewpoint).dot(&self.across));
+        let along = points
+            .iter()
+            .map(|p| (p - view.viewpoint).dot(&self.across));
         let (lo, hi) = quantile_span(along, OUTLINE_QUANTILE);
         let middle = (lo + hi) / 2.0;
         centre + self.axis * ((middle - (centre - view.viewpoint).dot(&self.across)) / self.tilt)

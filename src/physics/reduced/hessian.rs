@@ -3,10 +3,10 @@
 //! pins; contact.
 
 use nalgebra::{DMatrix, DVector, Matrix3};
-use rayon::prelude::*;
 
 use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
+use crate::physics::assembly::shared_out;
 use crate::physics::material::Matrix9;
 
 /// Points from which their stress derivatives are formed on several threads: a point's takes
@@ -162,7 +162,10 @@ impl ReducedSim {
             PARALLEL_STRESS_DERIVATIVES
         };
         let hessians: Vec<Matrix9> = if gradients.len() >= parallel_from {
-            gradients.par_iter().map(hessian_of).collect()
+            let run_of = |run: std::ops::Range<usize>| -> Vec<Matrix9> {
+                gradients[run].iter().map(hessian_of).collect()
+            };
+            shared_out(gradients.len(), run_of).concat()
         } else {
             gradients.iter().map(hessian_of).collect()
         };
