@@ -412,15 +412,16 @@ fn run_bench_views(json: bool) -> physskin::Result<()> {
         cli::print_json(&r);
         return Ok(());
     }
-    println!("| shape | image | camera from | points | outcome | volume / true | overlap | centroid off / diagonal |");
-    println!("|---|---|---|---:|---|---:|---:|---:|");
+    println!("| shape | image | camera from | depth noise at 1 m | points | outcome | volume / true | overlap | centroid off / diagonal |");
+    println!("|---|---|---|---:|---:|---|---:|---:|---:|");
     for r in &r.rows {
         println!(
-            "| {} | {}x{} | {:?} | {} | {} | {:.3} | {:.3} | {:.3} |",
+            "| {} | {}x{} | {:?} | {} | {} | {} | {:.3} | {:.3} | {:.3} |",
             r.shape,
             r.image[0],
             r.image[1],
             r.direction,
+            r.depth_noise_m,
             r.points,
             r.outcome,
             r.volume_ratio,
@@ -431,6 +432,11 @@ fn run_bench_views(json: bool) -> physskin::Result<()> {
     println!(
         "{} of {} completed scans within 30 % of the volume; mean overlap {:.3}; worst volume factor {:.3}",
         r.within_30_pct, r.completed, r.mean_overlap, r.worst_volume_factor
+    );
+    let n = &r.noisy;
+    println!(
+        "with depth noise ({} m at 1 m): {} of {} within 30 %; mean overlap {:.3}; worst volume factor {:.3}",
+        n.depth_noise_m, n.within_30_pct, n.completed, n.mean_overlap, n.worst_volume_factor
     );
     Ok(())
 }

@@ -388,15 +388,25 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
     let out = succeeded(physskin().args(["bench", "views", "--json"]));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let rows = report["rows"].as_array().expect("rows");
-    // Fourteen shapes, six sides, two image sizes.
-    assert_eq!(rows.len(), 168);
+    // Fourteen shapes, six sides, two image sizes; clean, then with depth noise.
+    assert_eq!(rows.len(), 336);
     let completed: Vec<_> = rows
         .iter()
         .filter(|r| r["outcome"] == "completed")
         .collect();
-    assert_eq!(report["completed"].as_u64(), Some(completed.len() as u64));
+    let noisy = |r: &serde_json::Value| r["depth_noise_m"].as_f64().unwrap() > 0.0;
+    let completed_noisy = completed.iter().filter(|r| noisy(r)).count();
+    assert_eq!(rows.iter().filter(|r| noisy(r)).count(), 168);
+    assert_eq!(
+        report["completed"].as_u64(),
+        Some((completed.len() - completed_noisy) as u64)
+    );
+    assert_eq!(
+        report["noisy"]["completed"].as_u64(),
+        Some(completed_noisy as u64)
+    );
     let within = report["within_30_pct"].as_u64().unwrap() as usize;
-    assert!(within <= completed.len());
+    assert!(within <= completed.len() - completed_noisy);
     let mut real_sides = 0;
     for row in &completed {
         let overlap = row["overlap"].as_f64().unwrap();
@@ -406,7 +416,8 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
             assert!(overlap > 0.8, "{row}");
         }
         // Balls, ellipsoids and the two boxes along the axes complete from every side within
-        // 15 % of their volume: fitted as an ellipsoid, or as a box with two faces in view.
+        // 15 % of their volume, with depth noise too: fitted as an ellipsoid, or as a box with
+        // two faces in view.
         let fitted = [
             "sphere",
             "ellipsoid",
@@ -430,6 +441,6 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
             real_sides += 1;
         }
     }
-    // Four shapes, two sides, two image sizes.
-    assert_eq!(real_sides, 16);
+    // Four shapes, two sides, two image sizes, clean and noisy.
+    assert_eq!(real_sides, 32);
 }

@@ -2,10 +2,13 @@
 //! shapes (the bundled sphere, box, creature and rod; three the network and the completion
 //! were not tuned on at first: a 0.3 m capsule, a turned ellipsoid, a torus; and seven variants
 //! of those kinds, see `variants`) are scanned from six sides at two image sizes; each scan is
-//! completed and its solid voxelized against the whole mesh's.
-//! Geometry only: `bench real` simulates the bundled shapes' scans.
+//! completed and its solid voxelized against the whole mesh's; every scan again with a depth
+//! camera's noise. Geometry only: `bench real` simulates the bundled shapes' scans.
 
 use nalgebra::{Rotation3, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use physskin::error::Result;
@@ -28,6 +31,10 @@ const IMAGES: [(usize, usize); 2] = [(160, 120), (240, 180)];
 const RESOLUTION: usize = 64;
 /// The target: a completed volume within 30 % of the object's.
 const VOLUME_TOLERANCE: f64 = 0.3;
+/// The noisy scans' depth noise at 1 m, m; it grows with the square of the depth, as a stereo
+/// or structured-light camera's does (2 mm at 1 m is a common stereo camera's, at 0.5 m a
+/// quarter of it).
+const DEPTH_NOISE_AT_1M: f64 = 0.002;
 
 /// One scan.
 #[derive(Clone, Debug, Serialize)]
@@ -38,6 +45,8 @@ pub struct ViewRow {
     pub direction: [f64; 3],
     /// Image width and height, pixels.
     pub image: [usize; 2],
+    /// The scan's depth noise at 1 m (standard deviation along the ray, m; 0 for a clean scan).
+    pub depth_noise_m: f64,
     /// Points in the scan.
     pub points: usize,
     /// `completed`, `two-sided` (not one view: built as it is) or the refusal's reason.
@@ -50,11 +59,30 @@ pub struct ViewRow {
     pub centroid_offset: f64,
 }
 
-/// What `bench views` reports (serialized for `--json`).
+/// What `bench views` reports (serialized for `--json`): the clean scans' summary, then the
+/// noisy ones'.
 #[derive(Clone, Debug, Serialize)]
 pub struct ViewsReport {
-    /// One row per shape, image size and direction, in that nesting order.
+    /// One row per shape, image size and direction, in that nesting order: the clean scans,
+    /// then the same scans with depth noise.
     pub rows: Vec<ViewRow>,
+    /// Clean scans completed (the three figures below are the clean scans' too).
+    pub completed: usize,
+    /// Completed scans whose volume is within 30 % of the mesh's.
+    pub within_30_pct: usize,
+    /// Mean `overlap` of the completed scans.
+    pub mean_overlap: f64,
+    /// Largest factor between a completed volume and the mesh's (above or below).
+    pub worst_volume_factor: f64,
+    /// The same figures for the noisy scans.
+    pub noisy: ViewsSummary,
+}
+
+/// How the completed scans of one kind (clean or noisy) compare with their meshes.
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewsSummary {
+    /// The scans' depth noise at 1 m, m.
+    pub depth_noise_m: f64,
     /// Scans completed.
     pub completed: usize,
     /// Completed scans whose volume is within 30 % of the mesh's.
@@ -131,22 +159,60 @@ fn shapes() -> Vec<(&'static str, Shape)> {
 /// with the mesh's; `progress` gets a line per shape. Errs when a scan fails.
 pub fn run_views_bench(mut progress: impl FnMut(&str)) -> Result<ViewsReport> {
     let mut rows = Vec::new();
+    let mut noisy_rows = Vec::new();
+    // One seed for the whole run: every run draws the same noise.
+    let mut rng = ChaCha8Rng::seed_from_u64(29);
     for (name, shape) in shapes() {
         let truth = VoxelGrid::from_shape(&shape, RESOLUTION, None);
         for (width, height) in IMAGES {
             for direction in VIEW_DIRECTIONS {
                 let camera = Camera::looking_at(&shape, direction.into(), 1.5, width, height);
                 let points = scan_points(&shape, &camera)?;
-                let mut row = compare(&points, &camera.position, &shape, &truth);
-                row.shape = name.to_string();
-                row.direction = direction;
-                row.image = [width, height];
-                rows.push(row);
+                let noisy = with_depth_noise(&points, &camera.position, &mut rng);
+                for (points, noise, out) in [
+                    (points, 0.0, &mut rows),
+                    (noisy, DEPTH_NOISE_AT_1M, &mut noisy_rows),
+                ] {
+                    let mut row = compare(&points, &camera.position, &shape, &truth);
+                    row.shape = name.to_string();
+                    row.direction = direction;
+                    row.image = [width, height];
+                    row.depth_noise_m = noise;
+                    out.push(row);
+                }
             }
         }
         progress(&format!("{name}: scanned"));
     }
-    Ok(summarize(rows))
+    let clean = summarize(&rows, 0.0);
+    let noisy = summarize(&noisy_rows, DEPTH_NOISE_AT_1M);
+    rows.extend(noisy_rows);
+    Ok(ViewsReport {
+        rows,
+        completed: clean.completed,
+        within_30_pct: clean.within_30_pct,
+        mean_overlap: clean.mean_overlap,
+        worst_volume_factor: clean.worst_volume_factor,
+        noisy,
+    })
+}
+
+/// `points` seen from `camera`, each moved along its ray by Gaussian depth noise of
+/// `DEPTH_NOISE_AT_1M` times the square of its depth in metres.
+fn with_depth_noise(
+    points: &[Vector3<f64>],
+    camera: &Vector3<f64>,
+    rng: &mut ChaCha8Rng,
+) -> Vec<Vector3<f64>> {
+    let unit = Normal::new(0.0, 1.0).expect("a unit normal distribution");
+    points
+        .iter()
+        .map(|p| {
+            let ray = p - camera;
+            let depth = ray.norm();
+            p + ray / depth * (unit.sample(rng) * DEPTH_NOISE_AT_1M * depth * depth)
+        })
+        .collect()
 }
 
 /// The completion of `points` seen from `viewpoint` against `truth`, the mesh's solid.
@@ -160,6 +226,7 @@ fn compare(
         shape: String::new(),
         direction: [0.0; 3],
         image: [0, 0],
+        depth_noise_m: 0.0,
         points: points.len(),
         outcome: "completed".into(),
         volume_ratio: 0.0,
@@ -206,7 +273,7 @@ fn overlap(truth: &VoxelGrid, other: &VoxelGrid) -> f64 {
     shared / (solid_volume(truth) + solid_volume(other) - shared)
 }
 
-fn summarize(rows: Vec<ViewRow>) -> ViewsReport {
+fn summarize(rows: &[ViewRow], depth_noise_m: f64) -> ViewsSummary {
     let done: Vec<&ViewRow> = rows.iter().filter(|r| r.outcome == "completed").collect();
     let within = done
         .iter()
@@ -217,11 +284,11 @@ fn summarize(rows: Vec<ViewRow>) -> ViewsReport {
         .iter()
         .map(|r| r.volume_ratio.max(1.0 / r.volume_ratio))
         .fold(1.0, f64::max);
-    ViewsReport {
+    ViewsSummary {
+        depth_noise_m,
         completed: done.len(),
         within_30_pct: within,
         mean_overlap,
         worst_volume_factor: worst,
-        rows,
     }
 }
