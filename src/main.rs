@@ -429,15 +429,12 @@ fn run_bench_views(json: bool) -> physskin::Result<()> {
             r.centroid_offset
         );
     }
-    println!(
-        "{} of {} completed scans within 30 % of the volume; mean overlap {:.3}; worst volume factor {:.3}",
-        r.within_30_pct, r.completed, r.mean_overlap, r.worst_volume_factor
-    );
-    let n = &r.noisy;
-    println!(
-        "with depth noise ({} m at 1 m): {} of {} within 30 %; mean overlap {:.3}; worst volume factor {:.3}",
-        n.depth_noise_m, n.within_30_pct, n.completed, n.mean_overlap, n.worst_volume_factor
-    );
+    for s in [&r.clean, &r.noisy] {
+        println!(
+            "depth noise {} m at 1 m: {} of {} completed scans within 30 % of the volume; mean overlap {:.3}; worst volume factor {:.3}",
+            s.depth_noise_m, s.within_30_pct, s.completed, s.mean_overlap, s.worst_volume_factor
+        );
+    }
     Ok(())
 }
 

@@ -1,6 +1,7 @@
 //! A uniform grid over points for nearest-neighbour queries: the points sorted by cell, each
 //! cell's run found by offset (no hashing on the query path).
-//! Also a cloud's spacing statistics measured with it: `neighbour_distance`, `median_spacing`.
+//! Also a cloud's spacing statistics measured with it (`neighbour_distance`, `median_spacing`)
+//! and the plane through a neighbourhood it found (`neighbourhood_plane`).
 
 use nalgebra::{Matrix3, Vector3};
 
