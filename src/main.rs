@@ -649,7 +649,7 @@ fn run_bench_sim(
 
 fn print_table(report: &SimBenchReport) {
     println!(
-        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>6} {:>6}",
+        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>6} {:>6}",
         "shape",
         "verts",
         "scenario",
@@ -660,6 +660,7 @@ fn print_table(report: &SimBenchReport) {
         "step_ms",
         "mean_ms",
         "p99_ms",
+        "prep_max",
         "fem_ms",
         "speedup",
         "err_%",
@@ -669,7 +670,7 @@ fn print_table(report: &SimBenchReport) {
     );
     for r in &report.rows {
         println!(
-            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>6} {:>6}",
+            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>6} {:>6}",
             r.shape,
             r.vertices,
             r.scenario,
@@ -680,6 +681,7 @@ fn print_table(report: &SimBenchReport) {
             r.step_ms,
             r.step_mean_ms,
             r.step_p99_ms,
+            r.prepare_max_ms,
             r.fem_step_ms,
             r.speedup,
             r.error_pct,

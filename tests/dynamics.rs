@@ -761,6 +761,47 @@ fn a_hessian_refreshed_on_fewer_points_reaches_newtons_steps() {
     );
 }
 
+/// The soft bar's refreshes made between the steps (`prepare` after each, as the node does
+/// once a step's outputs are out) leave every step as it was: the same states to the bit,
+/// the same iterations and refreshes in each report.
+#[test]
+fn refreshes_made_between_the_steps_leave_the_steps_as_they_were() {
+    let f = fixture(Vector3::new(1.0, 0.2, 0.2), 20, 8, 1024, 1000.0);
+    let params = SimParams::default();
+    let run = |between: bool| {
+        let mut sim = simulation(&f, &params, Solver::QuasiNewton);
+        pin_left_end(&mut sim, &f, &params);
+        let mut steps = Vec::new();
+        for _ in 0..40 {
+            let r = sim.step();
+            steps.push((
+                r.iterations,
+                r.refreshes,
+                r.factorizations,
+                sim.state().clone(),
+            ));
+            if between {
+                sim.prepare();
+            }
+        }
+        steps
+    };
+    let (alone, between) = (run(false), run(true));
+    let refreshes: usize = between.iter().map(|s| s.1).sum();
+    assert!(
+        refreshes > 0,
+        "the bent bar never refreshed its held Hessian"
+    );
+    for (step, (a, b)) in alone.iter().zip(&between).enumerate() {
+        assert_eq!(
+            (a.0, a.1, a.2),
+            (b.0, b.1, b.2),
+            "step {step}: iterations, refreshes, factorizations"
+        );
+        assert_eq!(a.3, b.3, "step {step}: state");
+    }
+}
+
 /// A bar dropped tilted lands on an edge, turns over and falls flat within one step: that
 /// step's factor holds the springs of a hundred points at once, and the pairs L-BFGS measured
 /// before, without them, must not undo them. When written, the flat landing took 4 iterations;

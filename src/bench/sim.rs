@@ -104,6 +104,11 @@ pub struct SimRow {
     pub step_p99_ms: f64,
     /// Largest reduced step, ms.
     pub step_max_ms: f64,
+    /// `ReducedSim::prepare` after each step, ms, mean and largest: the held Hessian's
+    /// refresh that a slow step asked for, made between the steps (as the node does once a
+    /// step's outputs are out), so in none of the step figures.
+    pub prepare_mean_ms: f64,
+    pub prepare_max_ms: f64,
     /// Median FEM step, ms.
     pub fem_step_ms: f64,
     /// Median FEM step over median reduced step.
@@ -359,25 +364,31 @@ pub(crate) fn scenario_params(shape: &BenchShape) -> SimParams {
     }
 }
 
-/// Whether `x` lies in the 10% slab of the x extent at the min end (`side` -1) or the max
-/// end (`side` +1).
-fn in_end_slab(mesh: &TetMesh, side: f64, x: f64) -> bool {
+/// The x values from which a vertex lies in the 10% slab of the mesh's x extent at its min
+/// end (`side` -1, at most the first) or its max end (`side` +1, at least the second).
+/// The bounds are a pass over the voxel grid: taken once, not once per vertex.
+fn end_slabs(mesh: &TetMesh) -> (f64, f64) {
     let (lo, hi) = mesh.bounds();
     let slab = 0.1 * (hi.x - lo.x);
+    (lo.x + slab + 1e-9, hi.x - slab - 1e-9)
+}
+
+fn in_end_slab((low, high): (f64, f64), side: f64, x: f64) -> bool {
     if side < 0.0 {
-        x <= lo.x + slab + 1e-9
+        x <= low
     } else {
-        x >= hi.x - slab - 1e-9
+        x >= high
     }
 }
 
 /// Which end of the x extent the object hangs from: the one whose 10% slab holds more
 /// vertices (the creature hangs by its head, not by the tip of its tail); -1 for min x.
 fn pinned_side(mesh: &TetMesh) -> f64 {
+    let slabs = end_slabs(mesh);
     let count = |side| {
         mesh.vertices
             .iter()
-            .filter(|v| in_end_slab(mesh, side, v.x))
+            .filter(|v| in_end_slab(slabs, side, v.x))
             .count()
     };
     if count(1.0) > count(-1.0) {
@@ -389,9 +400,9 @@ fn pinned_side(mesh: &TetMesh) -> f64 {
 
 /// Vertices within 10% of the x extent from the pinned end.
 pub(crate) fn pinned_vertices(mesh: &TetMesh) -> Vec<usize> {
-    let side = pinned_side(mesh);
+    let (side, slabs) = (pinned_side(mesh), end_slabs(mesh));
     (0..mesh.vertices.len())
-        .filter(|&v| in_end_slab(mesh, side, mesh.vertices[v].x))
+        .filter(|&v| in_end_slab(slabs, side, mesh.vertices[v].x))
         .collect()
 }
 
@@ -502,6 +513,7 @@ pub(crate) fn run_reduced(
     let lifter = Lifter::new(subspace.field(), subspace.normalization(), &mesh.vertices);
     let mut lifted = vec![0.0f32; 3 * mesh.vertices.len()];
     let mut times = Vec::with_capacity(reference.len());
+    let mut prepares = Vec::with_capacity(reference.len());
     let mut iterations = 0;
     let mut unconverged_steps = 0;
     let mut fallback_steps = 0;
@@ -513,6 +525,9 @@ pub(crate) fn run_reduced(
         unconverged_steps += usize::from(!report.converged);
         fallback_steps += usize::from(report.fallback);
         lifter.lift(sim.state(), &mut lifted);
+        let started = std::time::Instant::now();
+        sim.prepare();
+        prepares.push(started.elapsed().as_secs_f64());
         squared += lifted
             .iter()
             .zip(expected)
@@ -532,6 +547,8 @@ pub(crate) fn run_reduced(
         step_mean_ms: times.iter().sum::<f64>() / times.len() as f64 * 1e3,
         step_p99_ms: quantile(&times, 0.99) * 1e3,
         step_max_ms: times.iter().cloned().fold(f64::NAN, f64::max) * 1e3,
+        prepare_mean_ms: prepares.iter().sum::<f64>() / prepares.len() as f64 * 1e3,
+        prepare_max_ms: prepares.iter().cloned().fold(f64::NAN, f64::max) * 1e3,
         fem_step_ms: 0.0,
         speedup: 0.0,
         error_pct: (squared / samples).sqrt() / shape.diagonal * 100.0,

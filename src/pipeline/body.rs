@@ -418,6 +418,12 @@ impl SoftBody {
         self.last.insert(report)
     }
 
+    /// Does now the work its next step would begin with (see `ReducedSim::prepare`): call it
+    /// once a step's outputs are out, and that work no longer delays the next step's.
+    pub fn prepare(&mut self) {
+        self.sim.prepare();
+    }
+
     fn update_sleep(&mut self, rule: &SleepRule, report: &StepReport, disturbed: bool) {
         let mass = self.sim.subspace().total_mass();
         let speed = (2.0 * report.kinetic_energy / mass).sqrt();

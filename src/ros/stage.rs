@@ -127,6 +127,21 @@ impl Stage {
         if !self.on_the_beat {
             self.publish_pending(outputs);
         }
+        self.prepare_next();
+    }
+
+    /// What the next tick's steps would begin with (a held Hessian's refresh), done once this
+    /// tick's outputs are out (on the beat they go out at the next tick, long after this).
+    fn prepare_next(&mut self) {
+        let scene = &mut self.scene;
+        rayon::join(
+            || self.bodies.par_iter_mut().for_each(|b| b.body.prepare()),
+            || {
+                if let Some(s) = scene {
+                    s.scene.prepare();
+                }
+            },
+        );
     }
 
     /// Per body, the other bodies of its output frame as obstacles (their contact hulls where
@@ -275,6 +290,9 @@ impl Stage {
         }
         if step_now {
             publish_last_step(&mut ready, outputs, true, true);
+        }
+        if step_now || early {
+            ready.body.prepare();
         }
         let now = outputs.clock.now_nanos().unwrap_or(0);
         if let Some(i) = self.bodies.iter().position(|b| b.key == ready.key) {

@@ -211,9 +211,10 @@ impl ReducedSim {
         }
     }
 
-    /// The refresh a slow step asked for, made at the start of the next one, at the state that
-    /// step ended in: the same Hessian as at the end of the slow step, paid by a step whose
-    /// solve it makes short. Made at the end of the slow step, that step paid both: the pinned
+    /// The refresh a slow step asked for, made by `prepare` between the steps or at the start
+    /// of the next one, at the state that step ended in: the same Hessian as at the end of the
+    /// slow step, paid by a step whose solve it makes short (or, made between the steps, by
+    /// none). Made at the end of the slow step, that step paid both: the pinned
     /// rod's hanging took 1.65-2.09 ms in its refreshing steps, 7 iterations and a refresh;
     /// ahead of the next, 1.34-2.18 ms, 3 or 4 iterations and a refresh. Over alternating runs
     /// (FEM left out, 2 cores; printed) the p99 step of `bench sim`'s hanging rows went from

@@ -114,6 +114,14 @@ impl StepReport {
     }
 }
 
+/// Refreshes of the held Hessian, and the factorizations they made, that `prepare` made
+/// between two steps.
+#[derive(Clone, Copy, Debug, Default)]
+struct AheadWork {
+    refreshes: usize,
+    factorizations: usize,
+}
+
 /// The part of one step's objective that is quadratic or linear in z.
 struct StepObjective {
     quadratic: DMatrix<f64>,
@@ -176,6 +184,8 @@ pub struct ReducedSim {
     /// A slow step found the held Hessian stale: the next step refreshes it first (see
     /// `ReducedSim::refresh_if_due`).
     refresh_due: bool,
+    /// What `prepare` did ahead of the next step, for its report.
+    ahead: AheadWork,
     time: f64,
     pins: Vec<ReducedPoint>,
     /// The pin energy is quadratic in Z, so it is kept in closed form whatever the number of
@@ -265,6 +275,7 @@ impl ReducedSim {
             calm_steps: 0,
             fresh_iterations: None,
             refresh_due: false,
+            ahead: AheadWork::default(),
             last_iterations: 0,
             time: 0.0,
             pins: Vec::new(),
@@ -345,6 +356,7 @@ impl ReducedSim {
         self.z_before = None;
         self.time = 0.0;
         self.refresh_due = false;
+        self.ahead = AheadWork::default();
     }
 
     /// The elastic Hessian at rest (PSD-projected), kept by the subspace.
@@ -392,10 +404,23 @@ impl ReducedSim {
         self.pokes.push((phi, poke));
     }
 
-    /// Does the one-off work of the configured solver now (the pins' exact directions, the
-    /// rest Hessian and its factorization for quasi-Newton) instead of in the first step: call
-    /// it off the real-time loop after adding pins.
+    /// Does now the work the next step would otherwise begin with: the pins' exact directions
+    /// after pins were added, the rest Hessian and its factorization before the first
+    /// quasi-Newton step, the springs back to their own stiffness after a step that stiffened
+    /// them, and the held Hessian's refresh that a slow step asked for (see `refresh_if_due`).
+    /// Call it after adding pins, and after each step once its outputs are out: the refresh,
+    /// an assembly over the coarser cubature (1-2 ms at 16 handles), then no longer holds up
+    /// the step that needs it. Steps are the same either way; the refresh is counted in the
+    /// next step's report.
     pub fn prepare(&mut self) {
+        if self.pin_boost != 1.0 {
+            self.set_pin_boost(1.0);
+        }
+        let factorizations = self.factorizations;
+        if self.refresh_if_due() > 0 {
+            self.ahead.refreshes += 1;
+            self.ahead.factorizations += self.factorizations - factorizations;
+        }
         if self.pinning_stale {
             self.update_pinning();
         }
@@ -407,17 +432,15 @@ impl ReducedSim {
     /// Advances one time step.
     pub fn step(&mut self) -> StepReport {
         let started = Instant::now();
-        let factorizations = self.factorizations;
+        // What `prepare` did for this step since the last one counts in its report.
+        let between = std::mem::take(&mut self.ahead);
+        let factorizations = self.factorizations - between.factorizations;
         let predicted = &self.z * 2.0 - &self.z_prev;
         let previous = self.z.clone();
         let mut report = StepReport::default();
-        if self.pin_boost != 1.0 {
-            // The springs go back to their own stiffness after a step that stiffened them.
-            self.set_pin_boost(1.0);
-        }
-        let ahead = self.refresh_if_due();
-        report.refreshes += ahead;
         self.prepare();
+        let ahead = between.refreshes + std::mem::take(&mut self.ahead).refreshes;
+        report.refreshes += ahead;
         let mut z = self.placed_on_pins(&predicted);
         self.find_candidates(&z);
         self.find_sticks();

@@ -344,6 +344,15 @@ impl Scene {
         self.step_objects();
     }
 
+    /// Does now, for every deformable object, the work its next step would begin with (see
+    /// `SoftBody::prepare`): call it once a step's outputs are out.
+    pub fn prepare(&mut self) {
+        self.objects
+            .par_iter_mut()
+            .filter_map(|o| o.body.as_mut())
+            .for_each(SoftBody::prepare);
+    }
+
     fn step_objects(&mut self) {
         let colliders = self.colliders();
         let hulls = self.contact_hulls();
