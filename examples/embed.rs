@@ -63,6 +63,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .fold(0.0f32, f32::max);
             println!("frame {:3}: largest displacement {moved:.4} m", frame + 1);
         }
+        // What the next step would begin with (a held Hessian's refresh), in the frame's spare
+        // time rather than in the next step.
+        body.prepare();
         if let Some(wait) = (period * (frame + 1)).checked_sub(clock.elapsed()) {
             std::thread::sleep(wait);
         }
