@@ -104,10 +104,11 @@ pub struct SimRow {
     pub step_p99_ms: f64,
     /// Largest reduced step, ms.
     pub step_max_ms: f64,
-    /// `ReducedSim::prepare` after each step, ms, mean and largest: the held Hessian's
-    /// refresh that a slow step asked for, made between the steps (as the node does once a
-    /// step's outputs are out), so in none of the step figures.
+    /// Mean of `ReducedSim::prepare` after each step, ms: the held Hessian's refresh that a
+    /// slow step asked for, made between the steps (as the node does once a step's outputs
+    /// are out), so in none of the step figures.
     pub prepare_mean_ms: f64,
+    /// Largest `ReducedSim::prepare` after a step, ms.
     pub prepare_max_ms: f64,
     /// Median FEM step, ms.
     pub fem_step_ms: f64,
