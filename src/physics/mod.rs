@@ -10,6 +10,7 @@ mod obstacle;
 mod reduced;
 mod rolling;
 mod scene;
+mod shares;
 mod strain;
 mod subspace;
 

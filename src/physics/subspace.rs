@@ -14,16 +14,22 @@ use rayon::prelude::*;
 
 use super::assembly::HessianAssembly;
 use super::material::{polar_rotation, Material, Matrix9};
+use super::shares::shared_out;
 use super::strain::FieldSamples;
 
 use crate::geometry::{Cubature, Normalization};
 use crate::skinning::SkinningField;
 
 /// Cubature points times 4K from which a force evaluation is split over threads. The solver
-/// calls it from outside the thread pool, so a split costs two wake-ups and a wait: at 1024
-/// points and K = 17 an evaluation took 98 us on 2 threads and 62 us on one (printed,
+/// calls it from outside the thread pool: a parallel iterator cost two wake-ups and a wait, at
+/// 1024 points and K = 17 98 us an evaluation on 2 threads against 62 us on one (printed,
 /// `bench sim` on the plate). A tight loop of split evaluations, threads awake, took 37 us
-/// against 60 us, and 140 us against 248 us at 4096 points (printed, a scratch timing).
+/// against 60 us, and 140 us against 248 us at 4096 points (printed, a scratch timing). Split
+/// with the first share on the calling thread (`shared_out`, one wake-up), the rod's poke at
+/// 1024 points still lost (median 1.053 to 3.261 ms against 1.105 to 1.243 ms, printed); at
+/// 4096 points its mean step went from 3.405 and 3.480 ms (parallel iterator) to 2.912 and
+/// 2.551 ms (`bench sim --shape rod --scenario hanging,poke --cubature 4096`, alternating
+/// runs, printed; the same errors).
 const FORCES_PARALLEL_WORK: usize = 200_000;
 
 /// About how many cubature points the quasi-Newton preconditioner's elastic Hessian is
@@ -284,18 +290,10 @@ impl Subspace {
         if np * 4 * self.handles < FORCES_PARALLEL_WORK {
             return self.all.samples.forces(z, material, 0..np);
         }
-        let runs = rayon::current_num_threads().max(1);
-        let per_run = np.div_ceil(runs).max(1);
-        (0..np.div_ceil(per_run))
-            .into_par_iter()
-            .map(|run| {
-                let points = run * per_run..((run + 1) * per_run).min(np);
-                self.all.samples.forces(z, material, points)
-            })
-            .reduce(
-                || (0.0, DMatrix::zeros(3, 4 * self.handles)),
-                |(ea, ga), (eb, gb)| (ea + eb, ga + gb),
-            )
+        let mut shares =
+            shared_out(np, |points| self.all.samples.forces(z, material, points)).into_iter();
+        let first = shares.next().expect("at least one cubature point");
+        shares.fold(first, |(ea, ga), (eb, gb)| (ea + eb, ga + gb))
     }
 }
 

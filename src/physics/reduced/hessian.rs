@@ -6,8 +6,8 @@ use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
-use crate::physics::assembly::shared_out;
 use crate::physics::material::Matrix9;
+use crate::physics::shares::shared_out;
 
 /// Points from which their stress derivatives are formed on several threads: a point's takes
 /// about 70 ns, so the wake-up of another thread outweighs the split of a thousand of them. On
