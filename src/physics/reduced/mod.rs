@@ -432,14 +432,14 @@ impl ReducedSim {
     /// Advances one time step.
     pub fn step(&mut self) -> StepReport {
         let started = Instant::now();
-        // What `prepare` did for this step since the last one counts in its report.
-        let between = std::mem::take(&mut self.ahead);
-        let factorizations = self.factorizations - between.factorizations;
+        // What `prepare` did for this step, since the last one or now, counts in its report:
+        // its factorizations between the steps here, those made now by the count below.
+        let factorizations = self.factorizations - self.ahead.factorizations;
         let predicted = &self.z * 2.0 - &self.z_prev;
         let previous = self.z.clone();
         let mut report = StepReport::default();
         self.prepare();
-        let ahead = between.refreshes + std::mem::take(&mut self.ahead).refreshes;
+        let ahead = std::mem::take(&mut self.ahead).refreshes;
         report.refreshes += ahead;
         let mut z = self.placed_on_pins(&predicted);
         self.find_candidates(&z);
