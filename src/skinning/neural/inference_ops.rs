@@ -37,7 +37,10 @@ fn exp_nonpositive(v: f32) -> f32 {
     let p = p.mul_add(r, 0.5);
     let er = p.mul_add(r * r, r) + 1.0;
     // n is within [-126, 0]: its biased exponent, n + 127, is that of a normal float.
-    let exponent = rounded.to_bits().wrapping_sub(ROUNDING.to_bits()).wrapping_add(127);
+    let exponent = rounded
+        .to_bits()
+        .wrapping_sub(ROUNDING.to_bits())
+        .wrapping_add(127);
     let scale = f32::from_bits(exponent << 23);
     if v < EXP_FLOOR {
         0.0
