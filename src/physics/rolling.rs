@@ -68,6 +68,17 @@ impl RollingStick {
         })
     }
 
+    /// d omega_a / dz for both tangent axes (3 x 4K each): the Hessian is k sum_a of their
+    /// outer products.
+    pub fn directions(&self) -> &[DMatrix<f64>; 2] {
+        &self.directions
+    }
+
+    /// N m per radian.
+    pub fn stiffness(&self) -> f64 {
+        self.stiffness
+    }
+
     /// Energy and its gradient (3 x 4K) at state `z`.
     pub fn energy_and_gradient(&self, z: &DMatrix<f64>) -> (f64, DMatrix<f64>) {
         let mut energy = 0.0;

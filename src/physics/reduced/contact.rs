@@ -1,9 +1,10 @@
 //! Contact of a reduced body: the broad phase, this step's friction (point sticks and
 //! rolling), and the contact and friction curvature the solvers add to their Hessians.
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::curvature::Springs;
+use super::factor::{point_vector, turn_vector, SpringTerm, TermKey, TermShape};
 use super::point::{placed, Gathered};
 use super::{ReducedPoint, ReducedSim};
 use crate::linalg::{add_product_transposed, product};
@@ -257,6 +258,56 @@ impl ReducedSim {
             roll.add_curvature(&mut curvature);
         }
         Some(curvature)
+    }
+}
+
+impl ReducedSim {
+    /// The springs of `touching` and of this step's friction as the terms alpha u u^T that
+    /// `curvature_of` sums: what a factor updated for them must hold (see `HeldFactor`).
+    pub(super) fn spring_terms(&self, touching: &[(usize, usize, Penetration)]) -> Vec<SpringTerm> {
+        let kc = self.params.contact_stiffness;
+        let along = touching.iter().map(|&(c, o, ref p)| SpringTerm {
+            key: TermKey::Along(c, o),
+            alpha: kc * self.contacts[c].weight,
+            shape: TermShape::Point(c, p.normal),
+        });
+        let across = self.sticks.iter().flat_map(|stick| {
+            (0..2).map(move |axis| SpringTerm {
+                key: TermKey::Across(stick.point, axis),
+                alpha: stick.stiffness,
+                shape: TermShape::Point(stick.point, stick.tangents[axis]),
+            })
+        });
+        let rolls = self.rolls.iter().enumerate().flat_map(|(r, roll)| {
+            roll.directions()
+                .iter()
+                .enumerate()
+                .map(move |(axis, d)| SpringTerm {
+                    key: TermKey::Roll(r, axis),
+                    alpha: roll.stiffness(),
+                    shape: TermShape::Whole(DVector::from_column_slice(d.as_slice())),
+                })
+        });
+        along.chain(across).chain(rolls).collect()
+    }
+
+    /// A term's u turned by `r` ((I (x) R) u), in flat z order, restricted to the directions
+    /// the pins leave free as the factored matrix is.
+    pub(super) fn term_vector(&self, term: &SpringTerm, r: &Matrix3<f64>) -> DVector<f64> {
+        let mut u = match &term.shape {
+            TermShape::Point(c, d) => {
+                point_vector(self.contact_phis.column(*c).iter().copied(), &(r * d))
+            }
+            TermShape::Whole(u) => {
+                let mut u = u.clone();
+                turn_vector(u.as_mut_slice(), r);
+                u
+            }
+        };
+        if let Some(pinning) = self.pinning.as_ref() {
+            pinning.free_vector(&mut u);
+        }
+        u
     }
 }
 

@@ -6,12 +6,14 @@ use std::collections::VecDeque;
 use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::contact::ContactSignature;
+use super::factor::{HeldFactor, SpringTerm};
 use super::hessian::{CheckedHessian, HessianUse};
 use super::{
     add_kron_identity, Evaluation, ReducedSim, Solver, StepReport, REFRESH_AFTER_ITERATIONS,
     REFRESH_GRACE,
 };
 use crate::linalg::DenseCholesky;
+use crate::physics::Penetration;
 
 /// A turn of the body (largest entry of the rotation's change) past which the preconditioner
 /// is turned with it.
@@ -34,9 +36,11 @@ impl ReducedSim {
     /// Elasticity is invariant under a rotation of the whole body, so the held elastic Hessian
     /// turned by that rotation is the Hessian of the turned state: a tumbling body keeps an
     /// accurate preconditioner without reassembling it. Contact curvature changes from one step
-    /// to the next and is added exactly. Both cost a few small products and one 12K x 12K
-    /// factorization, a fraction of the elastic Hessian's assembly; without them, a falling or
-    /// landing body costs many iterations and a refresh of the whole Hessian. A body resting on
+    /// to the next and is added exactly. Where the factor in place holds the held matrix, a
+    /// change of a few springs and a turn are low-rank updates of it (`HeldFactor`);
+    /// otherwise they cost a few small products and one 12K x 12K factorization, a fraction of
+    /// the elastic Hessian's assembly. Without them, a falling or landing body costs many
+    /// iterations and a refresh of the whole Hessian. A body resting on
     /// the same points keeps its factor: the curvature changes only with which springs act. A
     /// body that turned on the same springs (a block spinning on a frictionless floor turns past
     /// the tolerance every other step) reuses the contact curvature held with them: that took a
@@ -55,6 +59,12 @@ impl ReducedSim {
         let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
         if self.factored_contact.as_ref() == Some(&signature) && !turned {
             return false;
+        }
+        let turn = if turned { turn } else { self.factored_turn };
+        if self.factored_contact.is_some() && self.update_factor(&touching, &turn) {
+            self.factored_contact = Some(signature);
+            self.factored_turn = turn;
+            return true;
         }
         let held = self.held.as_ref().expect("made above");
         // A pinned body's held matrix is factored as it is: turning it by the identity would
@@ -77,9 +87,33 @@ impl ReducedSim {
         }
         self.factored_contact = Some(signature);
         self.factored_turn = turn;
-        self.preconditioner = Some(self.factor_hessian(matrix));
+        let terms = self.spring_terms(&touching);
+        let factor = self.factor_hessian(matrix);
+        self.preconditioner = Some(HeldFactor::new(factor, turn, terms));
         self.factorizations += 1;
         true
+    }
+
+    /// Brings the factor in place to the springs of `touching` and this step's friction at the
+    /// turn `turn` by low-rank updates (see `HeldFactor`); false when it must be made anew.
+    fn update_factor(
+        &mut self,
+        touching: &[(usize, usize, Penetration)],
+        turn: &Matrix3<f64>,
+    ) -> bool {
+        let terms = self.spring_terms(touching);
+        let Some(mut factor) = self.preconditioner.take() else {
+            return false;
+        };
+        let vector = |term: &SpringTerm, r: &Matrix3<f64>| self.term_vector(term, r);
+        match factor.update_to(terms, turn, vector) {
+            Some(_) => {
+                self.preconditioner = Some(factor);
+                self.factor_updates += 1;
+                true
+            }
+            None => false,
+        }
     }
 
     /// Whether the contact springs acting (`touching`) differ from those the preconditioner
@@ -100,13 +134,13 @@ impl ReducedSim {
     /// The quasi-Newton initial Hessian, factored: the held elastic Hessian (at rest the
     /// rest-state one; after a hard step, the one at that state, held for the steps that
     /// follow until another hard step) plus inertia, damping and the pins as they are now.
-    pub(super) fn build_preconditioner(&mut self) -> DenseCholesky {
+    pub(super) fn build_preconditioner(&mut self) -> HeldFactor {
         let mut matrix = self.held_matrix().clone();
         add_kron_identity(&mut matrix, &self.quadratic_part());
         self.factored_contact = Some(ContactSignature::default());
         self.factored_turn = Matrix3::identity();
         self.factorizations += 1;
-        self.factor_hessian(matrix)
+        HeldFactor::new(self.factor_hessian(matrix), Matrix3::identity(), Vec::new())
     }
 
     /// Holds `elastic`, the elastic Hessian at `z`, and factors it with inertia, damping, pins
@@ -122,7 +156,8 @@ impl ReducedSim {
         if let (Some(factor), true) = (elastic.factor, self.pin_boost == 1.0) {
             let signature = self.contact_signature(&self.touching_at(z));
             if signature == ContactSignature::default() {
-                self.preconditioner = Some(factor);
+                self.preconditioner =
+                    Some(HeldFactor::new(factor, Matrix3::identity(), Vec::new()));
                 self.factored_contact = Some(signature);
                 self.factorizations += 1;
                 return;

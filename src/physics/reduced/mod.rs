@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 mod contact;
 mod curvature;
+mod factor;
 mod guess;
 mod held;
 mod hessian;
@@ -31,8 +32,9 @@ use super::rolling::{RollAnchors, RollingStick};
 use super::scene::{Poke, SimParams};
 use super::subspace::Subspace;
 use crate::error::Result;
-use crate::linalg::{product, DenseCholesky};
+use crate::linalg::product;
 use contact::ContactSignature;
+use factor::HeldFactor;
 use held::{nearly_done, refresh_due};
 use pinning::PinConstraint;
 use point::{Gathered, ReducedPoint};
@@ -80,6 +82,11 @@ pub struct StepReport {
     /// resting on the same points.
     #[serde(default)]
     pub factorizations: usize,
+    /// Low-rank updates of the quasi-Newton solver's factored preconditioner during the step,
+    /// each for springs gained or lost or a turn of the body, where a factorization would
+    /// otherwise have been made.
+    #[serde(default)]
+    pub factor_updates: usize,
     /// Times the last solver's budget (`max_iterations`) was given again because the step
     /// was still descending when it ran out; 0 for a step that converged within its budget.
     #[serde(default)]
@@ -247,11 +254,13 @@ pub struct ReducedSim {
     /// a body that only turned is refactored with it instead of making it again.
     held_contact: Option<(ContactSignature, Option<DMatrix<f64>>)>,
     history: VecDeque<(DVector<f64>, DVector<f64>)>,
-    preconditioner: Option<DenseCholesky>,
+    preconditioner: Option<HeldFactor>,
     /// Convergence threshold on |dz . g| (J), from the tolerance and the object's size.
     decrement_tolerance: f64,
     /// Preconditioner factorizations so far.
     factorizations: usize,
+    /// Low-rank updates of the preconditioner's factor so far (see `HeldFactor`).
+    factor_updates: usize,
 }
 
 impl ReducedSim {
@@ -268,6 +277,7 @@ impl ReducedSim {
         Ok(Self {
             material: params.material(),
             factorizations: 0,
+            factor_updates: 0,
             decrement_tolerance: subspace.total_mass() * length * length / (params.dt * params.dt),
             z: DMatrix::zeros(3, 4 * k),
             z_prev: DMatrix::zeros(3, 4 * k),
@@ -435,6 +445,7 @@ impl ReducedSim {
         // What `prepare` did for this step, since the last one or now, counts in its report:
         // its factorizations between the steps here, those made now by the count below.
         let factorizations = self.factorizations - self.ahead.factorizations;
+        let factor_updates = self.factor_updates;
         let predicted = &self.z * 2.0 - &self.z_prev;
         let previous = self.z.clone();
         let mut report = StepReport::default();
@@ -481,6 +492,7 @@ impl ReducedSim {
         report.constraint_energy = current.nonquadratic - current.elastic + self.pin_energy();
         report.contacts = current.touching.len();
         report.factorizations = self.factorizations - factorizations;
+        report.factor_updates = self.factor_updates - factor_updates;
         let velocity = self.velocity();
         report.kinetic_energy = 0.5 * quadratic(&velocity, self.subspace.mass_phi());
         report.gravity_energy = -(&self.z * self.subspace.mass_moment()).dot(&self.params.gravity);

@@ -7,7 +7,7 @@
 //! Directions where the spring is comparable to the body (pinned points that the subspace
 //! cannot hold still without locking the body) keep the penalty.
 
-use nalgebra::{DMatrix, SymmetricEigen};
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 /// A direction is held exactly in every step when its pin spring is this many times stiffer
 /// than the body's rest elasticity and inertia along it. Such a spring already keeps the
@@ -93,6 +93,13 @@ impl PinConstraint {
     pub fn free_part(&self, gradient: &mut DMatrix<f64>) {
         let along = &*gradient * &self.basis;
         gradient.gemm(-1.0, &along, &self.basis.transpose(), 1.0);
+    }
+
+    /// Removes from the flat z vector `u` its part along the held directions: the vector of a
+    /// term u u^T that `restrict_hessian` would leave of it, (P u)(P u)^T.
+    pub fn free_vector(&self, u: &mut DVector<f64>) {
+        let along = self.flat_basis.transpose() * &*u;
+        u.gemv(-1.0, &self.flat_basis, &along, 1.0);
     }
 
     /// The Hessian restricted to the free directions, with the held ones decoupled:

@@ -220,6 +220,84 @@ fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
     assert!((&held - &fresh).amax() <= 1e-12 * fresh.amax());
 }
 
+/// A box rocking off one end of its bottom face: the springs lost and the turn are updates of
+/// the factor held, not a factorization, and it solves as the factor made afresh for the same
+/// state does, to 1e-9 relative.
+#[test]
+fn a_body_rocking_on_the_floor_updates_its_factor_as_a_fresh_one_would_be() {
+    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver};
+
+    let body = SmallBox::new();
+    let subspace = body.subspace();
+    let params = SimParams {
+        friction: 0.0,
+        ..Default::default()
+    };
+    // The bottom face's corners and two points between them, all 1 mm below the floor.
+    let points: Vec<Vector3<f64>> = [(-0.2, -0.1), (-0.2, 0.1), (0.2, -0.1), (0.2, 0.1)]
+        .into_iter()
+        .chain([(-0.1, 0.0), (0.1, 0.0)])
+        .map(|(x, y)| Vector3::new(x, y, -0.05))
+        .collect();
+    // Pinned by a top corner or free: a pinned body's springs are restricted to the
+    // directions its pins leave free, as its factored matrix is.
+    for pinned in [false, true] {
+        let make = || {
+            let mut sim =
+                ReducedSim::new(subspace.clone(), params.clone(), Solver::QuasiNewton, 0.46)
+                    .unwrap();
+            sim.add_contact_points(&points, &vec![1e-3; points.len()]);
+            sim.add_obstacle(Obstacle::floor(-0.049));
+            if pinned {
+                sim.add_pins(&[Vector3::new(-0.2, -0.1, 0.05)], &[0.1]);
+            }
+            sim.prepare();
+            sim
+        };
+        let at_rest = subspace.rigid_state(&nalgebra::Matrix3::identity(), &Vector3::zeros());
+        // Tilted 0.015 rad about y: the points at x > 0 rise off the floor, the others stay in.
+        let tilt = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), 0.015);
+        let rocked = subspace.rigid_state(tilt.matrix(), &Vector3::zeros());
+        let (mut updated, mut fresh) = (make(), make());
+        for sim in [&mut updated, &mut fresh] {
+            sim.find_candidates(&at_rest);
+            sim.hold_at(&at_rest);
+            assert_eq!(sim.touching_at(&at_rest).len(), 6, "the whole face touches");
+            sim.find_candidates(&rocked);
+        }
+        assert_eq!(updated.touching_at(&rocked).len(), 3, "one end lifted");
+        let (factorizations, updates) = (updated.factorizations, updated.factor_updates);
+        assert!(updated.hold_at(&rocked), "the factor changed");
+        assert_eq!(updated.factorizations, factorizations, "no factorization");
+        assert_eq!(updated.factor_updates, updates + 1);
+        // The same state from scratch: the factor is made anew.
+        fresh.factored_contact = None;
+        fresh.hold_at(&rocked);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+        for _ in 0..3 {
+            // The solver's right-hand sides (gradients) have no part along held directions.
+            let mut rhs = random_vector(&mut rng, 3 * 4 * subspace.handles());
+            if let Some(pinning) = updated.pinning.as_ref() {
+                pinning.free_vector(&mut rhs);
+            }
+            let solve = |sim: &ReducedSim| {
+                let mut x = rhs.clone();
+                sim.preconditioner
+                    .as_ref()
+                    .expect("factored")
+                    .solve(x.as_mut_slice());
+                x
+            };
+            let (x, y) = (solve(&updated), solve(&fresh));
+            assert!(
+                (&x - &y).norm() <= 1e-9 * y.norm(),
+                "{}",
+                (&x - &y).norm() / y.norm()
+            );
+        }
+    }
+}
+
 /// A rebased body's preconditioner holds the new subspace's rest Hessian, the one the subspace
 /// keeps, and a twin prepared with the body's setup comes in as it was prepared (its factor
 /// made off the stepping thread, its pins' targets taken over); one whose pins differ from the
