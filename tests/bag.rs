@@ -157,6 +157,21 @@ fn golden_subset(messages: Vec<BagMessage>) -> Vec<BagMessage> {
         .collect()
 }
 
+/// Leaves out the statuses saying a step's budget was given again: whether a step takes 22 or
+/// 23 iterations turns on the last bits of its sums, which another CPU's kernels round
+/// differently (CI's gave one such status where this machine gave two). The states they
+/// come with are still compared, and `two_replays_give_identical_payloads` holds every status
+/// to the bit on one machine.
+fn without_budget_reports(messages: Vec<BagMessage>) -> Vec<BagMessage> {
+    messages
+        .into_iter()
+        .filter(|m| {
+            !m.topic.ends_with("/status")
+                || from_cdr::<Status>(&m.data).unwrap().event != "step_budget_extended"
+        })
+        .collect()
+}
+
 const GOLDEN_TOPICS: [&str; 3] = ["/physskin/state", "/physskin/status", "/physskin/weights"];
 
 /// Tolerances against the golden output (another CPU may round differently in the network's
@@ -206,6 +221,10 @@ fn replay_matches_the_golden_output() {
         "bags/demo_golden.mcap",
     )
     .unwrap();
+    let (fresh, golden) = (
+        without_budget_reports(fresh),
+        without_budget_reports(golden),
+    );
     assert_eq!(
         fresh.len(),
         golden.len(),
