@@ -176,7 +176,8 @@ const GOLDEN_TOPICS: [&str; 3] = ["/physskin/state", "/physskin/status", "/physs
 
 /// Tolerances against the golden output (another CPU may round differently in the network's
 /// kernels; the dynamics then drift a little): handle matrices and their velocities 1e-4
-/// (metres, or metres per metre), weights 1e-4, energies 1e-3 relative; statuses exact.
+/// (metres, or metres per metre), weights 1e-4, energies 1e-3 relative; statuses exact, but
+/// for the budget extensions `without_budget_reports` leaves out.
 #[test]
 fn replay_matches_the_golden_output() {
     let _serial = serial();
