@@ -3,6 +3,7 @@
 
 mod assembly;
 mod fem;
+mod helper;
 mod hull;
 mod lift;
 mod material;

@@ -1,17 +1,28 @@
-//! Work over the cubature points split over the thread pool from a caller outside it: the
-//! solver's thread.
+//! Work over the cubature points split in two from a caller outside the thread pool (the
+//! solver's thread, with the helper thread), or over the pool from within it (a scene's
+//! objects stepped side by side, builds).
 
-/// `share` of each of as many runs of `0..np` as the pool has threads, in order: the first on
-/// the calling thread, the others on the pool. The solver calls from outside the pool, where a
-/// parallel iterator hands every run to the pool and the caller sleeps until they are done:
-/// two workers to wake instead of one. The blocks of 512 points and 17 handles, assembled 150
-/// times each way, 3 ms apart (so that the pool's workers fall asleep, as between a solver's
-/// refreshes): median 0.712 to 0.773 ms against 1.250 to 1.384 ms, 90th percentile 1.216 to
-/// 1.242 ms against 1.417 to 1.677 ms (four runs of a scratch timing, printed).
+use super::helper;
+
+/// `share` of each of the runs of `0..np`, in order: two runs from outside the thread pool,
+/// the first on the calling thread and the second on the helper thread (`helper::join`); as
+/// many as the pool has threads from within it, the first on the calling thread, the others
+/// on the pool. From outside the pool, rayon woke a sleeping worker and the caller slept on a
+/// latch: at 512 points and 17 handles an assembly's split that way cost 0.712-0.773 ms (its
+/// median) against 1.250-1.384 ms with a parallel iterator (two workers to wake), and a force
+/// evaluation's split cost more than it saved (see `helper`).
 pub(crate) fn shared_out<T: Send>(
     np: usize,
     share: impl Fn(std::ops::Range<usize>) -> T + Sync,
 ) -> Vec<T> {
+    if rayon::current_thread_index().is_none() {
+        if np < 2 {
+            return vec![share(0..np)];
+        }
+        let half = np.div_ceil(2);
+        let (first, second) = helper::join(|| share(0..half), || share(half..np));
+        return vec![first, second];
+    }
     let per_run = np.div_ceil(rayon::current_num_threads().max(1)).max(1);
     let run = |r: usize| r * per_run..((r + 1) * per_run).min(np);
     let mut others: Vec<Option<T>> = (1..np.div_ceil(per_run)).map(|_| None).collect();
@@ -33,14 +44,20 @@ pub(crate) fn shared_out<T: Send>(
 mod tests {
     use super::*;
 
-    /// Every point's share once, in order, whatever the split (here over as many runs as the
-    /// pool has threads, the first on this thread).
+    /// Every point's share once, in order, whatever the split: in two from this test's
+    /// thread, over the pool from within it.
     #[test]
     fn shared_out_covers_every_point_once_in_order() {
         for np in [1, 2, 7, 1000] {
             let runs = shared_out(np, |run| run.collect::<Vec<usize>>());
-            assert!(runs.len() <= rayon::current_num_threads().max(1));
+            assert!(runs.len() <= rayon::current_num_threads().max(2));
             assert_eq!(runs.concat(), (0..np).collect::<Vec<_>>(), "{np} points");
+            let pooled = rayon::scope(|_| shared_out(np, |run| run.collect::<Vec<usize>>()));
+            assert_eq!(
+                pooled.concat(),
+                (0..np).collect::<Vec<_>>(),
+                "{np} points, pooled"
+            );
         }
     }
 }

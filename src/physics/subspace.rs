@@ -20,17 +20,14 @@ use super::strain::FieldSamples;
 use crate::geometry::{Cubature, Normalization};
 use crate::skinning::SkinningField;
 
-/// Cubature points times 4K from which a force evaluation is split over threads. The solver
-/// calls it from outside the thread pool: a parallel iterator cost two wake-ups and a wait, at
-/// 1024 points and K = 17 98 us an evaluation on 2 threads against 62 us on one (printed,
-/// `bench sim` on the plate). A tight loop of split evaluations, threads awake, took 37 us
-/// against 60 us, and 140 us against 248 us at 4096 points (printed, a scratch timing). Split
-/// with the first share on the calling thread (`shared_out`, one wake-up), the rod's poke at
-/// 1024 points still lost (median 1.053 to 3.261 ms against 1.105 to 1.243 ms, printed); at
-/// 4096 points its mean step went from 3.405 and 3.480 ms (parallel iterator) to 2.912 and
-/// 2.551 ms (`bench sim --shape rod --scenario hanging,poke --cubature 4096`, alternating
-/// runs, printed; the same errors).
-const FORCES_PARALLEL_WORK: usize = 200_000;
+/// Cubature points times 4K from which a force evaluation is split in two (`shared_out`, the
+/// second half on the helper thread). Split over rayon's pool, the wake-ups made it slower at
+/// 1024 points and K = 17 (98 us an evaluation against 62 us on one thread, printed); handed
+/// to the helper, the rod's poke went from a median step of 0.849 and 0.873 ms to 0.590 and
+/// 0.542 ms (see `helper`), at 512 points from 0.511 and 0.522 ms to 0.422 and 0.423 ms.
+/// Below this, about 25 us of work (480 points at K = 17), waking a sleeping helper could cost
+/// as much as its half saves.
+const FORCES_PARALLEL_WORK: usize = 32_768;
 
 /// About how many cubature points the quasi-Newton preconditioner's elastic Hessian is
 /// reassembled on (see [`CubatureTerms::coarser`]). With 256 of 1024, a scanned creature's
