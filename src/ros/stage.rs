@@ -104,24 +104,18 @@ impl Stage {
             self.publish_pending(outputs);
         }
         let colliders = self.touch_each_other();
-        let scene = &mut self.scene;
-        rayon::join(
-            || {
-                self.bodies
-                    .par_iter_mut()
-                    .zip(colliders)
-                    .for_each(|(b, colliders)| {
-                        b.body.set_colliders(colliders);
-                        b.body.step();
-                    })
-            },
-            || {
-                if let Some(s) = scene {
-                    s.scene.step();
-                    s.unpublished = true;
-                }
-            },
-        );
+        let (bodies, scene) = (&mut self.bodies, &mut self.scene);
+        // One thing to step steps on this thread: from outside rayon's pool a large body's
+        // evaluations split with the solver's helper thread, which wakes faster than the pool.
+        if bodies.len() + usize::from(scene.is_some()) <= 1 {
+            bodies.iter_mut().zip(colliders).for_each(step_body);
+            step_scene(scene);
+        } else {
+            rayon::join(
+                || bodies.par_iter_mut().zip(colliders).for_each(step_body),
+                || step_scene(scene),
+            );
+        }
         self.ticks += 1;
         self.unpublished.iter_mut().for_each(|u| *u = true);
         if !self.on_the_beat {
@@ -133,15 +127,22 @@ impl Stage {
     /// What the next tick's steps would begin with (a held Hessian's refresh), done once this
     /// tick's outputs are out (on the beat they go out at the next tick, long after this).
     fn prepare_next(&mut self) {
-        let scene = &mut self.scene;
-        rayon::join(
-            || self.bodies.par_iter_mut().for_each(|b| b.body.prepare()),
-            || {
-                if let Some(s) = scene {
-                    s.scene.prepare();
-                }
-            },
-        );
+        let (bodies, scene) = (&mut self.bodies, &mut self.scene);
+        let prepare_scene = |scene: &mut Option<SceneOnStage>| {
+            if let Some(s) = scene {
+                s.scene.prepare();
+            }
+        };
+        // As in `tick`: one thing to prepare is prepared on this thread.
+        if bodies.len() + usize::from(scene.is_some()) <= 1 {
+            bodies.iter_mut().for_each(|b| b.body.prepare());
+            prepare_scene(scene);
+        } else {
+            rayon::join(
+                || bodies.par_iter_mut().for_each(|b| b.body.prepare()),
+                || prepare_scene(scene),
+            );
+        }
     }
 
     /// Per body, the other bodies of its output frame as obstacles (their contact hulls where
@@ -552,6 +553,20 @@ fn publish_step_of(
         outputs.report(Status::INFO, id, "pin_springs_stiffened", message);
     }
     outputs.publish_step(id, outputs.header(frame), body, surface, cloud);
+}
+
+/// Steps one body against the others' contact hulls (`Stage::tick`).
+fn step_body((b, colliders): (&mut ReadyBody, Vec<Obstacle>)) {
+    b.body.set_colliders(colliders);
+    b.body.step();
+}
+
+/// Steps the scene, if there is one, and marks its step unpublished.
+fn step_scene(scene: &mut Option<SceneOnStage>) {
+    if let Some(s) = scene {
+        s.scene.step();
+        s.unpublished = true;
+    }
 }
 
 /// Where an interaction acts, in the simulation's frame.
