@@ -15,9 +15,10 @@ use std::sync::{Mutex, OnceLock};
 use std::thread::Thread;
 use std::time::{Duration, Instant};
 
-/// How long the helper spins for the next job before it sleeps. A solve's evaluations come
-/// 5-20 us apart and a factorization between them takes 0.1-0.3 ms; between a node's ticks
-/// (milliseconds) it sleeps, so it spends at most this much of a core after each solve.
+/// How long the helper stays awake for the next job (yielding its core whenever it looks)
+/// before it sleeps. A solve's evaluations come 5-20 us apart and a factorization between them
+/// takes 0.1-0.3 ms; between a node's ticks (milliseconds) it sleeps, so it spends at most this
+/// much of a core after each solve, less where another thread wants the core.
 const SPIN_WINDOW: Duration = Duration::from_micros(200);
 
 /// How long the caller spins for the helper's share before it yields its core each time it
@@ -148,7 +149,7 @@ impl Shared {
         }
     }
 
-    /// Spins for up to [`SPIN_WINDOW`], then sleeps until a job is posted.
+    /// Looks for a job for up to [`SPIN_WINDOW`], then sleeps until one is posted.
     fn wait_for_job(&self) {
         let mut started = Instant::now();
         while self.state.load(Ordering::Acquire) != POSTED {
