@@ -181,19 +181,23 @@ mod tests {
         }
     }
 
-    /// Other tests may hold the helper for a moment (then both shares run here): some of a
-    /// hundred joins run on two threads.
+    /// Other tests may hold the helper for a while (then both shares run here): joins are
+    /// tried for up to ten seconds, a millisecond apart, until one runs on two threads.
     #[test]
     fn the_second_share_runs_on_another_thread() {
         let here = std::thread::current().id();
-        let elsewhere = (0..100).any(|_| {
+        let started = Instant::now();
+        let elsewhere = std::iter::repeat_with(|| {
             let (mine, theirs) = join(
                 || std::thread::current().id(),
                 || std::thread::current().id(),
             );
             assert_eq!(mine, here);
+            std::thread::sleep(Duration::from_millis(1));
             theirs != here
-        });
+        })
+        .take_while(|_| started.elapsed() < Duration::from_secs(10))
+        .any(|ran_elsewhere| ran_elsewhere);
         assert!(
             elsewhere || shared().is_none(),
             "the helper never ran a share"
