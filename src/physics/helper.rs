@@ -31,7 +31,6 @@ const DONE: u8 = 2;
 
 /// A job's closure with its lifetime erased: `join` does not return (nor unwind) before the
 /// helper is done with it.
-#[derive(Clone, Copy)]
 struct Job(*const (dyn Fn() + Sync));
 
 // SAFETY: the closure behind the pointer is `Sync`, and `join` keeps it alive until the helper
@@ -94,7 +93,11 @@ pub(crate) fn join<A, B: Send>(mine: impl FnOnce() -> A, theirs: impl Fn() -> B 
     };
     let job: &(dyn Fn() + Sync + '_) = &job;
     // SAFETY: only the lifetime is erased; `wait` below outlives the helper's use of `job`.
-    let job = Job(unsafe { std::mem::transmute(job as *const (dyn Fn() + Sync + '_)) });
+    let job = Job(unsafe {
+        std::mem::transmute::<*const (dyn Fn() + Sync + '_), *const (dyn Fn() + Sync + 'static)>(
+            job,
+        )
+    });
     let wait = WaitForHelper(shared);
     shared.post(job);
     let mine = mine();

@@ -104,10 +104,9 @@ impl Stage {
             self.publish_pending(outputs);
         }
         let colliders = self.touch_each_other();
+        let alone = self.one_to_step();
         let (bodies, scene) = (&mut self.bodies, &mut self.scene);
-        // One thing to step steps on this thread: from outside rayon's pool a large body's
-        // evaluations split with the solver's helper thread, which wakes faster than the pool.
-        if bodies.len() + usize::from(scene.is_some()) <= 1 {
+        if alone {
             bodies.iter_mut().zip(colliders).for_each(step_body);
             step_scene(scene);
         } else {
@@ -124,17 +123,19 @@ impl Stage {
         self.prepare_next();
     }
 
+    /// Whether one thing (a body, or a scene) steps: it steps on this thread, where a large
+    /// body's evaluations split with the solver's helper thread, which wakes faster than
+    /// rayon's pool.
+    fn one_to_step(&self) -> bool {
+        self.bodies.len() + usize::from(self.scene.is_some()) <= 1
+    }
+
     /// What the next tick's steps would begin with (a held Hessian's refresh), done once this
     /// tick's outputs are out (on the beat they go out at the next tick, long after this).
     fn prepare_next(&mut self) {
+        let alone = self.one_to_step();
         let (bodies, scene) = (&mut self.bodies, &mut self.scene);
-        let prepare_scene = |scene: &mut Option<SceneOnStage>| {
-            if let Some(s) = scene {
-                s.scene.prepare();
-            }
-        };
-        // As in `tick`: one thing to prepare is prepared on this thread.
-        if bodies.len() + usize::from(scene.is_some()) <= 1 {
+        if alone {
             bodies.iter_mut().for_each(|b| b.body.prepare());
             prepare_scene(scene);
         } else {
@@ -566,6 +567,13 @@ fn step_scene(scene: &mut Option<SceneOnStage>) {
     if let Some(s) = scene {
         s.scene.step();
         s.unpublished = true;
+    }
+}
+
+/// Does what the scene's next step would begin with, if there is a scene.
+fn prepare_scene(scene: &mut Option<SceneOnStage>) {
+    if let Some(s) = scene {
+        s.scene.prepare();
     }
 }
 
