@@ -246,39 +246,85 @@ pub fn add_product_transposed(
     );
 }
 
+/// a b^T where it is known to be symmetric (b = a diag(s), a Gram matrix): faer forms its
+/// lower triangle, half the work of the whole product, and the upper is mirrored from it. A
+/// landing body's springs' curvature is such a product over a few hundred points, four or
+/// five times within a step; whole, it took 150-400 us of each refactor (printed).
+pub fn symmetric_product(
+    a: &nalgebra::DMatrix<f64>,
+    b: &nalgebra::DMatrix<f64>,
+) -> nalgebra::DMatrix<f64> {
+    use faer::linalg::matmul::triangular::{matmul, BlockStructure};
+    assert_eq!(a.shape(), b.shape(), "a b^T of one shape");
+    let n = a.nrows();
+    let mut out = nalgebra::DMatrix::zeros(n, n);
+    matmul(
+        MatMut::from_column_major_slice_mut(out.as_mut_slice(), n, n),
+        BlockStructure::TriangularLower,
+        faer::Accum::Replace,
+        faer::MatRef::from_column_major_slice(a.as_slice(), n, a.ncols()),
+        BlockStructure::Rectangular,
+        faer::MatRef::from_column_major_slice(b.as_slice(), n, b.ncols()).transpose(),
+        BlockStructure::Rectangular,
+        1.0,
+        Par::Seq,
+    );
+    out.fill_upper_triangle_with_lower_triangle();
+    out
+}
+
 /// Dense LL^T of a symmetric positive definite matrix (column-major, n x n): faer's blocked
 /// factorization, run on the calling thread. At the reduced sizes (a few hundred) thread
 /// hand-offs cost more than they save; at 204 unknowns it took 0.070 ms where nalgebra's
 /// unblocked one took 0.155 ms, and the quasi-Newton solver refactors whenever contact changes.
+/// Only the lower triangle of the matrix is read, by the factorization and by what uses it.
 pub struct DenseCholesky {
-    factor: faer::Mat<f64>,
+    /// L in the lower triangle, column-major; the upper triangle is whatever was given.
+    factor: Vec<f64>,
+    n: usize,
 }
 
 impl DenseCholesky {
-    /// Factors the n x n column-major `matrix`. An [`Error::LinearAlgebra`] when it is not
-    /// positive definite; panics when `matrix` does not hold n * n values.
+    /// Factors the n x n column-major `matrix`, reading its lower triangle. An
+    /// [`Error::LinearAlgebra`] when it is not positive definite; panics when `matrix` does not
+    /// hold n * n values.
     pub fn new(matrix: &[f64], n: usize) -> Result<Self> {
+        Self::in_place(matrix.to_vec(), n)
+    }
+
+    /// As [`DenseCholesky::new`], factoring `matrix` where it lies: a landing body refactors
+    /// several times within a step, and a copy of its 333 KB matrix cost 13-47 us of each
+    /// 114-209 us factorization (printed).
+    pub fn in_place(mut matrix: Vec<f64>, n: usize) -> Result<Self> {
         use faer::linalg::cholesky::llt::factor;
         assert_eq!(matrix.len(), n * n, "a dense n x n matrix");
-        let mut a = faer::Mat::from_fn(n, n, |i, j| matrix[i + j * n]);
+        let a = MatMut::from_column_major_slice_mut(&mut matrix, n, n);
         let scratch = factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default());
         let mut buffer = faer::dyn_stack::MemBuffer::new(scratch);
         let stack = faer::dyn_stack::MemStack::new(&mut buffer);
-        let factored = factor::cholesky_in_place(
-            a.as_mut(),
-            Default::default(),
-            Par::Seq,
-            stack,
-            Default::default(),
-        );
-        // A NaN pivot passes the sign test: only a positive, finite diagonal is a factor.
-        let definite = (0..n).all(|i| a[(i, i)].is_finite() && a[(i, i)] > 0.0);
-        if factored.is_err() || !definite {
+        let factored =
+            factor::cholesky_in_place(a, Default::default(), Par::Seq, stack, Default::default());
+        let factor = Self { factor: matrix, n };
+        if factored.is_err() || !factor.definite() {
             return Err(Error::LinearAlgebra(
                 "dense Cholesky: the matrix is not positive definite".into(),
             ));
         }
-        Ok(Self { factor: a })
+        Ok(factor)
+    }
+
+    /// Whether the factor's diagonal is positive and finite: a NaN pivot passes faer's sign
+    /// test.
+    fn definite(&self) -> bool {
+        (0..self.n).all(|i| {
+            let d = self.factor[i * (self.n + 1)];
+            d.is_finite() && d > 0.0
+        })
+    }
+
+    /// The factor L as faer sees it.
+    fn lower(&self) -> faer::MatRef<'_, f64> {
+        faer::MatRef::from_column_major_slice(&self.factor, self.n, self.n)
     }
 
     /// The factor of A + W diag(alphas) W^T from that of A, for the n x r column-major
@@ -287,7 +333,7 @@ impl DenseCholesky {
     /// spoiled and must be made anew. Panics when the sizes disagree.
     pub fn update(&mut self, vectors: &[f64], alphas: &[f64]) -> Result<()> {
         use faer::linalg::cholesky::llt::update::rank_r_update_clobber;
-        let n = self.factor.nrows();
+        let n = self.n;
         assert_eq!(
             vectors.len(),
             n * alphas.len(),
@@ -299,12 +345,11 @@ impl DenseCholesky {
         let mut w = faer::Mat::from_fn(n, alphas.len(), |i, j| vectors[i + j * n]);
         let mut alpha = faer::Col::from_fn(alphas.len(), |j| alphas[j]);
         let updated = rank_r_update_clobber(
-            self.factor.as_mut(),
+            MatMut::from_column_major_slice_mut(&mut self.factor, n, n),
             w.as_mut(),
             alpha.as_mut().as_diagonal_mut(),
         );
-        let definite = (0..n).all(|i| self.factor[(i, i)].is_finite() && self.factor[(i, i)] > 0.0);
-        if updated.is_err() || !definite {
+        if updated.is_err() || !self.definite() {
             return Err(Error::LinearAlgebra(
                 "dense Cholesky update: the result is not positive definite".into(),
             ));
@@ -314,12 +359,12 @@ impl DenseCholesky {
 
     /// Solves in place for the columns of `rhs` (column-major, n rows).
     pub fn solve(&self, rhs: &mut [f64]) {
-        let n = self.factor.nrows();
+        let n = self.n;
         let cols = rhs.len() / n;
         let rhs = MatMut::from_column_major_slice_mut(rhs, n, cols);
         let mut buffer = faer::dyn_stack::MemBuffer::new(faer::dyn_stack::StackReq::EMPTY);
         faer::linalg::cholesky::llt::solve::solve_in_place(
-            self.factor.as_ref(),
+            self.lower(),
             rhs,
             Par::Seq,
             faer::dyn_stack::MemStack::new(&mut buffer),
@@ -375,6 +420,45 @@ mod product_tests {
         assert!(factor
             .update(w.columns(1, 1).clone_owned().as_slice(), &[-1e9])
             .is_err());
+    }
+
+    /// A Gram product formed by its lower triangle is the whole product.
+    #[test]
+    fn a_symmetric_product_is_the_whole_product() {
+        let a = nalgebra::DMatrix::from_fn(68, 230, |r, c| ((r * 7 + c * 3) % 11) as f64 - 5.0);
+        let b = nalgebra::DMatrix::from_fn(68, 230, |r, c| a[(r, c)] * (1.0 + (c % 5) as f64));
+        let expected = &a * b.transpose();
+        assert!((symmetric_product(&a, &b) - &expected).amax() <= 1e-12 * expected.amax());
+    }
+
+    /// A factor made from the lower triangle alone (NaN above it), updated and solved with,
+    /// gives what one made from the whole matrix gives; at 204 unknowns, the solver's size.
+    #[test]
+    fn only_the_lower_triangle_is_read() {
+        let n = 204;
+        let a = nalgebra::DMatrix::from_fn(n, n, |r, c| ((r * 7 + c * 3) % 11) as f64 - 5.0);
+        let matrix = &a * a.transpose() + nalgebra::DMatrix::identity(n, n) * 10.0;
+        let mut lower = matrix.clone();
+        for c in 1..n {
+            for r in 0..c {
+                lower[(r, c)] = f64::NAN;
+            }
+        }
+        let w = nalgebra::DMatrix::from_fn(n, 2, |r, c| ((r * 5 + c * 2) % 7) as f64 - 3.0);
+        let solved = |mut factor: DenseCholesky| {
+            factor.update(w.as_slice(), &[3.0, 40.0]).expect("definite");
+            let mut x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
+            factor.solve(&mut x);
+            nalgebra::DVector::from_vec(x)
+        };
+        let whole = solved(DenseCholesky::new(matrix.as_slice(), n).expect("definite"));
+        let from_lower = solved(DenseCholesky::in_place(lower.data.into(), n).expect("definite"));
+        assert!(from_lower.iter().all(|v| v.is_finite()));
+        assert!((&from_lower - &whole).norm() <= 1e-12 * whole.norm());
+        let updated = matrix
+            + &w * nalgebra::DMatrix::from_diagonal(&nalgebra::dvector![3.0, 40.0]) * w.transpose();
+        let rhs = nalgebra::DVector::from_fn(n, |i, _| (i as f64 * 0.37).sin());
+        assert!((updated * &whole - &rhs).norm() <= 1e-9 * rhs.norm());
     }
 
     #[test]

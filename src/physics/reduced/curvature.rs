@@ -9,6 +9,8 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
+use crate::linalg::symmetric_product;
+
 /// Directions closer than this (largest entry) are taken as one: a friction spring's normal,
 /// the cross product of its tangents, differs from the contact normal in the last bits.
 const SAME_DIRECTION: f64 = 1e-12;
@@ -102,7 +104,7 @@ fn weighted_gram(phis: &DMatrix<f64>, terms: &[(usize, f64)]) -> DMatrix<f64> {
     let n4 = phis.nrows();
     let gathered = DMatrix::from_fn(n4, terms.len(), |a, j| phis[(a, terms[j].0)]);
     let weighted = DMatrix::from_fn(n4, terms.len(), |a, j| gathered[(a, j)] * terms[j].1);
-    &gathered * weighted.transpose()
+    symmetric_product(&gathered, &weighted)
 }
 
 /// out += gram (x) block in flat z order (entry (3a + d, 3b + e) = gram[a, b] block[d, e]).
@@ -132,7 +134,7 @@ fn kronecker_blocks(phis: &DMatrix<f64>, blocks: &[Matrix3<f64>]) -> DMatrix<f64
             for (i, block) in blocks.iter().enumerate() {
                 weighted.column_mut(i).scale_mut(block[(d, e)]);
             }
-            let block = phis * weighted.transpose();
+            let block = symmetric_product(phis, &weighted);
             for b in 0..n4 {
                 for a in 0..n4 {
                     out[(3 * a + d, 3 * b + e)] = block[(a, b)];

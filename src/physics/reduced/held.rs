@@ -13,7 +13,7 @@ use super::{
     REFRESH_GRACE,
 };
 use crate::linalg::DenseCholesky;
-use crate::physics::Penetration;
+use crate::physics::{helper, Penetration};
 
 /// A turn of the body (largest entry of the rotation's change) past which the preconditioner
 /// is turned with it.
@@ -46,6 +46,21 @@ impl ReducedSim {
     /// the tolerance every other step) reuses the contact curvature held with them: that took a
     /// small body's median step from 0.040 to 0.030 ms (printed). Returns whether it refactored.
     pub(super) fn hold_at(&mut self, z: &DMatrix<f64>) -> bool {
+        self.hold_with(z, false)
+    }
+
+    /// `hold_at` for a step's start `z`, where springs held that no longer act are left in the
+    /// factor while the rest hold. A body bouncing on its springs after a landing starts each
+    /// step lifted (a dropped plate: 33 of its 230 springs acting at the start) and is back on
+    /// all of them after one iteration: refactored for the start, each such step refactored
+    /// twice, 1.19-1.24 ms for two iterations (printed). Where they are lost for good, the
+    /// solve's own check (`springs_changed`) refactors after its first iteration.
+    pub(super) fn hold_for_step(&mut self, z: &DMatrix<f64>) -> bool {
+        self.hold_with(z, true)
+    }
+
+    /// `hold_at`, leaving springs lost in the factor where `keep_lost`.
+    fn hold_with(&mut self, z: &DMatrix<f64>, keep_lost: bool) -> bool {
         let touching = self.touching_at(z);
         let signature = self.contact_signature(&touching);
         self.held_matrix();
@@ -57,7 +72,10 @@ impl ReducedSim {
             Matrix3::identity()
         };
         let turned = (turn - self.factored_turn).amax() > TURN_TOLERANCE;
-        if self.factored_contact.as_ref() == Some(&signature) && !turned {
+        let held = self.factored_contact.as_ref();
+        let unchanged = held == Some(&signature)
+            || (keep_lost && held.is_some_and(|held| only_lost(held, &signature)));
+        if unchanged && !turned {
             return false;
         }
         let turn = if turned { turn } else { self.factored_turn };
@@ -67,23 +85,26 @@ impl ReducedSim {
             return true;
         }
         let held = self.held.as_ref().expect("made above");
-        // A pinned body's held matrix is factored as it is: turning it by the identity would
-        // cost a 3 x 3 product per block.
-        let mut matrix = if turn == Matrix3::identity() {
-            held.clone()
-        } else {
-            turn_blocks(held, &turn)
-        };
-        add_kron_identity(&mut matrix, &self.quadratic_part());
-        if self
+        let quadratic = self.quadratic_part();
+        let known = self
             .held_contact
             .as_ref()
-            .is_none_or(|(held, _)| *held != signature)
-        {
-            self.held_contact = Some((signature.clone(), self.curvature_of(&touching)));
+            .is_some_and(|(held, _)| *held == signature);
+        // New springs' curvature is formed on the helper thread while this one turns the held
+        // matrix: two passes of similar cost, four or five times in a landing step.
+        let (mut matrix, curvature) = if known {
+            (held_lower(held, &turn, &quadratic), None)
+        } else {
+            helper::join(
+                || held_lower(held, &turn, &quadratic),
+                || self.curvature_of(&touching),
+            )
+        };
+        if !known {
+            self.held_contact = Some((signature.clone(), curvature));
         }
         if let Some((_, Some(contact))) = self.held_contact.as_ref() {
-            matrix += contact;
+            add_lower(&mut matrix, contact);
         }
         self.factored_contact = Some(signature);
         self.factored_turn = turn;
@@ -191,6 +212,7 @@ impl ReducedSim {
         self.smooth_elastic_at(z, &base, usage)
     }
 
+    /// Factors `matrix`, of which only the lower triangle need be given.
     pub(super) fn factor_hessian(&self, mut matrix: DMatrix<f64>) -> DenseCholesky {
         // Inertia makes it positive definite; the tiny ridge only guards round-off. It goes
         // on before the pins' restriction, which must leave the held directions uncoupled.
@@ -198,9 +220,12 @@ impl ReducedSim {
             matrix[(i, i)] += 1e-12 * matrix[(i, i)].abs().max(1e-300);
         }
         if let Some(pinning) = self.pinning.as_ref() {
+            // The restriction is a product with the whole matrix.
+            matrix.fill_upper_triangle_with_lower_triangle();
             pinning.restrict_hessian(&mut matrix);
         }
-        DenseCholesky::new(matrix.as_slice(), matrix.nrows())
+        let n = matrix.nrows();
+        DenseCholesky::in_place(matrix.data.into(), n)
             .expect("inertia plus a PSD Hessian is positive definite")
     }
 
@@ -349,6 +374,16 @@ fn converging_within(decrements: &[f64], tolerance: f64, iterations: usize) -> b
     rate < 1.0 && last * rate.powi(iterations as i32) < tolerance
 }
 
+/// Whether the springs of `now` are those `held` less some pairs in touch.
+fn only_lost(held: &ContactSignature, now: &ContactSignature) -> bool {
+    held.sticks == now.sticks
+        && held.rolls == now.rolls
+        && now
+            .touching
+            .iter()
+            .all(|pair| held.touching.binary_search(pair).is_ok())
+}
+
 /// Whether the pairs in `touching` gained or lost against those `held` (both sorted, as the
 /// broad phase lists them) number at least two and more than `CONTACT_CHANGE` of those held.
 fn changed_past_share(held: &[(usize, usize)], touching: &[(usize, usize)]) -> bool {
@@ -365,7 +400,42 @@ fn changed_past_share(held: &[(usize, usize)], touching: &[(usize, usize)]) -> b
     past(gained) || past(lost)
 }
 
+/// The lower block triangle (blocks (a, b), a >= b: what a factor reads) of
+/// (I (x) R) H (I (x) R^T) + Q (x) I in flat z order, the held elastic Hessian H turned by R
+/// and the quadratic part Q added, in one pass; the blocks above are left zero. A clone turned
+/// as a whole, then Q added in a second pass, took 61-123 us of each of a landing's four or
+/// five refactors (printed).
+pub(super) fn held_lower(h: &DMatrix<f64>, r: &Matrix3<f64>, q: &DMatrix<f64>) -> DMatrix<f64> {
+    let blocks = h.nrows() / 3;
+    let turned = *r != Matrix3::identity();
+    let mut out = DMatrix::zeros(h.nrows(), h.ncols());
+    for b in 0..blocks {
+        for a in b..blocks {
+            let mut block: Matrix3<f64> = h.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
+            if turned {
+                block = r * block * r.transpose();
+            }
+            for d in 0..3 {
+                block[(d, d)] += q[(a, b)];
+            }
+            out.fixed_view_mut::<3, 3>(3 * a, 3 * b).copy_from(&block);
+        }
+    }
+    out
+}
+
+/// Adds the lower triangle of `addend` to that of `matrix` (both square, of one size).
+fn add_lower(matrix: &mut DMatrix<f64>, addend: &DMatrix<f64>) {
+    let n = matrix.nrows();
+    for c in 0..n {
+        let column = &mut matrix.as_mut_slice()[c * n + c..(c + 1) * n];
+        let added = &addend.as_slice()[c * n + c..(c + 1) * n];
+        column.iter_mut().zip(added).for_each(|(m, a)| *m += a);
+    }
+}
+
 /// (I (x) R) H (I (x) R^T) in flat z order: every 3 x 3 block of H turned by R.
+#[cfg(test)]
 pub(super) fn turn_blocks(h: &DMatrix<f64>, r: &Matrix3<f64>) -> DMatrix<f64> {
     let blocks = h.nrows() / 3;
     let mut out = DMatrix::zeros(h.nrows(), h.ncols());

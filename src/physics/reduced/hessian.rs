@@ -145,7 +145,8 @@ impl ReducedSim {
         if let (true, Some(pinning)) = (restricted, self.pinning.as_ref()) {
             pinning.restrict_hessian(&mut total);
         }
-        DenseCholesky::new(total.as_slice(), total.nrows()).ok()
+        let n = total.nrows();
+        DenseCholesky::in_place(total.data.into(), n).ok()
     }
 
     fn elastic_hessian_of(

@@ -514,7 +514,7 @@ impl ReducedSim {
         // step kept the free fall's pairs over a factor holding the new springs, and their
         // curvature along the fall undid the springs'. The rod's landing took 17 iterations
         // and 2.7 ms that way, 9 and 1.2 ms with the pairs dropped (printed).
-        if self.solver == Solver::QuasiNewton && self.hold_at(z) {
+        if self.solver == Solver::QuasiNewton && self.hold_for_step(z) {
             self.history.clear();
         }
         let objective = self.step_objective(predicted, previous);

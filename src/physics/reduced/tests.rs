@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::curvature::Springs;
-use super::held::turn_blocks;
+use super::held::{held_lower, turn_blocks};
 use crate::linalg::tangents;
 use crate::linalg::DenseCholesky;
 use rand::{Rng, SeedableRng};
@@ -102,6 +102,38 @@ fn turned_blocks_are_the_rotated_quadratic_form() {
     }
     let (original, rotated) = (v.dot(&(&h * &v)), rv.dot(&(&turned * &rv)));
     assert!((original - rotated).abs() <= 1e-12 * original.abs());
+}
+
+/// The matrix a refactor factors is, in its lower triangle, the held matrix's blocks turned
+/// plus Q (x) I, and zero above it; unturned, the held matrix itself plus Q (x) I.
+#[test]
+fn the_held_matrix_turned_in_one_pass_is_its_turned_blocks_plus_the_quadratic_part() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    let n4 = 6;
+    let a = DMatrix::from_fn(3 * n4, 3 * n4, |_, _| rng.random::<f64>());
+    let h = &a * a.transpose();
+    let b = DMatrix::from_fn(n4, n4, |_, _| rng.random::<f64>());
+    let q = &b * b.transpose();
+    let mut q_kron = DMatrix::zeros(3 * n4, 3 * n4);
+    for (i, j) in (0..n4).flat_map(|i| (0..n4).map(move |j| (i, j))) {
+        for d in 0..3 {
+            q_kron[(3 * i + d, 3 * j + d)] = q[(i, j)];
+        }
+    }
+    let r = *nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -1.1, 0.7)).matrix();
+    for (turn, expected) in [
+        (r, turn_blocks(&h, &r) + &q_kron),
+        (nalgebra::Matrix3::identity(), &h + &q_kron),
+    ] {
+        let lower = held_lower(&h, &turn, &q);
+        for (i, j) in (0..3 * n4).flat_map(|i| (0..3 * n4).map(move |j| (i, j))) {
+            if i / 3 >= j / 3 {
+                assert!((lower[(i, j)] - expected[(i, j)]).abs() <= 1e-12 * expected.amax());
+            } else {
+                assert_eq!(lower[(i, j)], 0.0, "above the block diagonal");
+            }
+        }
+    }
 }
 
 /// The refresh waits at most `REFRESH_GRACE` iterations, and only for a solve whose decrement
@@ -218,6 +250,41 @@ fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
         .expect("touching");
     let held = held.expect("touching");
     assert!((&held - &fresh).amax() <= 1e-12 * fresh.amax());
+}
+
+/// A box lifted off the floor between steps (its bottom face's springs all lost): at a step's
+/// start the factor keeps them (`hold_for_step`), within a solve it is made without them.
+#[test]
+fn springs_lost_at_a_steps_start_stay_in_the_factor() {
+    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver};
+
+    let body = SmallBox::new();
+    let (mesh, subspace) = (&body.mesh, body.subspace());
+    let params = SimParams {
+        friction: 0.0,
+        ..Default::default()
+    };
+    let mut sim = ReducedSim::new(subspace.clone(), params, Solver::QuasiNewton, 0.46).unwrap();
+    sim.add_contact_points(&mesh.vertices, &vec![1e-3; mesh.vertices.len()]);
+    sim.add_obstacle(Obstacle::floor(-0.049));
+    sim.prepare();
+    let turn = nalgebra::Matrix3::identity();
+    let at_rest = subspace.rigid_state(&turn, &Vector3::zeros());
+    let lifted = subspace.rigid_state(&turn, &Vector3::new(0.0, 0.0, 0.002));
+    sim.find_candidates(&at_rest);
+    sim.hold_at(&at_rest);
+    let held = sim.factored_contact.clone().expect("factored");
+    assert!(!held.touching.is_empty(), "the bottom face touches");
+    sim.find_candidates(&lifted);
+    assert!(sim.touching_at(&lifted).is_empty(), "lifted off");
+    let factorizations = sim.factorizations;
+    assert!(!sim.hold_for_step(&lifted), "kept at a step's start");
+    assert_eq!(sim.factorizations, factorizations);
+    assert_eq!(sim.factored_contact.as_ref(), Some(&held));
+    assert!(sim.hold_at(&lifted), "made anew within a solve");
+    assert!(sim.factored_contact.as_ref().expect("factored").touching.is_empty());
+    // Springs gained at a step's start count: back on the floor, it is made with them.
+    assert!(sim.hold_for_step(&at_rest));
 }
 
 /// A box rocking off one end of its bottom face: the springs lost and the turn are updates of
