@@ -53,7 +53,7 @@ impl ReducedSim {
     /// factor while the rest hold. A body bouncing on its springs after a landing starts each
     /// step lifted (a dropped plate: 33 of its 230 springs acting at the start) and is back on
     /// all of them after one iteration: refactored for the start, each such step refactored
-    /// twice, 1.19-1.24 ms for two iterations (printed). Where they are lost for good, the
+    /// twice, 1.19-1.25 ms for two iterations (printed). Where they are lost for good, the
     /// solve's own check (`springs_changed`) refactors after its first iteration.
     pub(super) fn hold_for_step(&mut self, z: &DMatrix<f64>) -> bool {
         self.hold_with(z, true)

@@ -282,7 +282,12 @@ fn springs_lost_at_a_steps_start_stay_in_the_factor() {
     assert_eq!(sim.factorizations, factorizations);
     assert_eq!(sim.factored_contact.as_ref(), Some(&held));
     assert!(sim.hold_at(&lifted), "made anew within a solve");
-    assert!(sim.factored_contact.as_ref().expect("factored").touching.is_empty());
+    assert!(sim
+        .factored_contact
+        .as_ref()
+        .expect("factored")
+        .touching
+        .is_empty());
     // Springs gained at a step's start count: back on the floor, it is made with them.
     assert!(sim.hold_for_step(&at_rest));
 }
