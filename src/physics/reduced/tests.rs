@@ -418,3 +418,40 @@ fn a_rebased_body_takes_its_prepared_twin_or_sets_one_up_anew() {
         assert!(sim.step().converged);
     }
 }
+
+/// A refresh asked for ahead of a step holds the elastic Hessian at the state that step
+/// starts from (the constant-velocity prediction), not at the state the last step ended in:
+/// a swinging body's Hessian changes within a step.
+#[test]
+fn a_refresh_ahead_holds_the_hessian_at_the_next_steps_start() {
+    use super::hessian::HessianUse;
+    use crate::physics::{ReducedSim, SimParams, Solver};
+
+    let body = SmallBox::new();
+    let subspace = body.subspace();
+    let mut sim = ReducedSim::new(
+        subspace.clone(),
+        SimParams::default(),
+        Solver::QuasiNewton,
+        0.46,
+    )
+    .unwrap();
+    sim.prepare();
+    let k = subspace.handles();
+    // Bent and moving: the last step ended in `now`, one step after `before`.
+    let bent = |scale: f64| DMatrix::from_fn(3, 4 * k, |d, a| scale * ((d + 3 * a) as f64).sin());
+    let (before, now) = (bent(0.02), bent(0.05));
+    sim.set_state(now.clone(), Some(before.clone()));
+    sim.refresh_due = true;
+    assert_eq!(sim.refresh_if_due(), 1);
+    let next_start = &now * 2.0 - &before;
+    let expected = sim.held_elastic_at(&next_start, HessianUse::Refresh).matrix;
+    let at_end = sim.held_elastic_at(&now, HessianUse::Refresh).matrix;
+    let held = sim.held.as_ref().expect("refreshed");
+    assert!((held - &expected).amax() <= 1e-12 * expected.amax());
+    assert!(
+        (&at_end - &expected).amax() > 1e-3 * expected.amax(),
+        "the two states' Hessians differ, so the test tells them apart"
+    );
+    assert!((sim.held_rotation - subspace.mean_rotation(&next_start)).amax() < 1e-12);
+}
