@@ -15,6 +15,12 @@ const CALM_STEPS: usize = 3;
 const TREND_FROM_ITERATIONS: usize = 3;
 
 impl ReducedSim {
+    /// The constant-velocity prediction of the next state, 2 z - z_prev: where the next step's
+    /// objective is centred, and (placed on the pins) where its solve starts.
+    pub(super) fn predicted(&self) -> DMatrix<f64> {
+        &self.z * 2.0 - &self.z_prev
+    }
+
     /// The constant-velocity prediction plus the last step's change of velocity, which a
     /// swinging or bending body keeps from one step to the next; None just after the state was
     /// set, for `CALM_STEPS` steps after one that needed more than its budget, and after a step

@@ -279,10 +279,10 @@ impl ReducedSim {
     /// poked plate 7.1 against 5.6, the poked rod 8.6 against 8.1 and the hanging rows 3.3,
     /// 4.2 and 4.3 against 3.0, 4.1 and 4.0 (plate, rod, creature; `bench sim` at 16 handles
     /// and 1024 points, FEM left out, printed). Made at the end of the slow step, that step
-    /// paid both: the pinned
-    /// rod's hanging took 1.65-2.09 ms in its refreshing steps, 7 iterations and a refresh;
-    /// ahead of the next, 1.34-2.18 ms, 3 or 4 iterations and a refresh. Over alternating runs
-    /// (FEM left out, 2 cores; printed) the p99 step of `bench sim`'s hanging rows went from
+    /// paid both: the pinned rod's hanging took 1.65-2.09 ms in its refreshing steps, 7
+    /// iterations and a refresh; ahead of the next, 1.34-2.18 ms, 3 or 4 iterations and a
+    /// refresh. Over alternating runs (FEM left out, 2 cores; printed) the p99 step of `bench
+    /// sim`'s hanging rows went from
     /// 2.534 to 2.323 ms on average for the rod (8 runs each), 2.489 to 2.039 ms for the plate
     /// (6), 3.439 to 3.135 ms for the creature (4); the rod's poke, 3.715 and 3.831 ms (6), and
     /// the medians stayed within the runs' spread. Returns the refreshes made (0 or 1).
@@ -293,7 +293,7 @@ impl ReducedSim {
         if self.pinning_stale {
             self.update_pinning();
         }
-        let z = self.placed_on_pins(&(&self.z * 2.0 - &self.z_prev));
+        let z = self.placed_on_pins(&self.predicted());
         self.hold_new(self.held_elastic_at(&z, HessianUse::Refresh), &z);
         self.history.clear();
         1

@@ -446,7 +446,7 @@ impl ReducedSim {
         // its factorizations between the steps here, those made now by the count below.
         let factorizations = self.factorizations - self.ahead.factorizations;
         let factor_updates = self.factor_updates;
-        let predicted = &self.z * 2.0 - &self.z_prev;
+        let predicted = self.predicted();
         let previous = self.z.clone();
         let mut report = StepReport::default();
         self.prepare();
