@@ -37,6 +37,7 @@ use contact::ContactSignature;
 use factor::HeldFactor;
 use held::{nearly_done, refresh_due};
 use pinning::PinConstraint;
+use pins::PinWatch;
 use point::{Gathered, ReducedPoint};
 use search::{objective_change, quadratic_change};
 
@@ -207,6 +208,8 @@ pub struct ReducedSim {
     /// sum m |X - T|^2, the pin energy's constant (over k/2), and the smallest pin mass.
     pin_gap_sum: f64,
     lightest_pin: f64,
+    /// The largest |phi| of a pin: how far a change of Z can move a pin, per unit of its norm.
+    pin_reach: f64,
     /// The pins' directions held exactly; out of date after pins are added or released.
     pinning: Option<PinConstraint>,
     /// The pin springs' stiffness over `pin_stiffness` this step: 1 but in steps they lose.
@@ -295,6 +298,7 @@ impl ReducedSim {
             pin_gaps: DMatrix::zeros(3, 0),
             pin_gap_sum: 0.0,
             lightest_pin: 0.0,
+            pin_reach: 0.0,
             pinning: None,
             pin_boost: 1.0,
             pinning_stale: true,
@@ -549,6 +553,7 @@ impl ReducedSim {
         report.converged = false;
         // Springs losing their pins show it early: such a solve stops for stiffer springs.
         let watch_pins = self.pinning.is_some() && report.pin_stiffenings < MAX_STIFFENINGS;
+        let mut pin_watch = PinWatch::default();
         loop {
             if mode == Solver::QuasiNewton
                 && refresh_due(since_refresh, &decrements, self.decrement_tolerance)
@@ -628,7 +633,8 @@ impl ReducedSim {
                 self.hold_at(z);
                 history.clear();
             }
-            if watch_pins && !self.pins_within(z, STIFFEN_AT_ONCE * self.pin_tolerance()) {
+            let limit = STIFFEN_AT_ONCE * self.pin_tolerance();
+            if watch_pins && !self.pins_still_within(z, limit, &mut pin_watch) {
                 break;
             }
         }

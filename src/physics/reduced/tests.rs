@@ -455,3 +455,64 @@ fn a_refresh_ahead_holds_the_hessian_at_the_next_steps_start() {
     );
     assert!((sim.held_rotation - subspace.mean_rotation(&next_start)).amax() < 1e-12);
 }
+
+/// A solve's pin watch answers as placing every pin would, along a path whose drift crosses
+/// the tolerance both ways, and places the pins only where its bound cannot answer: not for a
+/// small move from where it last placed them.
+#[test]
+fn the_pin_watch_answers_as_placing_every_pin_would() {
+    use super::pins::PinWatch;
+    use crate::physics::{ReducedSim, SimParams, Solver};
+
+    let body = SmallBox::new();
+    let subspace = body.subspace();
+    let mut sim = ReducedSim::new(
+        subspace.clone(),
+        SimParams::default(),
+        Solver::QuasiNewton,
+        0.46,
+    )
+    .unwrap();
+    let pinned: Vec<_> = body
+        .mesh
+        .vertices
+        .iter()
+        .filter(|v| v.x < -0.15)
+        .cloned()
+        .collect();
+    sim.add_pins(&pinned, &vec![0.01; pinned.len()]);
+    let k = subspace.handles();
+    let pattern = DMatrix::from_fn(3, 4 * k, |d, a| ((d + 3 * a) as f64 * 0.7).cos());
+    let tolerance = 5e-3;
+    let mut watch = PinWatch::default();
+    let (mut inside, mut outside) = (0, 0);
+    for t in (0..=80)
+        .chain((0..80).rev())
+        .map(|i| 2e-5 * (i as f64).powf(1.5))
+    {
+        let z = &pattern * t;
+        let exact = sim.pins_within(&z, tolerance);
+        assert_eq!(
+            sim.pins_still_within(&z, tolerance, &mut watch),
+            exact,
+            "at t = {t}"
+        );
+        if exact {
+            inside += 1
+        } else {
+            outside += 1
+        }
+    }
+    assert!(
+        inside > 10 && outside > 10,
+        "{inside} within, {outside} beyond"
+    );
+    let placed = watch.placed_at().expect("placed on the way").clone();
+    let nearby = &placed + &pattern * 1e-9;
+    sim.pins_still_within(&nearby, 1.0, &mut watch);
+    assert_eq!(
+        watch.placed_at(),
+        Some(&placed),
+        "a small move is bounded, not placed"
+    );
+}
