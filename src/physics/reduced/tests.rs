@@ -191,6 +191,24 @@ impl SmallBox {
         }
     }
 
+    /// A quasi-Newton simulation of `subspace` with `params`, its tolerance taken on the box's
+    /// diagonal.
+    fn quasi_newton(
+        &self,
+        subspace: std::sync::Arc<crate::physics::Subspace>,
+        params: crate::physics::SimParams,
+    ) -> crate::physics::ReducedSim {
+        let diagonal = 0.46;
+        let solver = crate::physics::Solver::QuasiNewton;
+        crate::physics::ReducedSim::new(subspace, params, solver, diagonal).unwrap()
+    }
+
+    /// The mesh vertices of the box's -x end (the last 5 cm), to pin.
+    fn left_end(&self) -> Vec<Vector3<f64>> {
+        let vertices = self.mesh.vertices.iter();
+        vertices.filter(|v| v.x < -0.15).cloned().collect()
+    }
+
     /// A new subspace of the box's field at its cubature (density 1000 kg/m^3).
     fn subspace(&self) -> std::sync::Arc<crate::physics::Subspace> {
         let map = self.shape.normalization();
@@ -209,7 +227,7 @@ impl SmallBox {
 /// afresh at the turned state.
 #[test]
 fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
-    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver};
+    use crate::physics::{Obstacle, SimParams};
 
     let body = SmallBox::new();
     let (mesh, subspace) = (&body.mesh, body.subspace());
@@ -217,7 +235,7 @@ fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
         friction: 0.0,
         ..Default::default()
     };
-    let mut sim = ReducedSim::new(subspace.clone(), params, Solver::QuasiNewton, 0.46).unwrap();
+    let mut sim = body.quasi_newton(subspace.clone(), params);
     let areas = vec![1e-3; mesh.vertices.len()];
     sim.add_contact_points(&mesh.vertices, &areas);
     // The bottom face 1 mm below the floor: its points touch, the others are far above it.
@@ -256,7 +274,7 @@ fn a_body_turned_on_the_same_springs_reuses_its_contact_curvature() {
 /// start the factor keeps them (`hold_for_step`), within a solve it is made without them.
 #[test]
 fn springs_lost_at_a_steps_start_stay_in_the_factor() {
-    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver};
+    use crate::physics::{Obstacle, SimParams};
 
     let body = SmallBox::new();
     let (mesh, subspace) = (&body.mesh, body.subspace());
@@ -264,7 +282,7 @@ fn springs_lost_at_a_steps_start_stay_in_the_factor() {
         friction: 0.0,
         ..Default::default()
     };
-    let mut sim = ReducedSim::new(subspace.clone(), params, Solver::QuasiNewton, 0.46).unwrap();
+    let mut sim = body.quasi_newton(subspace.clone(), params);
     sim.add_contact_points(&mesh.vertices, &vec![1e-3; mesh.vertices.len()]);
     sim.add_obstacle(Obstacle::floor(-0.049));
     sim.prepare();
@@ -297,7 +315,7 @@ fn springs_lost_at_a_steps_start_stay_in_the_factor() {
 /// state does, to 1e-9 relative.
 #[test]
 fn a_body_rocking_on_the_floor_updates_its_factor_as_a_fresh_one_would_be() {
-    use crate::physics::{Obstacle, ReducedSim, SimParams, Solver};
+    use crate::physics::{Obstacle, ReducedSim, SimParams};
 
     let body = SmallBox::new();
     let subspace = body.subspace();
@@ -315,9 +333,7 @@ fn a_body_rocking_on_the_floor_updates_its_factor_as_a_fresh_one_would_be() {
     // directions its pins leave free, as its factored matrix is.
     for pinned in [false, true] {
         let make = || {
-            let mut sim =
-                ReducedSim::new(subspace.clone(), params.clone(), Solver::QuasiNewton, 0.46)
-                    .unwrap();
+            let mut sim = body.quasi_newton(subspace.clone(), params.clone());
             sim.add_contact_points(&points, &vec![1e-3; points.len()]);
             sim.add_obstacle(Obstacle::floor(-0.049));
             if pinned {
@@ -376,18 +392,13 @@ fn a_body_rocking_on_the_floor_updates_its_factor_as_a_fresh_one_would_be() {
 /// body's now is set up anew. Either goes on stepping and converging.
 #[test]
 fn a_rebased_body_takes_its_prepared_twin_or_sets_one_up_anew() {
-    use crate::physics::{ReducedSim, SimParams, Solver};
+    use crate::physics::{ReducedSim, SimParams};
 
     let body = SmallBox::new();
-    let (mesh, build) = (&body.mesh, || body.subspace());
+    let build = || body.subspace();
     let params = SimParams::default();
-    let mut sim = ReducedSim::new(build(), params.clone(), Solver::QuasiNewton, 0.46).unwrap();
-    let pinned: Vec<_> = mesh
-        .vertices
-        .iter()
-        .filter(|v| v.x < -0.15)
-        .cloned()
-        .collect();
+    let mut sim = body.quasi_newton(build(), params.clone());
+    let pinned = body.left_end();
     sim.add_pins(&pinned, &vec![0.01; pinned.len()]);
     let setup = sim.setup();
     for _ in 0..5 {
@@ -425,17 +436,11 @@ fn a_rebased_body_takes_its_prepared_twin_or_sets_one_up_anew() {
 #[test]
 fn a_refresh_ahead_holds_the_hessian_at_the_next_steps_start() {
     use super::hessian::HessianUse;
-    use crate::physics::{ReducedSim, SimParams, Solver};
+    use crate::physics::SimParams;
 
     let body = SmallBox::new();
     let subspace = body.subspace();
-    let mut sim = ReducedSim::new(
-        subspace.clone(),
-        SimParams::default(),
-        Solver::QuasiNewton,
-        0.46,
-    )
-    .unwrap();
+    let mut sim = body.quasi_newton(subspace.clone(), SimParams::default());
     sim.prepare();
     let k = subspace.handles();
     // Bent and moving: the last step ended in `now`, one step after `before`.
@@ -462,24 +467,12 @@ fn a_refresh_ahead_holds_the_hessian_at_the_next_steps_start() {
 #[test]
 fn the_pin_watch_answers_as_placing_every_pin_would() {
     use super::pins::PinWatch;
-    use crate::physics::{ReducedSim, SimParams, Solver};
+    use crate::physics::SimParams;
 
     let body = SmallBox::new();
     let subspace = body.subspace();
-    let mut sim = ReducedSim::new(
-        subspace.clone(),
-        SimParams::default(),
-        Solver::QuasiNewton,
-        0.46,
-    )
-    .unwrap();
-    let pinned: Vec<_> = body
-        .mesh
-        .vertices
-        .iter()
-        .filter(|v| v.x < -0.15)
-        .cloned()
-        .collect();
+    let mut sim = body.quasi_newton(subspace.clone(), SimParams::default());
+    let pinned = body.left_end();
     sim.add_pins(&pinned, &vec![0.01; pinned.len()]);
     let k = subspace.handles();
     let pattern = DMatrix::from_fn(3, 4 * k, |d, a| ((d + 3 * a) as f64 * 0.7).cos());
