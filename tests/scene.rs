@@ -589,3 +589,28 @@ fn objects_with_all_their_handles_get_the_refined_field_the_same_every_build() {
         "two builds of the refined field differ"
     );
 }
+
+/// A column pinned at its base, the base a millimetre into the floor it stands on: the pinned
+/// material's surface does not collide with that floor (its pins hold it), so its steps carry
+/// no contact springs, while a free block set the same way does.
+#[test]
+fn a_base_pinned_into_the_floor_holds_no_contact_springs() {
+    let yaml = |support: &str| {
+        format!(
+            "floor: 0\nsleep: null\nobjects:\n  - name: column\n    \
+             shape: {{box: [0.1, 0.1, 0.3]}}\n    position: [0, 0, 0.149]\n    handles: 5\n    \
+             cubature: 64\n    support: {support}\n"
+        )
+    };
+    let contacts_after_settling = |support: &str| {
+        let file = SceneFile::parse(&yaml(support)).unwrap();
+        let mut scene = build(&file, &FieldCache::default());
+        for _ in 0..10 {
+            scene.step();
+        }
+        let body = scene.body("column").unwrap();
+        body.last_step().expect("stepped").contacts
+    };
+    assert_eq!(contacts_after_settling("pin_bottom"), 0);
+    assert!(contacts_after_settling("floor") > 0, "a free column stands on the floor");
+}

@@ -1,5 +1,5 @@
 //! How a body is held: a slab of its cubature points pinned at its bottom or top (the slab its
-//! FEM reference pins, `pinned_slab_top`), or a floor.
+//! FEM reference pins, `pinned_slab_top`; its surface there collides with nothing), or a floor.
 
 use nalgebra::Vector3;
 
@@ -40,11 +40,13 @@ pub(super) fn apply_support(
             let below = -pinned_slab_top(&negated, &cubature.volumes);
             let (points, masses) = pin_where(&|h| h >= below);
             sim.add_pins(&points, &masses);
+            sim.hold_contacts_beyond(-up, -below);
         }
         Support::PinBottom => {
             let above = pinned_slab_top(&heights, &cubature.volumes);
             let (points, masses) = pin_where(&|h| h <= above);
             sim.add_pins(&points, &masses);
+            sim.hold_contacts_beyond(up, above);
         }
         Support::Floor => {
             let lowest = surface.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);

@@ -32,6 +32,16 @@ impl ReducedSim {
         self.contacts_changed();
     }
 
+    /// Marks the material at rest on one side of a plane (n . x <= h) as held by its pins: its
+    /// contact samples no longer collide. A base pinned on the floor it stands on had them
+    /// pressed into that floor, fighting its own pins: dozens of springs and a refactorization
+    /// every step for material that cannot move. They still stand for the body's surface where
+    /// other objects collide with it (`contact_positions`).
+    pub fn hold_contacts_beyond(&mut self, normal: Vector3<f64>, height: f64) {
+        self.held_side = Some((normal, height));
+        self.contacts_changed();
+    }
+
     /// Where the contact points are now (world), in the order they were added.
     pub fn contact_positions(&self) -> Vec<Vector3<f64>> {
         let positions = self.contact_positions_at(&self.z);
@@ -51,6 +61,8 @@ impl ReducedSim {
         let (rows, n) = (4 * self.subspace.handles(), self.contacts.len());
         self.contact_phis = DMatrix::from_fn(rows, n, |a, i| self.contacts[i].phi[a]);
         self.contact_rests = DMatrix::from_fn(3, n, |d, i| self.contacts[i].rest[d]);
+        let held = |x: &Vector3<f64>| self.held_side.is_some_and(|(n, h)| n.dot(x) <= h);
+        self.contact_collides = self.contacts.iter().map(|c| !held(&c.rest)).collect();
     }
 
     /// Every contact point's position at `z` (3 x n), in one product: point by point, the
@@ -83,7 +95,8 @@ impl ReducedSim {
             if !reaches(obstacle, bounds.as_ref(), &body, margin) {
                 continue;
             }
-            for (c, x) in positions.column_iter().enumerate() {
+            let colliding = positions.column_iter().enumerate();
+            for (c, x) in colliding.filter(|&(c, _)| self.contact_collides[c]) {
                 let x = Vector3::new(x[0], x[1], x[2]);
                 let boxed =
                     bounds.is_none_or(|(lo, hi)| (0..3).all(|d| x[d] >= lo[d] && x[d] <= hi[d]));

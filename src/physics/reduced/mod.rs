@@ -220,6 +220,10 @@ pub struct ReducedSim {
     /// all are, X + Z Phi, is one product.
     contact_phis: DMatrix<f64>,
     contact_rests: DMatrix<f64>,
+    /// Pinned material (rest positions x with n . x <= h) whose contact samples do not collide.
+    held_side: Option<(Vector3<f64>, f64)>,
+    /// Whether each contact sample collides: not in `held_side`.
+    contact_collides: Vec<bool>,
     obstacles: Vec<Obstacle>,
     /// Obstacles that move (robot links), replaced before each step.
     colliders: Vec<Obstacle>,
@@ -305,6 +309,8 @@ impl ReducedSim {
             contacts: Vec::new(),
             contact_phis: DMatrix::zeros(4 * k, 0),
             contact_rests: DMatrix::zeros(3, 0),
+            held_side: None,
+            contact_collides: Vec::new(),
             obstacles: Vec::new(),
             colliders: Vec::new(),
             colliders_before: Vec::new(),

@@ -76,6 +76,10 @@ impl ReducedSim {
             // The held elastic Hessian may be definite only with the springs just released.
             self.held = None;
             self.pins_changed();
+            // Whatever pinned side was held may be free now: all of it collides again.
+            if self.held_side.take().is_some() {
+                self.contacts_changed();
+            }
         }
         released
     }

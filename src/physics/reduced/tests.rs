@@ -509,3 +509,56 @@ fn the_pin_watch_answers_as_placing_every_pin_would() {
         "a small move is bounded, not placed"
     );
 }
+
+/// A base pinned on the floor it stands on: the surface samples of its pinned slab touch
+/// nothing, the material above the slab still collides, and released pins free the slab.
+#[test]
+fn a_pinned_slab_on_the_floor_does_not_collide_and_the_rest_does() {
+    use crate::physics::{Obstacle, SimParams};
+
+    let body = SmallBox::new();
+    let (mesh, subspace) = (&body.mesh, body.subspace());
+    let mut sim = body.quasi_newton(subspace.clone(), SimParams::default());
+    let slab_top = -0.03;
+    let slab: Vec<Vector3<f64>> = mesh
+        .vertices
+        .iter()
+        .filter(|v| v.z <= slab_top)
+        .cloned()
+        .collect();
+    sim.add_pins(&slab, &vec![1e-3; slab.len()]);
+    sim.hold_contacts_beyond(Vector3::z(), slab_top);
+    sim.add_contact_points(&mesh.vertices, &vec![1e-3; mesh.vertices.len()]);
+    // The bottom face (z = -0.05) 1 mm into the floor.
+    sim.add_obstacle(Obstacle::floor(-0.049));
+    let turn = nalgebra::Matrix3::identity();
+    let touching_when_sunk = |sim: &mut super::ReducedSim, depth: f64| -> Vec<usize> {
+        let z = subspace.rigid_state(&turn, &Vector3::new(0.0, 0.0, -depth));
+        sim.find_candidates(&z);
+        sim.touching_at(&z).iter().map(|&(c, _, _)| c).collect()
+    };
+    let in_floor_when_sunk = |depth: f64, rule: &dyn Fn(f64) -> bool| -> Vec<usize> {
+        let vertices = mesh.vertices.iter().enumerate();
+        let sunk = vertices.filter(|(_, v)| v.z - depth < -0.049 && rule(v.z));
+        sunk.map(|(c, _)| c).collect()
+    };
+    assert!(
+        touching_when_sunk(&mut sim, 0.0).is_empty(),
+        "the pinned face touches nothing"
+    );
+    let above_slab = in_floor_when_sunk(0.06, &|z| z > slab_top);
+    assert!(!above_slab.is_empty());
+    assert_eq!(
+        touching_when_sunk(&mut sim, 0.06),
+        above_slab,
+        "what is above the slab collides"
+    );
+    sim.release_pins_within(&Vector3::zeros(), 1.0);
+    let bottom_face = in_floor_when_sunk(0.0, &|_| true);
+    assert!(!bottom_face.is_empty());
+    assert_eq!(
+        touching_when_sunk(&mut sim, 0.0),
+        bottom_face,
+        "released, the slab collides"
+    );
+}
