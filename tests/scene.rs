@@ -612,5 +612,8 @@ fn a_base_pinned_into_the_floor_holds_no_contact_springs() {
         body.last_step().expect("stepped").contacts
     };
     assert_eq!(contacts_after_settling("pin_bottom"), 0);
-    assert!(contacts_after_settling("floor") > 0, "a free column stands on the floor");
+    assert!(
+        contacts_after_settling("floor") > 0,
+        "a free column stands on the floor"
+    );
 }
