@@ -124,6 +124,33 @@ impl<'a> PointIndex<'a> {
         found.into_iter().map(|(_, i)| i).collect()
     }
 
+    /// The nearest point to `query` and its distance (None without points): `nearest` for one
+    /// point, without its allocations, for callers that ask thousands of times a frame.
+    pub fn closest(&self, query: &Vector3<f64>) -> Option<(usize, f64)> {
+        if self.points.is_empty() {
+            return None;
+        }
+        let center = self.key(query);
+        let last_ring = (0..3)
+            .map(|a| center[a].abs().max((self.dims[a] - 1 - center[a]).abs()))
+            .max()
+            .unwrap_or(0);
+        let margin = self.depth_in_cell(query, center);
+        let mut best = (usize::MAX, f64::INFINITY);
+        for ring in 0..=last_ring {
+            self.visit_ring(center, ring, |i| {
+                let d = (self.points[i] - query).norm_squared();
+                if d < best.1 || (d == best.1 && i < best.0) {
+                    best = (i, d);
+                }
+            });
+            if best.0 != usize::MAX && best.1.sqrt() < ring as f64 * self.cell + margin {
+                break;
+            }
+        }
+        Some((best.0, best.1.sqrt()))
+    }
+
     /// Calls `visit` with every point in the cells `ring` cells (Chebyshev) from `center`. Cells
     /// are sorted x fastest, so a row of cells is one run of `order`: rows on the ring's faces are
     /// visited whole, the other rows at their two ends.

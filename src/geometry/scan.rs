@@ -87,12 +87,22 @@ pub fn scan(shape: &Shape, camera: &Camera) -> Result<Vec<Option<Vector3<f64>>>>
             "a scan needs a mesh: a point cloud has no surface to hit".into(),
         ));
     }
-    let vertices = shape
-        .positions
+    let image = scan_faces(&shape.positions, &shape.triangles, camera)?;
+    Ok(image.into_iter().map(|hit| hit.map(|(p, _)| p)).collect())
+}
+
+/// `scan` of a triangle soup, each hit with the index of the triangle it lies on: what a
+/// benchmark needs to know which material point each pixel saw.
+pub fn scan_faces(
+    positions: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+    camera: &Camera,
+) -> Result<Vec<Option<(Vector3<f64>, usize)>>> {
+    let vertices = positions
         .iter()
         .map(|p| Vector::new(p.x as f32, p.y as f32, p.z as f32))
         .collect();
-    let mesh = TriMesh::new(vertices, shape.triangles.clone())
+    let mesh = TriMesh::new(vertices, triangles.to_vec())
         .map_err(|e| Error::Geometry(format!("the mesh cannot be ray-cast: {e:?}")))?;
     let pose = camera.optical_pose();
     let origin = camera.position;
@@ -102,8 +112,8 @@ pub fn scan(shape: &Shape, camera: &Camera) -> Result<Vec<Option<Vector3<f64>>>>
         for column in 0..camera.width {
             let d = camera.ray(&pose, column, row);
             let ray = Ray::new(o, Vector::new(d.x as f32, d.y as f32, d.z as f32));
-            let hit = mesh.cast_local_ray(&ray, f32::MAX, true);
-            image.push(hit.map(|t| origin + d * t as f64));
+            let hit = mesh.cast_local_ray_and_get_normal(&ray, f32::MAX, true);
+            image.push(hit.map(|h| (origin + d * h.time_of_impact as f64, h.subshape as usize)));
         }
     }
     Ok(image)
