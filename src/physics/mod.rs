@@ -20,6 +20,6 @@ pub use hull::ConvexHull;
 pub use lift::Lifter;
 pub use material::{Material, MaterialModel, Matrix9};
 pub use obstacle::{Obstacle, Penetration, Stick, STICK_SLIP};
-pub use reduced::{state_projection, ReducedSim, SimSetup, Solver, StepReport};
+pub use reduced::{state_projection, ObservationTerm, ReducedSim, SimSetup, Solver, StepReport};
 pub use scene::{Poke, SimParams};
 pub use subspace::{phi_of, sample, Subspace};

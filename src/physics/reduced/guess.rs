@@ -17,7 +17,7 @@ const TREND_FROM_ITERATIONS: usize = 3;
 impl ReducedSim {
     /// The constant-velocity prediction of the next state, 2 z - z_prev: where the next step's
     /// objective is centred, and (placed on the pins) where its solve starts.
-    pub(super) fn predicted(&self) -> DMatrix<f64> {
+    pub fn predicted(&self) -> DMatrix<f64> {
         &self.z * 2.0 - &self.z_prev
     }
 

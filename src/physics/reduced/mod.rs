@@ -18,12 +18,14 @@ mod factor;
 mod guess;
 mod held;
 mod hessian;
+mod observe;
 mod pinning;
 mod pins;
 mod point;
 mod rebase;
 mod search;
 
+pub use observe::ObservationTerm;
 pub use rebase::{state_projection, SimSetup};
 
 use super::material::Material;
@@ -247,6 +249,8 @@ pub struct ReducedSim {
     /// The object's bounding-box diagonal, m.
     diagonal: f64,
     pokes: Vec<(DVector<f64>, Poke)>,
+    /// What a sensor saw, pulling the observed material points (see `observe`).
+    observed: Option<observe::Observed>,
     /// What the quasi-Newton preconditioner holds besides contact: elasticity (at rest, or at
     /// the state of the last refresh) plus inertia, damping and pins.
     held: Option<DMatrix<f64>>,
@@ -323,6 +327,7 @@ impl ReducedSim {
             roll_anchors: RollAnchors::default(),
             diagonal,
             pokes: Vec::new(),
+            observed: None,
             held: None,
             held_rotation: Matrix3::identity(),
             factored_contact: None,
@@ -377,6 +382,7 @@ impl ReducedSim {
         self.time = 0.0;
         self.refresh_due = false;
         self.ahead = AheadWork::default();
+        self.forget_observation();
     }
 
     /// The elastic Hessian at rest (PSD-projected), kept by the subspace.
@@ -706,15 +712,23 @@ impl ReducedSim {
                 }
             }
         }
+        if let Some(observed) = &self.observed {
+            linear -= &observed.offset;
+        }
         StepObjective {
             quadratic: self.quadratic_part(),
             linear,
         }
     }
 
-    /// Inertia, damping and pins: the quadratic part, (4K x 4K) to be taken (x) I_3.
+    /// Inertia, damping, pins and the observation: the quadratic part, (4K x 4K) to be taken
+    /// (x) I_3.
     fn quadratic_part(&self) -> DMatrix<f64> {
-        self.inertia_part() + &self.pin_phi * self.pin_stiffness()
+        let mut quadratic = self.inertia_part() + &self.pin_phi * self.pin_stiffness();
+        if let Some(observed) = &self.observed {
+            quadratic += &observed.quadratic;
+        }
+        quadratic
     }
 
     /// Inertia and damping: the part of `quadratic_part` that pins never change.

@@ -1,0 +1,106 @@
+//! What a sensor saw, as a term of the step objective: material points pulled toward the
+//! places they were observed at by springs, (k/2) sum w |X + Z phi - y|^2. The term is
+//! quadratic in Z, so a step minimizes inertia, elasticity, contact and the observation
+//! together: the physics fills in what the sensor does not see (the hidden side, the time
+//! between frames) and the observation corrects what the physics does not know (a hand, a
+//! poker, a wrong stiffness), a filter whose prediction is the implicit step and whose update
+//! is its data term.
+
+use nalgebra::DMatrix;
+
+use super::ReducedSim;
+use crate::error::{Error, Result};
+use crate::linalg::product;
+
+/// Observed places of material points of a body, for [`ReducedSim::observe`].
+#[derive(Clone, Debug)]
+pub struct ObservationTerm {
+    /// The material points' subspace samples side by side (4K x n).
+    pub phis: DMatrix<f64>,
+    /// Their rest positions (3 x n), m.
+    pub rests: DMatrix<f64>,
+    /// Where each was observed (3 x n), m.
+    pub targets: DMatrix<f64>,
+    /// The mass each correspondence stands for, kg.
+    pub weights: Vec<f64>,
+    /// The springs' stiffness per kg, 1/s^2: k h^2 = 1 pulls a free body halfway toward the
+    /// observation in one step.
+    pub stiffness: f64,
+}
+
+/// The observation as the step objective takes it: k P = k sum w phi phi^T (4K x 4K, taken
+/// (x) I_3) and k B = k sum w (X - y) phi^T (3 x 4K).
+pub(super) struct Observed {
+    pub(super) quadratic: DMatrix<f64>,
+    pub(super) offset: DMatrix<f64>,
+}
+
+impl ObservationTerm {
+    fn check(&self, rows: usize) -> Result<()> {
+        let n = self.weights.len();
+        let shapes_agree = self.phis.shape() == (rows, n)
+            && self.rests.shape() == (3, n)
+            && self.targets.shape() == (3, n);
+        if !shapes_agree {
+            return Err(Error::InvalidParameter {
+                name: "observation",
+                reason: format!(
+                    "phis {:?}, rests {:?}, targets {:?} for {n} weights in a {rows}-row subspace",
+                    self.phis.shape(),
+                    self.rests.shape(),
+                    self.targets.shape()
+                ),
+            });
+        }
+        let finite = self.stiffness.is_finite()
+            && self.stiffness >= 0.0
+            && self.weights.iter().all(|w| w.is_finite() && *w >= 0.0)
+            && self.targets.iter().all(|t| t.is_finite());
+        if !finite {
+            return Err(Error::InvalidParameter {
+                name: "observation",
+                reason: "a negative or non-finite stiffness, weight or target".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+impl ReducedSim {
+    /// The next steps pull the observed material points toward where they were seen, until
+    /// the observation is replaced or forgotten. The held factor is made again at the next
+    /// step's start with the observation's springs in it (one 12K x 12K factorization).
+    pub fn observe(&mut self, term: &ObservationTerm) -> Result<()> {
+        term.check(4 * self.subspace.handles())?;
+        let k = term.stiffness;
+        let weighted = DMatrix::from_fn(term.phis.nrows(), term.phis.ncols(), |a, i| {
+            term.phis[(a, i)] * term.weights[i] * k
+        });
+        let quadratic = product(&weighted, &term.phis.transpose());
+        let gaps = &term.rests - &term.targets;
+        let offset = product(&gaps, &weighted.transpose());
+        self.observed = Some(Observed { quadratic, offset });
+        self.observation_changed();
+        Ok(())
+    }
+
+    /// The steps from now on run on physics alone.
+    pub fn forget_observation(&mut self) {
+        if self.observed.take().is_some() {
+            self.observation_changed();
+        }
+    }
+
+    /// Whether an observation pulls the body now.
+    pub fn is_observed(&self) -> bool {
+        self.observed.is_some()
+    }
+
+    /// The factor in place holds the old observation's springs: it is made anew (not updated,
+    /// the springs are many) before the next solve, and curvature pairs measured with the old
+    /// springs go.
+    fn observation_changed(&mut self) {
+        self.factored_contact = None;
+        self.history.clear();
+    }
+}
