@@ -112,6 +112,8 @@ pub struct ReplaySummary {
     pub input_messages: usize,
     /// Inputs refused (each reported on the status topic with the reason).
     pub rejected: usize,
+    /// Clouds taken as frames of an object already running (`tracking.enabled`).
+    pub observations: usize,
     /// The damaged parts of the recording, skipped (each also reported on the status topic).
     pub damage: Vec<String>,
     /// The objects built from the recording's inputs, by id.
@@ -454,6 +456,9 @@ impl<'a> Run<'a> {
             self.rest.insert(ready.id, points);
             announcement.publish(outputs);
             self.stage.add(*ready, outputs, false);
+        } else if let BuildOutcome::Observed(frame) = outcome {
+            summary.observations += 1;
+            self.stage.observe(frame, outputs);
         } else if let BuildOutcome::Rejected = outcome {
             summary.rejected += 1;
         }

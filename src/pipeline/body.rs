@@ -692,6 +692,11 @@ impl SoftBody {
         self.sim.state()
     }
 
+    /// Where the handle matrix goes at the next step if it keeps its velocity (3 x 4K).
+    pub fn predicted_state(&self) -> DMatrix<f64> {
+        self.sim.predicted()
+    }
+
     /// The reduced velocity (3 x 4K): the handle matrix's change over the last step over dt.
     pub fn velocity(&self) -> DMatrix<f64> {
         self.sim.velocity()
@@ -736,6 +741,42 @@ impl SoftBody {
     /// Whether a push acts in the next step or will later.
     pub fn is_pushed(&self) -> bool {
         self.sim.has_active_pokes()
+    }
+
+    /// Pulls observed material points toward where a sensor saw them over the next steps
+    /// (see [`crate::physics::ReducedSim::observe`]); it wakes the body. [`crate::pipeline::Tracker`]
+    /// makes the term from a camera's frame.
+    pub fn observe(&mut self, term: &crate::physics::ObservationTerm) -> Result<()> {
+        self.sim.observe(term)?;
+        self.activity.disturbed = true;
+        Ok(())
+    }
+
+    /// The steps from now on run on physics alone.
+    pub fn forget_observation(&mut self) {
+        self.sim.forget_observation();
+    }
+
+    /// The time step, s.
+    pub fn dt(&self) -> f64 {
+        self.sim.params().dt
+    }
+
+    /// Samples of the whole surface at rest (world units; the hidden side of a completed view
+    /// included), with their areas: the points that collide.
+    pub fn surface_samples(&self) -> &ContactSamples {
+        &self.surface
+    }
+
+    /// Bounds of the body's surface at rest (min, max).
+    pub(crate) fn rest_bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for p in &self.surface.points {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        (lo, hi)
     }
 }
 

@@ -8,6 +8,7 @@ mod seen;
 mod support;
 mod switch;
 mod touch;
+mod track;
 
 pub use body::{BuildTimings, SoftBody};
 pub use input::network_input;
@@ -15,3 +16,4 @@ pub use options::{BodyOptions, SleepRule, Support};
 pub use seen::{build_seen, SeenBody, DEFAULT_MAX_BUILD_POINTS};
 pub use switch::{BasisPlan, PreparedBasis, SwitchReport, REFINE_RESOLUTION};
 pub use touch::contact_hulls;
+pub use track::{strided, FrameFit, Tracker, TrackingOptions};

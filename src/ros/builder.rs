@@ -18,6 +18,7 @@ use super::params::NodeParams;
 use super::refiner::RefineJob;
 pub use super::refiner::RefinedField;
 use super::tf::{TfBuffer, TfError};
+use super::tracking::{Observation, TrackState};
 use crate::pipeline::{build_seen, SeenBody, SoftBody};
 use crate::skinning::{NeuralModel, RefineBudget};
 
@@ -59,6 +60,8 @@ pub enum Built {
     Body(ReadyBody),
     /// The refined field of a running object, to switch to.
     Refined(RefinedField),
+    /// A later frame of a running object, to correct it.
+    Observed(Observation),
 }
 
 /// A built body on its way to the stepper.
@@ -77,6 +80,8 @@ pub struct ReadyBody {
     pub body: SoftBody,
     /// Its surface for ~/markers (None when markers are off).
     pub surface: Option<MarkerSurface>,
+    /// What the frames of its stream did to it.
+    pub tracking: TrackState,
 }
 
 impl BuildRequest {
@@ -234,6 +239,12 @@ impl BuiltRegistry {
         built.get(key).map(|(h, id)| (*id, *h == hash))
     }
 
+    /// The id of the object `key`, when it runs.
+    fn running(&self, key: &ObjectKey) -> Option<u32> {
+        let built = self.0.lock().ok()?;
+        built.get(key).map(|(_, id)| *id)
+    }
+
     fn insert(&self, key: ObjectKey, hash: u64, id: u32) {
         if let Ok(mut built) = self.0.lock() {
             built.insert(key, (hash, id));
@@ -301,6 +312,8 @@ pub enum BuildOutcome {
     Ready(Box<ReadyBody>, Announcement),
     /// The frame already runs this geometry.
     Unchanged,
+    /// The object runs: the cloud is an observation of it (`tracking.enabled`).
+    Observed(Observation),
     /// Refused; the reason went out on the status topic.
     Rejected,
 }
@@ -316,6 +329,9 @@ impl Builder {
     ) -> BuildOutcome {
         let hash = request.content_hash();
         let key = request.key();
+        if let Some(observed) = self.observation(request, &key, params) {
+            return BuildOutcome::Observed(observed);
+        }
         // A running object keeps its id when its geometry changes: it is the same object.
         let id = match self.built.lookup(&key, hash) {
             Some((_, true)) => return BuildOutcome::Unchanged,
@@ -400,8 +416,26 @@ impl Builder {
             output_frame,
             body,
             surface,
+            tracking: TrackState::default(),
         };
         BuildOutcome::Ready(Box::new(ready), announcement)
+    }
+}
+
+impl Builder {
+    /// The observation a cloud makes of the object it names, when tracking is on and that
+    /// object runs.
+    fn observation(
+        &self,
+        request: &BuildRequest,
+        key: &ObjectKey,
+        params: &NodeParams,
+    ) -> Option<Observation> {
+        if !params.tracking.enabled {
+            return None;
+        }
+        let id = self.built.running(key)?;
+        Observation::of(request, id, &params.tracking)
     }
 }
 
@@ -514,6 +548,12 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
             let built = pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
             // Until the next request (or the next build of this batch), refinement may run.
             building.store(false, Ordering::Relaxed);
+            if let BuildOutcome::Observed(observed) = built {
+                if ready.send(Built::Observed(observed)).is_err() {
+                    return;
+                }
+                continue;
+            }
             if let BuildOutcome::Ready(body, announcement) = built {
                 let budget = snapshot.refine_budget();
                 let plan = (budget != RefineBudget::Off).then(|| body.body.basis_plan());

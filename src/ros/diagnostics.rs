@@ -15,6 +15,8 @@ pub struct Health {
     pub builds_queued: AtomicI64,
     missed_total: AtomicU64,
     window: Mutex<Window>,
+    /// Frames of streams since start, and the last window's residuals.
+    tracking: Mutex<super::tracking::TrackingWindow>,
 }
 
 /// What happened since the last report.
@@ -33,6 +35,16 @@ impl Health {
             w.objects = objects;
             w.awake = awake;
             w.step_ms.push(step_ms);
+        }
+    }
+
+    /// After each tick: what the streams' frames did since the last.
+    pub fn track(&self, window: super::tracking::TrackingWindow) {
+        if let Ok(mut t) = self.tracking.lock() {
+            t.tracked = window.tracked;
+            t.frames_used += window.frames_used;
+            t.frames_skipped += window.frames_skipped;
+            t.residuals_m.extend(window.residuals_m);
         }
     }
 
@@ -86,6 +98,7 @@ impl Health {
             ),
             kv("publications_dropped", dropped),
         ];
+        values.extend(self.tracking_values());
         let rec = recording.clone().unwrap_or_default();
         values.extend([
             kv("recording_path", rec.path),
@@ -111,6 +124,30 @@ impl Health {
                 values,
             }],
         }
+    }
+}
+
+impl Health {
+    /// Objects tracked, frames used and skipped since start, and the residual's p50 and p99
+    /// over the frames since the last report (mm; 0 without frames).
+    fn tracking_values(&self) -> Vec<KeyValue> {
+        let Ok(mut t) = self.tracking.lock() else {
+            return Vec::new();
+        };
+        let mut residuals = std::mem::take(&mut t.residuals_m);
+        residuals.sort_by(f64::total_cmp);
+        let quantile = |q: f64| {
+            residuals
+                .get(((residuals.len() as f64 * q) as usize).min(residuals.len().max(1) - 1))
+                .map_or(0.0, |r| r * 1e3)
+        };
+        vec![
+            kv("objects_tracked", t.tracked),
+            kv("frames_used", t.frames_used),
+            kv("frames_skipped", t.frames_skipped),
+            kv("tracking_residual_mm_p50", format!("{:.3}", quantile(0.5))),
+            kv("tracking_residual_mm_p99", format!("{:.3}", quantile(0.99))),
+        ]
     }
 }
 

@@ -267,6 +267,13 @@ ros_message!(
         cubature_points: u32,
         /// What was chosen for the shape (handles, cubature points) and why.
         decision: String,
+        /// A tracked stream's last frame: RMS distance of its explained points to the surface
+        /// before its correction, m (0 when not tracked).
+        tracking_residual_m: f64,
+        /// Surface samples that frame pulled (0 when not tracked).
+        tracking_points: u32,
+        /// Time of its correction, ms (0 when timings are left out, as in replays).
+        tracking_ms: f64,
     }
 );
 

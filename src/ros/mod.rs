@@ -26,6 +26,8 @@ mod shared;
 mod stage;
 mod stepper;
 mod tf;
+mod tracking;
+mod tracking_params;
 
 pub use args::{split_ros_args, LogLevel, RosArgs, RosArgsError};
 pub use builder::{

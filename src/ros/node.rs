@@ -380,6 +380,7 @@ impl Threads {
                     let command = match built {
                         Built::Body(ready) => StepperCommand::Add(Box::new(ready)),
                         Built::Refined(refined) => StepperCommand::Switch(Box::new(refined)),
+                        Built::Observed(frame) => StepperCommand::Observe(Box::new(frame)),
                     };
                     if step_tx.send(command).is_err() {
                         break;

@@ -247,6 +247,7 @@ impl Outputs {
         body: &SoftBody,
         surface: Option<(&mut MarkerSurface, &str)>,
         cloud: DeformedCloud,
+        tracked: Option<&crate::pipeline::FrameFit>,
     ) {
         if let Some((surface, ns)) = surface {
             let marker = surface.marker(body, header.clone(), ns, shape_id);
@@ -297,6 +298,12 @@ impl Outputs {
                 sleeping: body.is_sleeping(),
                 cubature_points: body.cubature_len() as u32,
                 decision: body.decision().into(),
+                tracking_residual_m: tracked.map_or(0.0, |f| f.residual_m),
+                tracking_points: tracked.map_or(0, |f| f.correspondences as u32),
+                tracking_ms: match tracked {
+                    Some(f) if self.timings => f.ms,
+                    _ => 0.0,
+                },
             };
             let publisher = self.dds.as_ref().and_then(|d| d.state.as_ref());
             self.emit(&self.topics.state, publisher, state);

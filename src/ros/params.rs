@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
 use super::names::{NameError, NameResolver};
+pub use super::tracking_params::TrackingParams;
 use crate::physics::{SimParams, Solver};
 use crate::pipeline::{BodyOptions, Support};
 use crate::skinning::RefineBudget;
@@ -328,6 +329,8 @@ pub struct NodeParams {
     pub record: RecordParams,
     /// The iceoryx2 hand-off.
     pub shm: ShmParams,
+    /// Streams of clouds: later frames of a running object correct it.
+    pub tracking: TrackingParams,
     /// Scene file (config/scenes/*.yaml): its objects are built and simulated, and its robots
     /// follow their joint-state topics. Read-only after start. Default "" (none).
     pub scene: String,
@@ -353,6 +356,7 @@ impl Default for NodeParams {
             publish: PublishParams::default(),
             record: RecordParams::default(),
             shm: ShmParams::default(),
+            tracking: TrackingParams::default(),
             scene: String::new(),
         }
     }
@@ -506,6 +510,7 @@ impl NodeParams {
             },
         )?;
         ensure(self.floor_z.is_finite(), "floor_z", || "not finite".into())?;
+        self.tracking.validate()?;
         self.solver()?;
         self.sim_params().validate()
     }

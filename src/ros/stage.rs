@@ -11,6 +11,7 @@ use super::builder::{BuiltRegistry, ObjectKey, ReadyBody, RefinedField};
 use super::messages::{Interaction, JointState, Status};
 use super::outputs::{DeformedCloud, Outputs};
 use super::tf::TfBuffer;
+use super::tracking::{Observation, TrackingWindow, Verdict};
 use crate::physics::Obstacle;
 use crate::pipeline::{contact_hulls, SoftBody};
 use crate::scene::Scene;
@@ -46,6 +47,8 @@ pub struct Stage {
     ticks: u64,
     /// The bodies' contact hulls at the last tick, by shape id: what the others collided with.
     hulls: Vec<(u32, Obstacle)>,
+    /// What the streams' frames did since the last `take_tracking`.
+    tracking: TrackingWindow,
 }
 
 /// A scene's objects and robots, stepped with the other bodies.
@@ -116,6 +119,7 @@ impl Stage {
             );
         }
         self.ticks += 1;
+        self.track_after_step(outputs);
         self.unpublished.iter_mut().for_each(|u| *u = true);
         if !self.on_the_beat {
             self.publish_pending(outputs);
@@ -225,7 +229,7 @@ impl Stage {
                 };
                 for (id, _, body) in s.bodies() {
                     if !body.is_sleeping() || body.fell_asleep() {
-                        publish_step_of(id, &s.frame, body, None, cloud, outputs);
+                        publish_step_of(id, &s.frame, body, None, cloud, None, outputs);
                     }
                 }
             }
@@ -327,6 +331,7 @@ impl Stage {
                 return;
             }
         };
+        b.tracking.rebased();
         let rest: Vec<f32> = (b.body.lifter().rest_points().iter())
             .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
             .collect();
@@ -345,6 +350,72 @@ impl Stage {
             report.max_jump_m * 1e3
         );
         outputs.report(Status::INFO, id, "field_refined", message);
+    }
+
+    /// A later frame of a running object corrects it. Frames that stop explaining it replace
+    /// it (`object_replaced`, then the object goes): the next cloud builds a new one. A frame
+    /// of an object replaced or removed since it was sent is dropped.
+    pub fn observe(&mut self, frame: Observation, outputs: &Outputs) {
+        let found = self
+            .bodies
+            .iter()
+            .position(|b| b.key == frame.key && b.id == frame.id);
+        let Some(i) = found else {
+            return;
+        };
+        let now = outputs.clock.now_nanos().unwrap_or(0);
+        self.last_seen[i] = now;
+        let b = &mut self.bodies[i];
+        let verdict = b.tracking.observe(&mut b.body, &frame, now);
+        if let Some(fit) = &b.tracking.last {
+            self.tracking.take(fit);
+        }
+        match verdict {
+            Verdict::Used {
+                resumed: Some(stopped),
+            } => {
+                let message = format!(
+                    "{}: frames again after {stopped:.2} s; corrected from where the physics \
+                     carried it",
+                    b.key
+                );
+                outputs.report(Status::INFO, b.id, "tracking_resumed", message);
+            }
+            Verdict::Used { .. } | Verdict::Skipped => {}
+            Verdict::Replace(why) => {
+                let message = format!("{}: {why}; the next cloud builds a new object", b.key);
+                outputs.report(Status::WARN, b.id, "object_replaced", message);
+                self.remove_at(i, outputs, "replaced by what its frames show now");
+            }
+        }
+    }
+
+    /// After a step: observations whose hold ran out stop pulling, and objects whose frames
+    /// stopped run on physics alone (`tracking_paused`).
+    fn track_after_step(&mut self, outputs: &Outputs) {
+        let now = outputs.clock.now_nanos().unwrap_or(0);
+        for b in &mut self.bodies {
+            b.tracking.stepped(&mut b.body);
+            if let Some(stopped) = b.tracking.pause_if_stopped(&mut b.body, now) {
+                let message = format!(
+                    "{}: no frame for {stopped:.2} s (the view blocked, or the object out of \
+                     view): it runs on physics alone until frames return",
+                    b.key
+                );
+                outputs.report(Status::INFO, b.id, "tracking_paused", message);
+            }
+        }
+    }
+
+    /// What the streams' frames did since the last call, with the objects tracked now.
+    pub fn take_tracking(&mut self) -> TrackingWindow {
+        let mut window = std::mem::take(&mut self.tracking);
+        window.tracked = self
+            .bodies
+            .iter()
+            .filter(|b| b.tracking.is_tracking())
+            .count();
+        window
     }
 
     /// Geometry arrived for the object `key`: it is still wanted.
@@ -368,7 +439,7 @@ impl Stage {
                 frame_id: b.output_frame.clone(),
             };
             let cloud = DeformedCloud::of(b.template.as_ref());
-            outputs.publish_step(b.id, header, &b.body, None, cloud);
+            outputs.publish_step(b.id, header, &b.body, None, cloud, None);
         }
         let message = format!(
             "{} objects back at rest; their rest state is stamped {}.{:09}",
@@ -516,7 +587,16 @@ fn publish_last_step(b: &mut ReadyBody, outputs: &Outputs, markers_due: bool, cl
     } else {
         DeformedCloud::Skip
     };
-    publish_step_of(b.id, &b.output_frame, &b.body, surface, cloud, outputs);
+    let tracked = b.tracking.last.as_ref();
+    publish_step_of(
+        b.id,
+        &b.output_frame,
+        &b.body,
+        surface,
+        cloud,
+        tracked,
+        outputs,
+    );
 }
 
 /// Publishes a step, with a warning if it did not converge and a note if its budget was
@@ -527,6 +607,7 @@ fn publish_step_of(
     body: &SoftBody,
     surface: Option<(&mut super::markers::MarkerSurface, &str)>,
     cloud: DeformedCloud,
+    tracked: Option<&crate::pipeline::FrameFit>,
     outputs: &Outputs,
 ) {
     let Some(report) = body.last_step() else {
@@ -553,7 +634,7 @@ fn publish_step_of(
         );
         outputs.report(Status::INFO, id, "pin_springs_stiffened", message);
     }
-    outputs.publish_step(id, outputs.header(frame), body, surface, cloud);
+    outputs.publish_step(id, outputs.header(frame), body, surface, cloud, tracked);
 }
 
 /// Steps one body against the others' contact hulls (`Stage::tick`).

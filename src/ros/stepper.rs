@@ -18,6 +18,8 @@ pub enum StepperCommand {
     Add(Box<ReadyBody>),
     /// A running object switches to its refined field.
     Switch(Box<RefinedField>),
+    /// A later frame of a running object corrects it.
+    Observe(Box<super::tracking::Observation>),
     /// A force, pin, release or removal for one object.
     Interact(Interaction),
     /// A scene's objects and robots join the stage; its objects get ids from `first_id` and
@@ -100,6 +102,7 @@ pub fn run_stepper(
         stats.ticks += 1;
         let (objects, awake) = stage.counts();
         health.tick(objects, awake, started.elapsed().as_secs_f64() * 1e3);
+        health.track(stage.take_tracking());
         let tick = next_tick.expect("set before the first tick") + period;
         let now = outputs.clock.now_nanos().unwrap_or(tick);
         next_tick = Some(if now - tick > period || now < tick - 2 * period {
@@ -124,6 +127,7 @@ fn serve(stage: &mut Stage, command: StepperCommand, outputs: &SharedOutputs, st
     match command {
         StepperCommand::Add(ready) => stage.add(*ready, outputs, step_now),
         StepperCommand::Switch(refined) => stage.switch(*refined, outputs),
+        StepperCommand::Observe(frame) => stage.observe(*frame, outputs),
         StepperCommand::Interact(i) => stage.interact(&i, outputs),
         StepperCommand::Scene {
             scene,

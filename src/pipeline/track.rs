@@ -1,0 +1,438 @@
+//! A running body kept on what a depth camera sees: each later frame of its object is an
+//! observation, matched against the body's deformed surface where the camera can see it and
+//! handed to its simulation as a data term (`ReducedSim::observe`).
+//!
+//! Correspondences go both ways, as in real-time FEM trackers: each observed point pulls the
+//! nearest visible surface sample (cloud to model: the body cannot slide off the data), and
+//! each visible sample pulls toward its nearest observed point (model to cloud: the body
+//! cannot bulge where nothing was seen). A sample facing away, hidden behind the body's own
+//! front, or with no observed point near it (an occluder in front of it) takes no part; the
+//! physics moves it.
+
+use std::time::Instant;
+
+use nalgebra::{DMatrix, Vector3};
+use serde::Serialize;
+
+use super::SoftBody;
+use crate::geometry::PointIndex;
+use crate::linalg::product;
+use crate::physics::ObservationTerm;
+use crate::Result;
+
+/// How observations correct a body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrackingOptions {
+    /// How hard an observation pulls, as k h^2: 1 moves a free body halfway toward what was
+    /// seen in one step. Default 1.
+    pub stiffness: f64,
+    /// The sensor's depth noise (standard deviation) at 1 m, m; it grows with the square of
+    /// the depth. Default 0.002 (a structured-light or stereo camera).
+    pub noise_m: f64,
+    /// A correspondence is farther than the larger of 4 noise deviations at its depth and
+    /// this share of the body's diagonal: an outlier, not a view of the body. Default 0.05.
+    pub gate_fraction: f64,
+    /// A frame with more than this share of its points unexplained (beyond the gate) does not
+    /// correct the body: it may show another object. Default 0.5.
+    pub unexplained_share: f64,
+    /// How long an observation pulls after its frame, s. Default 1/60 (one step at 60 Hz).
+    pub hold_s: f64,
+    /// Surface samples matched against a frame (half the body's own points, half samples of
+    /// its whole surface, hidden side included). Default 3000.
+    pub samples: usize,
+}
+
+impl Default for TrackingOptions {
+    fn default() -> Self {
+        Self {
+            stiffness: 1.0,
+            noise_m: 0.002,
+            gate_fraction: 0.05,
+            unexplained_share: 0.5,
+            hold_s: 1.0 / 60.0,
+            samples: 3000,
+        }
+    }
+}
+
+/// What one frame did to its body.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FrameFit {
+    /// Points of the frame.
+    pub observed: usize,
+    /// Observed points within the gate of the body's visible surface, before the correction.
+    pub explained: usize,
+    /// Share of the frame's points beyond the gate.
+    pub unexplained_share: f64,
+    /// RMS distance of the explained points to the body's visible surface samples before the
+    /// correction, m.
+    pub residual_m: f64,
+    /// Correspondences handed to the simulation (0: the frame corrected nothing).
+    pub correspondences: usize,
+    /// Whether the frame explained the body and corrected it.
+    pub applied: bool,
+    /// Whether the frame did not explain the body but pulled it back, matched with a wider
+    /// gate.
+    pub relocked: bool,
+    /// Time of the matching and the data term's setup, ms.
+    pub ms: f64,
+}
+
+/// The surface samples of one body and the frames it has taken.
+pub struct Tracker {
+    options: TrackingOptions,
+    /// Rest positions (3 x S) and subspace samples (4K x S) of the surface samples.
+    rests: DMatrix<f64>,
+    phis: DMatrix<f64>,
+    /// Typical distance between neighbouring samples, m.
+    spacing: f64,
+    diagonal: f64,
+    /// Simulated time at which the current observation stops pulling.
+    expires: Option<f64>,
+}
+
+impl Tracker {
+    /// Samples `body`'s surface for matching.
+    pub fn new(body: &SoftBody, options: &TrackingOptions) -> Self {
+        let own = body.lifter().rest_points();
+        let half = (options.samples / 2).max(1);
+        let mut points: Vec<Vector3<f64>> = strided(&own, half);
+        let area: f64 = body.surface_samples().areas.iter().sum();
+        let spacing = (area / options.samples.max(1) as f64).sqrt().max(1e-6);
+        // The rest of the surface, where the body's own points are not: a completed view's
+        // samples of the side the camera saw lie a voxel off the points it saw, and matched
+        // beside them they would pull the body that far.
+        let index = PointIndex::new(&points, 2.0 * spacing);
+        let hidden: Vec<Vector3<f64>> = (body.surface_samples().points.iter())
+            .filter(|p| index.closest(p).is_none_or(|(_, d)| d > 2.0 * spacing))
+            .copied()
+            .collect();
+        points.extend(strided(&hidden, half));
+        let subspace = body.subspace();
+        let phis = subspace.phis(&points);
+        let rows = 4 * subspace.handles();
+        let (lo, hi) = body.rest_bounds();
+        Self {
+            options: options.clone(),
+            rests: DMatrix::from_fn(3, points.len(), |d, i| points[i][d]),
+            phis: DMatrix::from_fn(rows, points.len(), |a, i| phis[i][a]),
+            spacing,
+            diagonal: (hi - lo).norm(),
+            expires: None,
+        }
+    }
+
+    /// The options it tracks with.
+    pub fn options(&self) -> &TrackingOptions {
+        &self.options
+    }
+
+    /// Matches `points` (seen from `viewpoint`, in the body's frame) against `body`'s surface
+    /// where its next step would put it and, when the frame explains enough of it, corrects
+    /// that step. A frame the gate does not explain is matched again with a gate
+    /// `RELOCK_GATE` times wider: a body that the physics carried off (an impact, a push it
+    /// does not know of) is pulled back onto what the camera sees, and the frame still counts
+    /// as unexplained (a new object in its place is told apart by frames that go on being so).
+    pub fn observe(
+        &mut self,
+        body: &mut SoftBody,
+        points: &[Vector3<f64>],
+        viewpoint: &Vector3<f64>,
+    ) -> Result<FrameFit> {
+        let started = Instant::now();
+        let placed = self.placed(body);
+        let visible = visible_from(&placed, viewpoint, self.spacing);
+        let seen: Vec<Vector3<f64>> = visible.iter().map(|&s| placed[s]).collect();
+        let mut fit = FrameFit {
+            observed: points.len(),
+            ..Default::default()
+        };
+        let allowed = 1.0 - self.options.unexplained_share;
+        let mut matched = None;
+        for (widen, first) in [(1.0, true), (RELOCK_GATE, false)] {
+            let pairs = self.match_both_ways(&seen, &visible, points, viewpoint, widen);
+            let explained = pairs.explained as f64 / points.len().max(1) as f64;
+            if first {
+                fit.explained = pairs.explained;
+                fit.residual_m = pairs.residual_m;
+                fit.unexplained_share = 1.0 - explained;
+            }
+            if pairs.explained > 0 && explained >= allowed {
+                fit.relocked = !first;
+                matched = Some(pairs);
+                break;
+            }
+        }
+        if let Some(pairs) = matched {
+            let term = pairs.pulls(placed.len(), body.mass()).term(
+                &self.rests,
+                &self.phis,
+                self.stiffness(body),
+            );
+            fit.correspondences = term.weights.len();
+            body.observe(&term)?;
+            self.expires = Some(body.time() + self.options.hold_s - 1e-9);
+            fit.applied = !fit.relocked;
+        }
+        fit.ms = started.elapsed().as_secs_f64() * 1e3;
+        Ok(fit)
+    }
+
+    /// After a step: an observation past its hold stops pulling.
+    pub fn stepped(&mut self, body: &mut SoftBody) {
+        if self.expires.is_some_and(|t| body.time() >= t) {
+            self.expires = None;
+            body.forget_observation();
+        }
+    }
+
+    /// Drops the observation now (the view is blocked: the physics goes on alone).
+    pub fn pause(&mut self, body: &mut SoftBody) {
+        self.expires = None;
+        body.forget_observation();
+    }
+
+    /// Per-kg spring stiffness: `stiffness` over h^2.
+    fn stiffness(&self, body: &SoftBody) -> f64 {
+        let h = body.dt();
+        self.options.stiffness / (h * h)
+    }
+
+    /// The samples where the body will be at its next step if it keeps its velocity: where
+    /// the frame, taken after its last step, sees them (a falling body moves 2.5 cm a step
+    /// at 1.5 m/s, more than the gate).
+    fn placed(&self, body: &SoftBody) -> Vec<Vector3<f64>> {
+        let mut x = product(&body.predicted_state(), &self.phis);
+        x += &self.rests;
+        x.column_iter()
+            .map(|c| Vector3::new(c[0], c[1], c[2]))
+            .collect()
+    }
+
+    /// The gate at an observed point `y`: 4 noise deviations at its depth, or the share of the
+    /// diagonal, whichever is larger.
+    fn gate(&self, y: &Vector3<f64>, viewpoint: &Vector3<f64>) -> f64 {
+        let depth = (y - viewpoint).norm();
+        (4.0 * self.options.noise_m * depth * depth).max(self.options.gate_fraction * self.diagonal)
+    }
+
+    /// Cloud to model and model to cloud, within `widen` times the gate.
+    fn match_both_ways(
+        &self,
+        seen: &[Vector3<f64>],
+        visible: &[usize],
+        points: &[Vector3<f64>],
+        viewpoint: &Vector3<f64>,
+        widen: f64,
+    ) -> Pairs {
+        let mut pairs = Pairs::default();
+        if seen.is_empty() || points.is_empty() {
+            return pairs;
+        }
+        let cloud = PointIndex::for_surface(points);
+        let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
+        let aligned = rigidly_aligned(seen, points, &cloud, &gate);
+        let model = PointIndex::new(&aligned, 2.0 * self.spacing);
+        let mut squared = 0.0;
+        for y in points {
+            let Some((s, d)) = model.closest(y) else {
+                break;
+            };
+            if d <= gate(y) {
+                pairs.to_model.push((visible[s], *y));
+                squared += d * d;
+            }
+        }
+        pairs.explained = pairs.to_model.len();
+        pairs.residual_m = (squared / pairs.explained.max(1) as f64).sqrt();
+        for (s, x) in visible.iter().zip(&aligned) {
+            if let Some((i, d)) = cloud.closest(x) {
+                if d <= gate(&points[i]) {
+                    pairs.to_cloud.push((*s, points[i]));
+                }
+            }
+        }
+        pairs
+    }
+}
+
+/// Rigid ICP iterations that align the visible samples with a frame before they are matched.
+const ALIGN_ITERATIONS: usize = 3;
+
+/// The visible samples `seen` moved by the rigid motion that best lays them on the frame's
+/// `points` (a few ICP iterations, each pair within `gate` of its observed point). Nearest
+/// points alone hardly pull a flat face along itself: a block pushed into a spin was matched
+/// to its own trailing positions, 7 to 9 % of its diagonal behind (`bench track`); matched
+/// after the alignment, each sample is pulled toward where the face's motion took it.
+fn rigidly_aligned(
+    seen: &[Vector3<f64>],
+    points: &[Vector3<f64>],
+    cloud: &PointIndex,
+    gate: &dyn Fn(&Vector3<f64>) -> f64,
+) -> Vec<Vector3<f64>> {
+    let mut aligned = seen.to_vec();
+    // Every other sample: the motion of a few hundred is as well determined.
+    for _ in 0..ALIGN_ITERATIONS {
+        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = aligned
+            .iter()
+            .step_by(2)
+            .filter_map(|x| {
+                let (i, d) = cloud.closest(x)?;
+                (d <= gate(&points[i])).then_some((*x, points[i]))
+            })
+            .collect();
+        let Some(motion) = best_rigid_motion(&pairs) else {
+            break;
+        };
+        aligned
+            .iter_mut()
+            .for_each(|x| *x = motion.transform_point(&(*x).into()).coords);
+    }
+    aligned
+}
+
+/// The rotation and translation that best map each pair's first point onto its second
+/// (Kabsch); None for fewer than three pairs.
+fn best_rigid_motion(pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Option<nalgebra::Isometry3<f64>> {
+    if pairs.len() < 3 {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let from = pairs.iter().map(|p| p.0).sum::<Vector3<f64>>() / n;
+    let to = pairs.iter().map(|p| p.1).sum::<Vector3<f64>>() / n;
+    let covariance: nalgebra::Matrix3<f64> = pairs
+        .iter()
+        .map(|(x, y)| (y - to) * (x - from).transpose())
+        .sum();
+    let svd = covariance.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let mut rotation = u * v_t;
+    if rotation.determinant() < 0.0 {
+        let flip = nalgebra::Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
+        rotation = u * flip * v_t;
+    }
+    let rotation = nalgebra::UnitQuaternion::from_matrix(&rotation);
+    let translation = to - rotation * from;
+    Some(nalgebra::Isometry3::from_parts(
+        translation.into(),
+        rotation,
+    ))
+}
+
+/// A gate this many times wider pulls back a body the gate no longer explains.
+const RELOCK_GATE: f64 = 4.0;
+
+/// A frame's correspondences: (sample, observed point) each way.
+#[derive(Default)]
+struct Pairs {
+    to_model: Vec<(usize, Vector3<f64>)>,
+    to_cloud: Vec<(usize, Vector3<f64>)>,
+    explained: usize,
+    residual_m: f64,
+}
+
+impl Pairs {
+    /// Half of the body's `mass` pulls each way, shared among that way's correspondences.
+    fn pulls(&self, samples: usize, mass: f64) -> Pulls {
+        let mut pulls = Pulls::new(samples);
+        for way in [&self.to_model, &self.to_cloud] {
+            let each = 0.5 * mass / way.len().max(1) as f64;
+            for (s, y) in way.iter() {
+                pulls.add(*s, each, y);
+            }
+        }
+        pulls
+    }
+}
+
+/// Per sample: the weight pulling it and the weighted sum of where it is pulled to.
+struct Pulls {
+    weight: Vec<f64>,
+    toward: Vec<Vector3<f64>>,
+}
+
+impl Pulls {
+    fn new(samples: usize) -> Self {
+        Self {
+            weight: vec![0.0; samples],
+            toward: vec![Vector3::zeros(); samples],
+        }
+    }
+
+    fn add(&mut self, sample: usize, weight: f64, target: &Vector3<f64>) {
+        self.weight[sample] += weight;
+        self.toward[sample] += target * weight;
+    }
+
+    /// One spring per pulled sample, to the weighted mean of its targets: the same quadratic
+    /// term, up to a constant, as one spring per correspondence.
+    fn term(&self, rests: &DMatrix<f64>, phis: &DMatrix<f64>, stiffness: f64) -> ObservationTerm {
+        let pulled: Vec<usize> = (0..self.weight.len())
+            .filter(|&s| self.weight[s] > 0.0)
+            .collect();
+        let n = pulled.len();
+        ObservationTerm {
+            phis: DMatrix::from_fn(phis.nrows(), n, |a, i| phis[(a, pulled[i])]),
+            rests: DMatrix::from_fn(3, n, |d, i| rests[(d, pulled[i])]),
+            targets: DMatrix::from_fn(3, n, |d, i| {
+                self.toward[pulled[i]][d] / self.weight[pulled[i]]
+            }),
+            weights: pulled.iter().map(|&s| self.weight[s]).collect(),
+            stiffness,
+        }
+    }
+}
+
+/// Every k-th point, so that at most `count` remain (in order: a cloud's points come in pixel
+/// order, so these spread evenly over its image).
+pub fn strided(points: &[Vector3<f64>], count: usize) -> Vec<Vector3<f64>> {
+    let every = points.len().div_ceil(count.max(1)).max(1);
+    points.iter().step_by(every).copied().collect()
+}
+
+/// The samples a camera at `viewpoint` sees: an angular z-buffer whose bins are about two
+/// sample spacings wide at the body's distance; in each bin, the samples within a spacing of
+/// the nearest one (the front surface, not what lies behind it).
+fn visible_from(placed: &[Vector3<f64>], viewpoint: &Vector3<f64>, spacing: f64) -> Vec<usize> {
+    if placed.is_empty() {
+        return Vec::new();
+    }
+    let centre = placed.iter().sum::<Vector3<f64>>() / placed.len() as f64;
+    let axis = (centre - viewpoint).normalize();
+    let distance = (centre - viewpoint).norm().max(1e-9);
+    let helper = if axis.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let right = axis.cross(&helper).normalize();
+    let down = axis.cross(&right);
+    let bin = 2.0 * spacing / distance;
+    let mut nearest: std::collections::HashMap<(i64, i64), f64> = Default::default();
+    let keyed: Vec<Option<((i64, i64), f64)>> = placed
+        .iter()
+        .map(|p| {
+            let ray = p - viewpoint;
+            let depth = ray.dot(&axis);
+            (depth > 1e-9).then(|| {
+                let (u, v) = (ray.dot(&right) / depth, ray.dot(&down) / depth);
+                (
+                    ((u / bin).floor() as i64, (v / bin).floor() as i64),
+                    ray.norm(),
+                )
+            })
+        })
+        .collect();
+    for (key, range) in keyed.iter().flatten() {
+        let front = nearest.entry(*key).or_insert(f64::INFINITY);
+        *front = front.min(*range);
+    }
+    keyed
+        .iter()
+        .enumerate()
+        .filter_map(|(i, k)| {
+            let (key, range) = (*k)?;
+            (range <= nearest[&key] + spacing).then_some(i)
+        })
+        .collect()
+}
