@@ -133,6 +133,9 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// A soft object's stream from one depth camera (poked, squeezed, dropped, the view
+    /// blocked), against the FEM: rebuilt per frame, built once, and tracked.
+    Track(cli::track::TrackArgs),
     /// One camera's view of seven shapes from six sides, completed: volume and overlap
     /// against the whole mesh's solid (geometry only).
     Views {
@@ -293,6 +296,7 @@ fn main() -> ExitCode {
             BenchCommand::Contact { json } => run_bench_contact(json),
             BenchCommand::Real { json } => run_bench_real(json),
             BenchCommand::Views { json } => run_bench_views(json),
+            BenchCommand::Track(args) => cli::track::run(args),
             BenchCommand::Peer {
                 json,
                 python,

@@ -16,6 +16,7 @@ mod soak;
 mod soft_contact;
 mod stats;
 mod stress;
+mod track;
 mod transport;
 mod views;
 
@@ -34,5 +35,6 @@ pub use sim::{
 };
 pub use soak::{run_soak, SoakOptions};
 pub use stress::{run_stress, stress_cases};
+pub use track::{run_track_bench, track_plot, TrackBenchOptions};
 pub use transport::run_transport_bench;
 pub use views::run_views_bench;

@@ -9,6 +9,7 @@ pub mod node;
 pub mod scan;
 pub mod scene;
 pub mod simulate;
+pub mod track;
 pub mod train;
 
 /// Writes a bench's plot (SVG text), making its folder.

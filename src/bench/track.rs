@@ -1,0 +1,691 @@
+//! `bench track`: a soft object watched by one depth camera at 30 Hz, against the full-space FEM
+//! as the truth. The FEM runs each sequence (a ball poked, a block squeezed, a ball dropped, a
+//! ball poked while the view is blocked for 0.5 s) with forces the node never hears of; a
+//! z-buffer camera scans the FEM's surface every other step, with a depth camera's noise, and
+//! the poker's rod hides what lies behind it. Each pixel's surface triangle is known, so every
+//! observed point is a material point whose true place the FEM gives at every step.
+//!
+//! Three modes per sequence: the object rebuilt from every frame (the node before tracking),
+//! built once from the first frame and simulated without correction, and tracked (built once,
+//! corrected by every frame, `pipeline::Tracker`).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::Serialize;
+
+use physskin::error::Result;
+use physskin::geometry::{
+    box_mesh, reference_mesh, scan_faces, sdf_mesh, Camera, PointIndex, Shape, TetMesh,
+};
+use physskin::physics::{FemSim, Obstacle, Poke};
+use physskin::pipeline::{build_seen, strided, SoftBody, Support, Tracker, TrackingOptions};
+use physskin::ros::NodeParams;
+use physskin::skinning::{NeuralModel, RefineBudget};
+
+use super::stats::{median, quantile};
+
+/// Steps per frame: the simulation at 60 Hz, the camera at 30.
+const STEPS_PER_FRAME: usize = 2;
+/// Depth noise at 1 m, m, growing with the square of the depth (as `bench views`).
+const DEPTH_NOISE_AT_1M: f64 = 0.002;
+/// The camera's image.
+const IMAGE: (usize, usize) = (160, 120);
+/// Observed points a frame is thinned to before matching (the node's `tracking.max_points`).
+const OBSERVED_POINTS: usize = 500;
+
+/// One sequence's truth and camera.
+struct Sequence {
+    name: &'static str,
+    shape: Shape,
+    /// Height the object starts above the floor, m.
+    lifted: f64,
+    pokes: Vec<Poke>,
+    /// No frames in [start, end) s.
+    blocked: Option<(f64, f64)>,
+}
+
+/// What one mode did on one sequence.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrackRow {
+    /// The sequence.
+    pub sequence: String,
+    /// `rebuild`, `uncorrected` or `tracked`.
+    pub mode: String,
+    /// Bodies built.
+    pub builds: usize,
+    /// Frames the camera sent.
+    pub frames: usize,
+    /// RMS distance of the observed material points to their true places over the sequence,
+    /// % of the object's diagonal.
+    pub seen_error_pct: f64,
+    /// The same for the surface the first frame did not see.
+    pub hidden_error_pct: f64,
+    /// The seen points' error while the view was blocked (sequences with a blocked view).
+    pub blocked_error_pct: Option<f64>,
+    /// Symmetric Chamfer distance between the body's whole deformed surface and the FEM's,
+    /// mean over the sequence, % of the diagonal.
+    pub chamfer_pct: f64,
+    /// Correction (matching and data term) per frame, ms: median and 99th percentile.
+    pub correction_ms_median: f64,
+    pub correction_ms_p99: f64,
+    /// Reduced step, ms: median and 99th percentile.
+    pub step_ms_median: f64,
+    pub step_ms_p99: f64,
+    /// Builds, corrections and steps over the sequence's duration: the share of one core the
+    /// node would spend on this object.
+    pub cpu_share: f64,
+    /// Material-point error over time (s, %), for the plot.
+    #[serde(skip)]
+    pub over_time: Vec<(f64, f64)>,
+}
+
+/// What `bench track` reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrackReport {
+    /// The observation's own error: the noisy points' RMS distance to their true places, % of
+    /// the diagonal (what no tracker can go below on the seen points of one frame).
+    pub observation_floor_pct: f64,
+    /// One row per sequence and mode.
+    pub rows: Vec<TrackRow>,
+}
+
+/// The FEM's run of a sequence: its tetrahedral mesh, surface, and vertex positions per step.
+struct Truth {
+    mesh: Arc<TetMesh>,
+    surface: Vec<[u32; 3]>,
+    positions: Vec<Vec<Vector3<f64>>>,
+    diagonal: f64,
+}
+
+impl Truth {
+    /// Points spread over the FEM's surface at `step`, about as dense as a body's surface
+    /// samples: each triangle at 15 barycentric points (its corners, edges and inside).
+    fn dense_surface(&self, step: usize) -> Vec<Vector3<f64>> {
+        let x = &self.positions[step];
+        let mut out = Vec::with_capacity(15 * self.surface.len());
+        for t in &self.surface {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            for i in 0..=4 {
+                for j in 0..=(4 - i) {
+                    let (u, v) = (i as f64 / 4.0, j as f64 / 4.0);
+                    out.push(a * (1.0 - u - v) + b * u + c * v);
+                }
+            }
+        }
+        out
+    }
+
+    fn at(&self, step: usize, (t, b): (usize, [f64; 3])) -> Vector3<f64> {
+        let tri = self.surface[t];
+        (0..3)
+            .map(|i| self.positions[step][tri[i] as usize] * b[i])
+            .sum()
+    }
+}
+
+/// One frame: noisy points, where each truly lies (surface triangle, barycentrics).
+struct Frame {
+    points: Vec<Vector3<f64>>,
+    material: Vec<(usize, [f64; 3])>,
+    clean: Vec<Vector3<f64>>,
+}
+
+/// Runs every sequence in every mode.
+/// Which sequences and modes `run_track_bench` runs.
+#[derive(Clone, Debug)]
+pub struct TrackBenchOptions {
+    /// Each sequence's length, s.
+    pub seconds: f64,
+    /// How observations correct the tracked body.
+    pub tracking: TrackingOptions,
+    /// Sequences whose name contains one of these (empty: all).
+    pub sequences: Vec<String>,
+    /// Modes run (empty: rebuild, uncorrected, tracked).
+    pub modes: Vec<String>,
+}
+
+/// Runs the chosen sequences in the chosen modes.
+pub fn run_track_bench(
+    options: &TrackBenchOptions,
+    progress: impl Fn(&str),
+) -> Result<TrackReport> {
+    let seconds = options.seconds;
+    let wanted = |list: &[String], name: &str| {
+        list.is_empty() || list.iter().any(|w| name.contains(w.as_str()))
+    };
+    let model = Arc::new(NeuralModel::bundled()?);
+    let mut params = NodeParams::default();
+    params.simulation.support = Support::Floor;
+    params.fixed_frame = "world".into();
+    params.floor_z = 0.0;
+    let mut rows = Vec::new();
+    let mut floor = Vec::new();
+    for sequence in sequences(seconds)
+        .into_iter()
+        .filter(|s| wanted(&options.sequences, s.name))
+    {
+        progress(&format!("{}: the FEM's run", sequence.name));
+        let truth = run_truth(&sequence, &params, seconds)?;
+        let camera = camera_for(&truth);
+        let frames = scan_frames(&sequence, &truth, &camera, seconds)?;
+        for (k, f) in frames
+            .iter()
+            .enumerate()
+            .filter_map(|(k, f)| Some((k, f.as_ref()?)))
+        {
+            for (p, m) in f.points.iter().zip(&f.material) {
+                floor.push(((p - truth.at(k, *m)).norm() / truth.diagonal).powi(2));
+            }
+        }
+        for mode in ["rebuild", "uncorrected", "tracked"]
+            .into_iter()
+            .filter(|m| wanted(&options.modes, m))
+        {
+            progress(&format!("{}: {mode}", sequence.name));
+            let run = Run {
+                truth: &truth,
+                frames: &frames,
+                camera: &camera,
+                model: &model,
+                params: &params,
+                options: &options.tracking,
+            };
+            rows.push(run.mode(&sequence, mode)?);
+        }
+    }
+    let observation_floor_pct =
+        100.0 * (floor.iter().sum::<f64>() / floor.len().max(1) as f64).sqrt();
+    Ok(TrackReport {
+        observation_floor_pct,
+        rows,
+    })
+}
+
+/// The four sequences, each `seconds` long.
+fn sequences(seconds: f64) -> Vec<Sequence> {
+    let ball = || {
+        let mut shape = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 28);
+        shape.positions.iter_mut().for_each(|p| p.z += 0.1);
+        shape
+    };
+    let mut block = box_mesh(Vector3::new(0.24, 0.16, 0.12));
+    block.positions.iter_mut().for_each(|p| p.z += 0.06);
+    let poke = |start: f64, point: Vector3<f64>| Poke {
+        // The side the camera sees, pushed in and toward the back.
+        point,
+        force: Vector3::new(-2.0, -0.7, -0.7),
+        start,
+        end: start + 0.4,
+    };
+    let squeeze = |y: f64| Poke {
+        point: Vector3::new(0.0, y, 0.08),
+        force: Vector3::new(0.0, -y.signum() * 6.0, 0.0),
+        start: 0.3,
+        end: 0.3 + 0.8f64.min(seconds - 0.6),
+    };
+    vec![
+        Sequence {
+            name: "ball poked",
+            shape: ball(),
+            lifted: 0.0,
+            pokes: vec![poke(0.3, Vector3::new(0.07, 0.04, 0.15))],
+            blocked: None,
+        },
+        Sequence {
+            name: "block squeezed",
+            shape: block.clone(),
+            lifted: 0.0,
+            pokes: vec![squeeze(0.08), squeeze(-0.08)],
+            blocked: None,
+        },
+        Sequence {
+            name: "ball dropped",
+            shape: ball(),
+            lifted: 0.12,
+            pokes: vec![],
+            blocked: None,
+        },
+        // Pushed, then out of view for 0.5 s while it slides on.
+        Sequence {
+            name: "block poked, view blocked",
+            shape: block,
+            lifted: 0.0,
+            pokes: vec![poke(0.2, Vector3::new(0.12, 0.03, 0.09))],
+            blocked: Some((0.7, 1.2)),
+        },
+    ]
+}
+
+/// The FEM stepped through the sequence: a floor at z = 0, the node's default material.
+fn run_truth(sequence: &Sequence, params: &NodeParams, seconds: f64) -> Result<Truth> {
+    let reference = reference_mesh(&sequence.shape);
+    let mut mesh = (*reference.mesh).clone();
+    mesh.vertices
+        .iter_mut()
+        .for_each(|v| v.z += sequence.lifted);
+    let mesh = Arc::new(mesh);
+    let mut fem = FemSim::new(mesh.clone(), params.sim_params())?;
+    fem.add_obstacle(Obstacle::floor(0.0));
+    for poke in &sequence.pokes {
+        let mut poke = *poke;
+        poke.point.z += sequence.lifted;
+        fem.add_poke(poke);
+    }
+    let steps = (seconds * params.rate_hz).round() as usize;
+    let read = |fem: &FemSim| -> Vec<Vector3<f64>> {
+        fem.positions()
+            .chunks_exact(3)
+            .map(|p| Vector3::new(p[0], p[1], p[2]))
+            .collect()
+    };
+    let mut positions = vec![read(&fem)];
+    for _ in 0..steps {
+        fem.step()?;
+        positions.push(read(&fem));
+    }
+    Ok(Truth {
+        surface: boundary(&mesh),
+        diagonal: reference.diagonal,
+        mesh,
+        positions,
+    })
+}
+
+/// The outward-wound boundary triangles of a tetrahedral mesh: faces of one tetrahedron only.
+fn boundary(mesh: &TetMesh) -> Vec<[u32; 3]> {
+    let mut faces: std::collections::HashMap<[u32; 3], ([u32; 3], u32)> = Default::default();
+    let mut count: std::collections::HashMap<[u32; 3], usize> = Default::default();
+    for tet in &mesh.tets {
+        for skip in 0..4 {
+            let face: Vec<u32> = (0..4).filter(|&i| i != skip).map(|i| tet[i]).collect();
+            let mut key = [face[0], face[1], face[2]];
+            key.sort_unstable();
+            *count.entry(key).or_default() += 1;
+            faces.insert(key, ([face[0], face[1], face[2]], tet[skip]));
+        }
+    }
+    let v = |i: u32| mesh.vertices[i as usize];
+    let mut out: Vec<[u32; 3]> = count
+        .into_iter()
+        .filter(|(_, n)| *n == 1)
+        .map(|(key, _)| {
+            let (f, opposite) = faces[&key];
+            let normal = (v(f[1]) - v(f[0])).cross(&(v(f[2]) - v(f[0])));
+            if normal.dot(&(v(opposite) - v(f[0]))) > 0.0 {
+                [f[0], f[2], f[1]]
+            } else {
+                f
+            }
+        })
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+/// A camera 1.5 diagonals away, in front, to the side and above, as a robot's head camera.
+fn camera_for(truth: &Truth) -> Camera {
+    let points: Vec<Vector3<f64>> = truth.positions[0].clone();
+    let shape = Shape::new(points, None, truth.surface.clone()).expect("the FEM's surface");
+    Camera::looking_at(&shape, Vector3::new(1.0, 0.6, 0.8), 1.5, IMAGE.0, IMAGE.1)
+}
+
+/// The camera's frames: one every `STEPS_PER_FRAME` steps (None between them and while the
+/// view is blocked).
+fn scan_frames(
+    sequence: &Sequence,
+    truth: &Truth,
+    camera: &Camera,
+    seconds: f64,
+) -> Result<Vec<Option<Frame>>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let unit = Normal::new(0.0, 1.0).expect("a unit normal distribution");
+    let dt = seconds / (truth.positions.len() - 1) as f64;
+    let mut frames = Vec::with_capacity(truth.positions.len());
+    for (step, positions) in truth.positions.iter().enumerate() {
+        let t = step as f64 * dt;
+        let blocked = sequence.blocked.is_some_and(|(a, b)| t >= a && t < b);
+        if step % STEPS_PER_FRAME != 0 || blocked {
+            frames.push(None);
+            continue;
+        }
+        let (mut vertices, mut triangles) = (positions.clone(), truth.surface.clone());
+        let faces = triangles.len();
+        for poke in sequence.pokes.iter().filter(|p| p.start <= t && t < p.end) {
+            add_poker(poke, truth, step, &mut vertices, &mut triangles);
+        }
+        let mut frame = Frame {
+            points: Vec::new(),
+            material: Vec::new(),
+            clean: Vec::new(),
+        };
+        for (hit, face) in scan_faces(&vertices, &triangles, camera)?
+            .into_iter()
+            .flatten()
+        {
+            if face >= faces {
+                continue; // the poker: segmented out, as a labelled camera would
+            }
+            let tri = truth.surface[face].map(|i| positions[i as usize]);
+            let ray = hit - camera.position;
+            let depth = ray.norm();
+            let noise = unit.sample(&mut rng) * DEPTH_NOISE_AT_1M * depth * depth;
+            frame.points.push(hit + ray / depth * noise);
+            frame.material.push((face, barycentric(&hit, &tri)));
+            frame.clean.push(hit);
+        }
+        frames.push(Some(frame));
+    }
+    Ok(frames)
+}
+
+/// A 2.4 cm square rod from the poked point 0.3 m back along the force: it hides what lies
+/// behind it from the camera.
+fn add_poker(
+    poke: &Poke,
+    truth: &Truth,
+    step: usize,
+    vertices: &mut Vec<Vector3<f64>>,
+    triangles: &mut Vec<[u32; 3]>,
+) {
+    let nearest = (0..truth.mesh.vertices.len())
+        .min_by(|&a, &b| {
+            let (da, db) = (
+                (truth.mesh.vertices[a] - poke.point).norm(),
+                (truth.mesh.vertices[b] - poke.point).norm(),
+            );
+            da.total_cmp(&db)
+        })
+        .expect("a mesh has vertices");
+    let tip = truth.positions[step][nearest];
+    let axis = -poke.force.normalize();
+    let side = axis.cross(&Vector3::z()).normalize() * 0.012;
+    let up = axis.cross(&side).normalize() * 0.012;
+    let base = vertices.len() as u32;
+    for along in [0.01, 0.3] {
+        for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            vertices.push(tip + axis * along + side * a + up * b);
+        }
+    }
+    for i in 0..4u32 {
+        let j = (i + 1) % 4;
+        triangles.push([base + i, base + j, base + 4 + j]);
+        triangles.push([base + i, base + 4 + j, base + 4 + i]);
+    }
+    triangles.push([base, base + 2, base + 1]);
+    triangles.push([base, base + 3, base + 2]);
+    triangles.push([base + 4, base + 5, base + 6]);
+    triangles.push([base + 4, base + 6, base + 7]);
+}
+
+/// The barycentric coordinates of `p` in triangle `t`.
+fn barycentric(p: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> [f64; 3] {
+    let (e1, e2, d) = (t[1] - t[0], t[2] - t[0], p - t[0]);
+    let (a, b, c) = (e1.dot(&e1), e1.dot(&e2), e2.dot(&e2));
+    let (x, y) = (d.dot(&e1), d.dot(&e2));
+    let det = (a * c - b * b).max(1e-30);
+    let v = (c * x - b * y) / det;
+    let w = (a * y - b * x) / det;
+    [1.0 - v - w, v, w]
+}
+
+/// One mode's run over one sequence.
+struct Run<'a> {
+    truth: &'a Truth,
+    frames: &'a [Option<Frame>],
+    camera: &'a Camera,
+    model: &'a Arc<NeuralModel>,
+    params: &'a NodeParams,
+    options: &'a TrackingOptions,
+}
+
+/// A body and what its points are: the material points of the frame it was built from, and
+/// the surface the camera had not seen then.
+struct Tracked {
+    body: SoftBody,
+    material: Vec<(usize, [f64; 3])>,
+    hidden: Vec<usize>,
+    hidden_lifter: physskin::physics::Lifter,
+    surface_lifter: physskin::physics::Lifter,
+}
+
+impl Run<'_> {
+    fn mode(&self, sequence: &Sequence, mode: &str) -> Result<TrackRow> {
+        let seconds = (self.truth.positions.len() - 1) as f64 * self.params.sim_params().dt;
+        let (mut builds, mut cpu) = (0, 0.0);
+        let mut tracked: Option<(Tracked, Tracker)> = None;
+        let (mut seen, mut hidden, mut chamfer, mut blocked) = (vec![], vec![], vec![], vec![]);
+        let (mut corrections, mut steps, mut over_time) = (vec![], vec![], vec![]);
+        let options = self.options;
+        for step in 0..self.truth.positions.len() {
+            let frame = self.frames[step].as_ref();
+            let mut built_now = false;
+            if let Some(frame) = frame {
+                let rebuild = tracked.is_none() || mode == "rebuild";
+                if rebuild {
+                    built_now = true;
+                    let started = Instant::now();
+                    let body = self.build(frame, step)?;
+                    cpu += started.elapsed().as_secs_f64();
+                    builds += 1;
+                    let tracker = Tracker::new(&body.body, options);
+                    tracked = Some((body, tracker));
+                } else if mode == "tracked" {
+                    let (body, tracker) = tracked.as_mut().expect("built above");
+                    let points = strided(&frame.points, OBSERVED_POINTS);
+                    let fit = tracker.observe(&mut body.body, &points, &self.camera.position)?;
+                    corrections.push(fit.ms);
+                    cpu += fit.ms / 1e3;
+                }
+            }
+            let (body, tracker) = tracked.as_mut().expect("the first frame builds");
+            // A body built from this step's frame is where the frame saw it.
+            if !built_now {
+                let report = body.body.step();
+                steps.push(report.seconds * 1e3);
+                cpu += report.seconds;
+                tracker.stepped(&mut body.body);
+            }
+            let (s, h, c) = self.errors(body, step);
+            let t = step as f64 * self.params.sim_params().dt;
+            if sequence.blocked.is_some_and(|(a, b)| t >= a && t < b) {
+                blocked.push(s * s);
+            }
+            seen.push(s * s);
+            hidden.push(h * h);
+            chamfer.push(c);
+            over_time.push((t, 100.0 * s));
+        }
+        let rms = |v: &[f64]| 100.0 * (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt();
+        Ok(TrackRow {
+            sequence: sequence.name.into(),
+            mode: mode.into(),
+            builds,
+            frames: self.frames.iter().flatten().count(),
+            seen_error_pct: rms(&seen),
+            hidden_error_pct: rms(&hidden),
+            blocked_error_pct: (!blocked.is_empty()).then(|| rms(&blocked)),
+            chamfer_pct: 100.0 * chamfer.iter().sum::<f64>() / chamfer.len().max(1) as f64,
+            correction_ms_median: median(&corrections),
+            correction_ms_p99: quantile(&corrections, 0.99),
+            step_ms_median: median(&steps),
+            step_ms_p99: quantile(&steps, 0.99),
+            cpu_share: cpu / seconds,
+            over_time,
+        })
+    }
+
+    /// The body of `frame` (taken at `step`), as the node builds a cloud in the fixed frame
+    /// with a replay's refinement; the FEM's surface vertices no frame point lies near are its
+    /// hidden side.
+    fn build(&self, frame: &Frame, step: usize) -> Result<Tracked> {
+        let mut options = self.params.body_options()?;
+        options.refine = RefineBudget::Iterations(8);
+        let built = build_seen(
+            self.model,
+            &frame.points,
+            &[],
+            Some(&self.camera.position),
+            self.params.inference.max_build_points,
+            &options,
+        )?;
+        let positions = &self.truth.positions[step];
+        let near = 0.06 * self.truth.diagonal;
+        let index = PointIndex::for_surface(&frame.clean);
+        let on_surface: Vec<usize> = {
+            let mut v: Vec<usize> = self
+                .truth
+                .surface
+                .iter()
+                .flatten()
+                .map(|&i| i as usize)
+                .collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let hidden: Vec<usize> = on_surface
+            .iter()
+            .copied()
+            .filter(|&i| distance(&index, &frame.clean, &positions[i]) > near)
+            .collect();
+        let rest: Vec<Vector3<f64>> = hidden.iter().map(|&i| positions[i]).collect();
+        let surface = built.body.surface_samples().points.clone();
+        Ok(Tracked {
+            hidden_lifter: built.body.lifter_for(&rest),
+            surface_lifter: built.body.lifter_for(&surface),
+            body: built.body,
+            material: frame.material.clone(),
+            hidden,
+        })
+    }
+
+    /// At `step`: the seen points' and the hidden surface's RMS error, and the Chamfer
+    /// distance, as fractions of the diagonal.
+    fn errors(&self, body: &Tracked, step: usize) -> (f64, f64, f64) {
+        let d = self.truth.diagonal;
+        let deformed = body.body.deformed();
+        let seen = rms_of(body.material.iter().enumerate().map(|(i, m)| {
+            let p = Vector3::new(
+                deformed[3 * i] as f64,
+                deformed[3 * i + 1] as f64,
+                deformed[3 * i + 2] as f64,
+            );
+            (p - self.truth.at(step, *m)).norm_squared()
+        }));
+        let lift = |lifter: &physskin::physics::Lifter| {
+            let mut out = vec![0f32; 3 * lifter.len()];
+            lifter.lift(body.body.state(), &mut out);
+            out.chunks_exact(3)
+                .map(|p| Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+                .collect::<Vec<_>>()
+        };
+        let hidden_now = lift(&body.hidden_lifter);
+        let hidden = rms_of(
+            body.hidden
+                .iter()
+                .zip(&hidden_now)
+                .map(|(&i, p)| (p - self.truth.positions[step][i]).norm_squared()),
+        );
+        let surface = lift(&body.surface_lifter);
+        let truth = self.truth.dense_surface(step);
+        let chamfer = 0.5 * (mean_nearest(&surface, &truth) + mean_nearest(&truth, &surface));
+        (seen / d, hidden / d, chamfer / d)
+    }
+}
+
+fn rms_of(squares: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = squares.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    (sum / n.max(1) as f64).sqrt()
+}
+
+/// The mean distance from each point of `from` to the nearest of `to`.
+fn mean_nearest(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> f64 {
+    let index = PointIndex::for_surface(to);
+    from.iter().map(|p| distance(&index, to, p)).sum::<f64>() / from.len().max(1) as f64
+}
+
+/// The distance from `p` to the nearest of the indexed `points`.
+fn distance(index: &PointIndex, points: &[Vector3<f64>], p: &Vector3<f64>) -> f64 {
+    index
+        .nearest(p, 1, None)
+        .first()
+        .map_or(f64::INFINITY, |&i| (points[i] - p).norm())
+}
+
+/// Error over time of the first sequence's three modes, as an SVG line plot.
+pub fn track_plot(report: &TrackReport) -> String {
+    use std::fmt::Write;
+    let Some(first) = report.rows.first() else {
+        return String::new();
+    };
+    let rows: Vec<&TrackRow> = report
+        .rows
+        .iter()
+        .filter(|r| r.sequence == first.sequence)
+        .collect();
+    let (w, h, m) = (760.0, 420.0, 60.0);
+    let t_hi = rows
+        .iter()
+        .flat_map(|r| r.over_time.iter().map(|p| p.0))
+        .fold(1e-9, f64::max);
+    let e_hi = rows
+        .iter()
+        .flat_map(|r| r.over_time.iter().map(|p| p.1))
+        .fold(1e-9, f64::max);
+    let px = |t: f64| m + (w - 2.0 * m) * t / t_hi;
+    let py = |e: f64| h - m - (h - 2.0 * m) * e / e_hi;
+    let mut svg = format!(
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12"><rect width="100%" height="100%" fill="white"/><text x="{}" y="24" text-anchor="middle">{}: material-point error over time</text>"#,
+        w / 2.0,
+        first.sequence
+    );
+    let _ = write!(
+        svg,
+        r##"<line x1="{m}" y1="{}" x2="{}" y2="{}" stroke="#000"/><line x1="{m}" y1="{m}" x2="{m}" y2="{}" stroke="#000"/>"##,
+        h - m,
+        w - m,
+        h - m,
+        h - m
+    );
+    let _ = write!(
+        svg,
+        r#"<text x="{}" y="{}" text-anchor="middle">time, s (0 to {t_hi:.2})</text><text x="14" y="{}" transform="rotate(-90 14 {})" text-anchor="middle">error, % of the diagonal (0 to {e_hi:.2})</text>"#,
+        w / 2.0,
+        h - 20.0,
+        h / 2.0,
+        h / 2.0
+    );
+    for (i, (r, colour)) in rows
+        .iter()
+        .zip(["#c0392b", "#7f8c8d", "#2471a3"])
+        .enumerate()
+    {
+        let points: Vec<String> = r
+            .over_time
+            .iter()
+            .map(|(t, e)| format!("{:.1},{:.1}", px(*t), py(*e)))
+            .collect();
+        let _ = write!(
+            svg,
+            r#"<polyline fill="none" stroke="{colour}" stroke-width="1.5" points="{}"/>"#,
+            points.join(" ")
+        );
+        let y = m + 16.0 * i as f64;
+        let _ = write!(
+            svg,
+            r#"<line x1="{}" y1="{y}" x2="{}" y2="{y}" stroke="{colour}" stroke-width="3"/><text x="{}" y="{}">{}</text>"#,
+            w - m - 150.0,
+            w - m - 130.0,
+            w - m - 124.0,
+            y + 4.0,
+            r.mode
+        );
+    }
+    svg.push_str("</svg>\n");
+    svg
+}

@@ -1,0 +1,81 @@
+//! `physskin bench track`: one camera's stream of a soft object, rebuilt, uncorrected and
+//! tracked, against the FEM (see `bench::track`).
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use physskin::pipeline::TrackingOptions;
+
+use crate::bench::{run_track_bench, track_plot, TrackBenchOptions};
+
+/// Arguments of `bench track`.
+#[derive(Args)]
+pub struct TrackArgs {
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Length of each sequence, s.
+    #[arg(long, default_value_t = 2.5)]
+    seconds: f64,
+    /// How hard a frame pulls (`tracking.stiffness`).
+    #[arg(long)]
+    stiffness: Option<f64>,
+    /// How long a frame pulls, s (`tracking.hold_s`).
+    #[arg(long)]
+    hold_s: Option<f64>,
+    /// Only the sequences whose name contains one of these (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    sequence: Vec<String>,
+    /// Only these modes: rebuild, uncorrected, tracked (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    modes: Vec<String>,
+    /// Where the plot of the first sequence's error over time goes.
+    #[arg(long, default_value = "target/bench/track.svg")]
+    plot: PathBuf,
+}
+
+/// Runs the bench and prints its table (or JSON).
+pub fn run(args: TrackArgs) -> physskin::Result<()> {
+    let mut tracking = TrackingOptions::default();
+    tracking.stiffness = args.stiffness.unwrap_or(tracking.stiffness);
+    tracking.hold_s = args.hold_s.unwrap_or(tracking.hold_s);
+    let options = TrackBenchOptions {
+        seconds: args.seconds,
+        tracking,
+        sequences: args.sequence,
+        modes: args.modes,
+    };
+    let report = run_track_bench(&options, |line| eprintln!("{line}"))?;
+    super::write_plot(&args.plot, &track_plot(&report))?;
+    if args.json {
+        super::print_json(&report);
+        return Ok(());
+    }
+    println!("| sequence | mode | builds | frames | seen error % | hidden error % | blocked error % | Chamfer % | correction ms median | p99 | step ms median | p99 | CPU share |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &report.rows {
+        println!(
+            "| {} | {} | {} | {} | {:.4} | {:.4} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",
+            r.sequence,
+            r.mode,
+            r.builds,
+            r.frames,
+            r.seen_error_pct,
+            r.hidden_error_pct,
+            r.blocked_error_pct.map_or("-".into(), |e| format!("{e:.4}")),
+            r.chamfer_pct,
+            r.correction_ms_median,
+            r.correction_ms_p99,
+            r.step_ms_median,
+            r.step_ms_p99,
+            r.cpu_share
+        );
+    }
+    println!(
+        "observation floor (noisy points against their true places): {:.4} % of the diagonal; plot: {}",
+        report.observation_floor_pct,
+        args.plot.display()
+    );
+    Ok(())
+}
