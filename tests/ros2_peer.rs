@@ -377,3 +377,85 @@ fn rclpy_joint_states_drive_a_scene_robot() {
         assert!(n > 0, "nothing recorded on {topic}: {counts:?}");
     }
 }
+
+/// rclpy streams one camera's noisy view of a resting ball at 30 Hz for 5 s, then another
+/// object in the same frame, then nothing: the node builds the ball once, switches it to its
+/// refined field, keeps its point count, reports the tracking residual, replaces it when the
+/// other object appears (`object_replaced`, a new build) and pauses tracking when the stream
+/// stops (`tracking_paused`).
+#[test]
+fn rclpy_stream_is_one_object_kept_replaced_and_paused() {
+    use physskin::ros::messages::{from_cdr, to_cdr, Status, SubspaceState};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = root.join("target/stream-frames");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (ball, other) = (
+        common::scenes::stream_ball(),
+        common::scenes::stream_block(),
+    );
+    for i in 0..30u64 {
+        let cloud = common::scenes::noisy_view(&ball, i);
+        std::fs::write(dir.join(format!("ball_{i:02}.cdr")), to_cdr(&cloud)).unwrap();
+    }
+    for i in 0..5u64 {
+        let cloud = common::scenes::noisy_view(&other, 100 + i);
+        std::fs::write(dir.join(format!("other_{i:02}.cdr")), to_cdr(&cloud)).unwrap();
+    }
+    let bag = root.join("target/stream-node.mcap");
+    let _ = std::fs::remove_file(&bag);
+    let (stdout, log) = node_with_peer(
+        35,
+        &format!("--record {}", bag.display()),
+        &format!("stream_peer.py {}", dir.display()),
+        "stream-node.log",
+    );
+    assert!(stdout.contains("ok: stream tracked"), "{stdout}");
+    let messages =
+        physskin::bag::read_messages(&std::fs::read(&bag).unwrap(), "node recording").unwrap();
+    let statuses = |event: &str| -> Vec<Status> {
+        messages
+            .iter()
+            .filter(|m| m.topic == "/physskin/status")
+            .map(|m| from_cdr::<Status>(&m.data).unwrap())
+            .filter(|s| s.event == event)
+            .collect()
+    };
+    let ready = statuses("shape_ready");
+    assert_eq!(
+        ready.len(),
+        2,
+        "the ball once, then the other object: {ready:?}\n{log}"
+    );
+    let ball_id = ready[0].shape_id;
+    let refined = statuses("field_refined");
+    assert!(
+        refined.iter().any(|s| s.shape_id == ball_id),
+        "the ball's refined field is switched in: {refined:?}\n{log}"
+    );
+    assert!(statuses("refine_skipped").is_empty(), "{log}");
+    let replaced = statuses("object_replaced");
+    assert_eq!(replaced.len(), 1, "{replaced:?}\n{log}");
+    assert_eq!(replaced[0].shape_id, ball_id);
+    let paused = statuses("tracking_paused");
+    assert!(
+        paused.iter().any(|s| s.shape_id == ready[1].shape_id),
+        "the stream's end pauses the tracking: {paused:?}\n{log}"
+    );
+    let tracked: Vec<SubspaceState> = messages
+        .iter()
+        .filter(|m| m.topic == "/physskin/state")
+        .map(|m| from_cdr::<SubspaceState>(&m.data).unwrap())
+        .filter(|s| s.shape_id == ball_id && s.tracking_points > 0)
+        .collect();
+    assert!(
+        tracked.len() > 100,
+        "{} tracked states of the ball",
+        tracked.len()
+    );
+    let worst = tracked
+        .iter()
+        .map(|s| s.tracking_residual_m)
+        .fold(0.0, f64::max);
+    assert!(worst > 0.0 && worst < 0.005, "residual up to {worst} m");
+}

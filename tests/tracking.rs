@@ -5,59 +5,19 @@
 //! byte for byte, and `tracking.enabled: false` rebuilds from every frame as before. Against
 //! the FEM, `bench track`'s poked ball stays within 1 % of its diagonal.
 
-use nalgebra::Vector3;
 use physskin::bag::{
     read_messages, replay, BagMessage, BagWriter, QosProfile, RecordOptions, ReplayOptions,
     ReplaySummary, TopicInfo,
 };
-use physskin::geometry::{box_mesh, sdf_mesh, Camera, Shape};
-use physskin::ros::camera_cloud::{camera_cloud, SeenObject};
-use physskin::ros::messages::{from_cdr, to_cdr, Header, PointCloud2, Status, SubspaceState, Time};
+use physskin::ros::messages::{from_cdr, to_cdr, PointCloud2, Status, SubspaceState, Time};
 use physskin::ros::NodeParams;
 use physskin::skinning::NeuralModel;
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 
 mod common;
 
-const TOPIC: &str = "/physskin/points";
-const FRAME: &str = "cam";
+use common::scenes::{noisy_view, stream_ball, stream_block};
 
-/// One camera 0.6 m from a 0.12 m ball (or a box beside where it was), in the camera's
-/// optical frame, with 2 mm of depth noise at 1 m growing with the square of the depth.
-fn view(object: &Shape, seed: u64) -> PointCloud2 {
-    let ball = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.06, 0.08, 24);
-    let camera = Camera::looking_at(&ball, Vector3::new(0.5, -1.0, 0.6), 3.5, 96, 72);
-    let header = Header {
-        stamp: Time::default(),
-        frame_id: FRAME.into(),
-    };
-    let seen = [SeenObject {
-        shape: object,
-        instance: 1,
-        rgb: [200, 40, 40],
-    }];
-    let mut cloud = camera_cloud(&seen, &camera, header).unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let unit = Normal::new(0.0, 1.0).unwrap();
-    let step = cloud.point_step as usize;
-    for pixel in cloud.data.chunks_exact_mut(step) {
-        let xyz: Vec<f32> = (0..3)
-            .map(|i| f32::from_le_bytes(pixel[4 * i..4 * i + 4].try_into().unwrap()))
-            .collect();
-        let depth = (xyz.iter().map(|c| c * c).sum::<f32>()).sqrt();
-        if !depth.is_finite() {
-            continue;
-        }
-        // Along the ray, which runs from the optical frame's origin.
-        let scale = 1.0 + (unit.sample(&mut rng) * 0.002) as f32 * depth;
-        for (i, c) in xyz.iter().enumerate() {
-            pixel[4 * i..4 * i + 4].copy_from_slice(&(c * scale).to_le_bytes());
-        }
-    }
-    cloud.fields.retain(|f| f.name != "instance");
-    cloud
-}
+const TOPIC: &str = "/physskin/points";
 
 /// The ball at rest for 2 s at 30 Hz, no frame for 0.5 s, the ball again for 0.5 s, then a
 /// box in its place for 0.5 s.
@@ -74,7 +34,7 @@ fn stream() -> Vec<(f64, PointCloud2)> {
             continue;
         }
         let object = if t < 3.0 { &ball } else { &block };
-        clouds.push((t, view(object, frame)));
+        clouds.push((t, noisy_view(object, frame)));
     }
     clouds
 }

@@ -435,7 +435,16 @@ impl Builder {
             return None;
         }
         let id = self.built.running(key)?;
-        Observation::of(request, id, &params.tracking)
+        let tracking = &params.tracking;
+        // A mesh is not one camera's view: it builds.
+        Some(Observation {
+            key: key.clone(),
+            id,
+            points: crate::pipeline::strided(&request.points, tracking.max_points),
+            viewpoint: request.viewpoint?,
+            received: request.points.len(),
+            params: tracking.clone(),
+        })
     }
 }
 

@@ -4,9 +4,9 @@
 
 use nalgebra::Vector3;
 
-use super::builder::{BuildRequest, ObjectKey};
+use super::object_key::ObjectKey;
 use super::tracking_params::TrackingParams;
-use crate::pipeline::{strided, FrameFit, SoftBody, Tracker};
+use crate::pipeline::{FrameFit, SoftBody, Tracker};
 
 /// A frame of a running object, in the frame the object is simulated in.
 #[derive(Clone, Debug)]
@@ -23,20 +23,6 @@ pub struct Observation {
     pub received: usize,
     /// The tracking parameters when the frame arrived.
     pub params: TrackingParams,
-}
-
-impl Observation {
-    /// The observation `request` makes of object `id`; None for a mesh (not one camera's view).
-    pub fn of(request: &BuildRequest, id: u32, params: &TrackingParams) -> Option<Self> {
-        Some(Self {
-            key: request.key(),
-            id,
-            points: strided(&request.points, params.max_points),
-            viewpoint: request.viewpoint?,
-            received: request.points.len(),
-            params: params.clone(),
-        })
-    }
 }
 
 /// What a frame did to its object.

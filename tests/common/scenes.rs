@@ -4,6 +4,8 @@ use nalgebra::Vector3;
 use physskin::geometry::{box_mesh, sdf_mesh, Camera, Shape};
 use physskin::ros::camera_cloud::{camera_cloud, merged, SeenObject};
 use physskin::ros::messages::{Header, PointCloud2, Time};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
 
 /// The optical frame the table scene's clouds are in.
 pub const OPTICAL_FRAME: &str = "camera_color_optical_frame";
@@ -53,4 +55,55 @@ pub fn table_scene(width: usize, height: usize) -> PointCloud2 {
         frame_id: OPTICAL_FRAME.into(),
     };
     camera_cloud(&objects, &camera, header).unwrap()
+}
+
+/// The frame of the streams' clouds (a camera's, its origin where the camera is).
+pub const STREAM_FRAME: &str = "cam";
+
+/// A 0.12 m ball at the origin.
+pub fn stream_ball() -> Shape {
+    sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.06, 0.08, 24)
+}
+
+/// A 0.2 m bar beside where the ball was: another object in its place.
+pub fn stream_block() -> Shape {
+    moved(
+        box_mesh(Vector3::new(0.2, 0.05, 0.05)),
+        Vector3::new(0.06, 0.1, 0.0),
+    )
+}
+
+/// One camera 0.6 m from a 0.12 m ball (or a box beside where it was), in the camera's
+/// optical frame, with 2 mm of depth noise at 1 m growing with the square of the depth.
+pub fn noisy_view(object: &Shape, seed: u64) -> PointCloud2 {
+    let camera = Camera::looking_at(&stream_ball(), Vector3::new(0.5, -1.0, 0.6), 3.5, 96, 72);
+    let header = Header {
+        stamp: Time::default(),
+        frame_id: STREAM_FRAME.into(),
+    };
+    let seen = [SeenObject {
+        shape: object,
+        instance: 1,
+        rgb: [200, 40, 40],
+    }];
+    let mut cloud = camera_cloud(&seen, &camera, header).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let unit = Normal::new(0.0, 1.0).unwrap();
+    let step = cloud.point_step as usize;
+    for pixel in cloud.data.chunks_exact_mut(step) {
+        let xyz: Vec<f32> = (0..3)
+            .map(|i| f32::from_le_bytes(pixel[4 * i..4 * i + 4].try_into().unwrap()))
+            .collect();
+        let depth = (xyz.iter().map(|c| c * c).sum::<f32>()).sqrt();
+        if !depth.is_finite() {
+            continue;
+        }
+        // Along the ray, which runs from the optical frame's origin.
+        let scale = 1.0 + (unit.sample(&mut rng) * 0.002) as f32 * depth;
+        for (i, c) in xyz.iter().enumerate() {
+            pixel[4 * i..4 * i + 4].copy_from_slice(&(c * scale).to_le_bytes());
+        }
+    }
+    cloud.fields.retain(|f| f.name != "instance");
+    cloud
 }
