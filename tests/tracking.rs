@@ -22,11 +22,7 @@ const TOPIC: &str = "/physskin/points";
 /// The ball at rest for 2 s at 30 Hz, no frame for 0.5 s, the ball again for 0.5 s, then a
 /// box in its place for 0.5 s.
 fn stream() -> Vec<(f64, PointCloud2)> {
-    let ball = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.06, 0.08, 24);
-    let block = common::scenes::moved(
-        box_mesh(Vector3::new(0.2, 0.05, 0.05)),
-        Vector3::new(0.06, 0.1, 0.0),
-    );
+    let (ball, block) = (stream_ball(), stream_block());
     let mut clouds = Vec::new();
     for frame in 0..105u64 {
         let t = frame as f64 / 30.0;

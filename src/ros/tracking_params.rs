@@ -30,6 +30,11 @@ pub struct TrackingParams {
     /// With no frame for this long the object runs on physics alone (`tracking_paused`) until
     /// frames return (`tracking_resumed`), s. Default 0.2.
     pub pause_after_s: f64,
+    /// Frames that return within this long lock on again, pulled back with the wider gate if
+    /// the object moved unseen; a cloud after a longer gap (clouds sent now and then, not a
+    /// stream) is the same object only if 90 % of its points lie within the gate, else it
+    /// replaces the object at once, s. Default 2.
+    pub relock_within_s: f64,
     /// Points of a frame matched, at most (a cloud's pixels thinned evenly). Default 500.
     pub max_points: usize,
     /// Surface samples of the object matched against a frame. Default 3000.
@@ -49,6 +54,7 @@ impl Default for TrackingParams {
             unexplained_share: options.unexplained_share,
             replace_after_frames: 5,
             pause_after_s: 0.2,
+            relock_within_s: 2.0,
             max_points: 500,
             samples: options.samples,
             hold_s: options.hold_s,
@@ -101,6 +107,16 @@ impl TrackingParams {
             positive(self.pause_after_s),
             "tracking.pause_after_s",
             || format!("{} s is not a positive time", self.pause_after_s),
+        )?;
+        ensure(
+            self.relock_within_s.is_finite() && self.relock_within_s >= self.pause_after_s,
+            "tracking.relock_within_s",
+            || {
+                format!(
+                    "{} s is not a time of at least pause_after_s",
+                    self.relock_within_s
+                )
+            },
         )?;
         ensure(self.max_points >= 16, "tracking.max_points", || {
             format!(
