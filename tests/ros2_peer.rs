@@ -431,7 +431,7 @@ fn rclpy_stream_is_one_object_kept_replaced_and_paused() {
     let refined = statuses("field_refined");
     assert!(
         refined.iter().any(|s| s.shape_id == ball_id),
-        "the ball's refined field is switched in: {refined:?}\n{log}"
+        "the ball's refined field is switched in while frames arrive: {refined:?}\n{log}"
     );
     assert!(statuses("refine_skipped").is_empty(), "{log}");
     let replaced = statuses("object_replaced");

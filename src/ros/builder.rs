@@ -535,7 +535,6 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
         refine_in_build: false,
     };
     while let Ok(first) = requests.recv() {
-        building.store(true, Ordering::Relaxed);
         let mut newest: Vec<BuildRequest> = vec![first];
         for request in requests.try_iter() {
             cx.health.builds_queued.fetch_sub(1, Ordering::Relaxed);
@@ -553,16 +552,18 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
                     .report(Status::ERROR, 0, "input_rejected", problem);
                 continue;
             }
-            building.store(true, Ordering::Relaxed);
-            let built = pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
-            // Until the next request (or the next build of this batch), refinement may run.
-            building.store(false, Ordering::Relaxed);
-            if let BuildOutcome::Observed(observed) = built {
+            // A frame of a running object is no build: the refinement goes on (at 30 frames a
+            // second, giving way to each left a streamed ball's refinement at 0 iterations).
+            if let Some(observed) = builder.observation(&request, &request.key(), &snapshot) {
                 if ready.send(Built::Observed(observed)).is_err() {
                     return;
                 }
                 continue;
             }
+            building.store(true, Ordering::Relaxed);
+            let built = pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
+            // Until the next build, refinement may run.
+            building.store(false, Ordering::Relaxed);
             if let BuildOutcome::Ready(body, announcement) = built {
                 let budget = snapshot.refine_budget();
                 let plan = (budget != RefineBudget::Off).then(|| body.body.basis_plan());
