@@ -236,3 +236,32 @@ fn the_poked_ball_of_bench_track_is_tracked_within_one_percent() {
     assert!(hidden <= 1.0, "the side never seen {hidden} %");
     assert!(error <= open["seen_error_pct"].as_f64().unwrap() / 3.0);
 }
+
+/// bags/stream.mcap (`bench track`'s poked ball, written by `--write-stream`: clouds in the
+/// camera's optical frame, the camera placed by /tf_static) replays as one object, built from
+/// the first cloud and corrected by every later one, and follows the push it never heard of.
+#[test]
+fn the_bundled_stream_is_one_object_that_follows_the_push() {
+    let root = common::root();
+    let bag = root.join("bags/stream.mcap");
+    let params = root.join("config/stream.yaml");
+    let r = common::physskin_json(&[
+        "replay",
+        bag.to_str().unwrap(),
+        "--params",
+        params.to_str().unwrap(),
+        "--json",
+    ]);
+    println!("{r}");
+    assert_eq!(r["rejected"], 0);
+    let shapes = r["shapes"].as_array().unwrap();
+    assert_eq!(shapes.len(), 1, "one build for the whole stream");
+    // Every cloud but the first (and the /tf_static message) is a frame of the object.
+    let inputs = r["input_messages"].as_u64().unwrap();
+    assert_eq!(r["observations"].as_u64().unwrap(), inputs - 2);
+    let moved = shapes[0]["max_displacement_m"].as_f64().unwrap();
+    assert!(
+        moved > 0.1,
+        "the tracked ball moved {moved} m with the push"
+    );
+}

@@ -147,6 +147,9 @@ pub struct TrackBenchOptions {
     pub sequences: Vec<String>,
     /// Modes run (empty: rebuild, uncorrected, tracked).
     pub modes: Vec<String>,
+    /// Write the first sequence's frames here as a recording a replay tracks (see
+    /// `write_stream`).
+    pub write_stream: Option<std::path::PathBuf>,
 }
 
 /// Runs the chosen sequences in the chosen modes.
@@ -173,6 +176,14 @@ pub fn run_track_bench(
         let truth = run_truth(&sequence, &params, seconds)?;
         let camera = camera_for(&truth);
         let frames = scan_frames(&sequence, &truth, &camera, seconds)?;
+        if let Some(path) = options.write_stream.as_ref().filter(|_| rows.is_empty()) {
+            write_stream(path, &frames, &camera, params.sim_params().dt)?;
+            progress(&format!(
+                "{}: its frames written to {}",
+                sequence.name,
+                path.display()
+            ));
+        }
         for (k, f) in frames
             .iter()
             .enumerate()
@@ -688,4 +699,84 @@ pub fn track_plot(report: &TrackReport) -> String {
     }
     svg.push_str("</svg>\n");
     svg
+}
+
+/// The camera's optical frame in a written stream.
+const STREAM_CAMERA: &str = "camera_optical";
+
+/// `frames` as a camera driver records them: each a PointCloud2 of its noisy points in the
+/// camera's optical frame on /physskin/points, stamped at its step, after the camera's pose in
+/// `world` on /tf_static. Replayed with `fixed_frame: world` and `simulation.support: floor`
+/// (config/stream.yaml) the object is built from the first frame and tracked.
+fn write_stream(
+    path: &std::path::Path,
+    frames: &[Option<Frame>],
+    camera: &Camera,
+    dt: f64,
+) -> Result<()> {
+    use physskin::bag::{BagWriter, QosProfile, RecordOptions, TopicInfo};
+    use physskin::ros::cloud::encode_cloud;
+    use physskin::ros::messages::{self as m, to_cdr, Header, PointCloud2, TFMessage, Time};
+    let pose = camera.optical_pose();
+    let (t, q) = (pose.translation.vector, pose.rotation);
+    let mut writer = BagWriter::create(RecordOptions {
+        path: path.to_path_buf(),
+        ..Default::default()
+    })?;
+    writer.add_topic(TopicInfo::of::<TFMessage>(
+        "/tf_static",
+        QosProfile::reliable(1, true),
+    ))?;
+    writer.add_topic(TopicInfo::of::<PointCloud2>(
+        "/physskin/points",
+        QosProfile::sensor(5),
+    ))?;
+    let placed = TFMessage {
+        transforms: vec![m::TransformStamped {
+            header: Header {
+                stamp: Time::default(),
+                frame_id: "world".into(),
+            },
+            child_frame_id: STREAM_CAMERA.into(),
+            transform: m::Transform {
+                translation: m::Vector3 {
+                    x: t.x,
+                    y: t.y,
+                    z: t.z,
+                },
+                rotation: m::Quaternion {
+                    x: q.i,
+                    y: q.j,
+                    z: q.k,
+                    w: q.w,
+                },
+            },
+        }],
+    };
+    writer.write("/tf_static", 0, 0, &to_cdr(&placed))?;
+    let into_camera = pose.inverse();
+    for (step, frame) in frames.iter().enumerate() {
+        let Some(frame) = frame else { continue };
+        let ns = (step as f64 * dt * 1e9).round() as i64;
+        let xyz: Vec<f32> = frame
+            .points
+            .iter()
+            .flat_map(|p| {
+                let q = into_camera * nalgebra::Point3::from(*p);
+                [q.x as f32, q.y as f32, q.z as f32]
+            })
+            .collect();
+        let header = Header {
+            stamp: Time::from_nanos(ns),
+            frame_id: STREAM_CAMERA.into(),
+        };
+        writer.write(
+            "/physskin/points",
+            ns,
+            ns,
+            &to_cdr(&encode_cloud(header, &xyz, &[], &[])),
+        )?;
+    }
+    writer.finish()?;
+    Ok(())
 }

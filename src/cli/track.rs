@@ -30,6 +30,9 @@ pub struct TrackArgs {
     /// Only these modes: rebuild, uncorrected, tracked (comma-separated).
     #[arg(long, value_delimiter = ',')]
     modes: Vec<String>,
+    /// Write the first sequence's frames to this MCAP file (a camera's stream to replay).
+    #[arg(long)]
+    write_stream: Option<PathBuf>,
     /// Where the plot of the first sequence's error over time goes.
     #[arg(long, default_value = "target/bench/track.svg")]
     plot: PathBuf,
@@ -45,6 +48,7 @@ pub fn run(args: TrackArgs) -> physskin::Result<()> {
         tracking,
         sequences: args.sequence,
         modes: args.modes,
+        write_stream: args.write_stream,
     };
     let report = run_track_bench(&options, |line| eprintln!("{line}"))?;
     super::write_plot(&args.plot, &track_plot(&report))?;
