@@ -442,7 +442,6 @@ impl Builder {
             id,
             points: crate::pipeline::strided(&request.points, tracking.max_points),
             viewpoint: request.viewpoint?,
-            received: request.points.len(),
             params: tracking.clone(),
         })
     }
@@ -552,8 +551,7 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
                     .report(Status::ERROR, 0, "input_rejected", problem);
                 continue;
             }
-            // A frame of a running object is no build: the refinement goes on (at 30 frames a
-            // second, giving way to each left a streamed ball's refinement at 0 iterations).
+            // A frame of a running object is no build: the refinement does not give way to it.
             if let Some(observed) = builder.observation(&request, &request.key(), &snapshot) {
                 if ready.send(Built::Observed(observed)).is_err() {
                     return;

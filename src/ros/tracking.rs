@@ -19,8 +19,6 @@ pub struct Observation {
     pub points: Vec<Vector3<f64>>,
     /// Where the camera was.
     pub viewpoint: Vector3<f64>,
-    /// Points the frame had before thinning.
-    pub received: usize,
     /// The tracking parameters when the frame arrived.
     pub params: TrackingParams,
 }
@@ -51,9 +49,6 @@ pub struct TrackState {
     pause_after_ns: i64,
     paused: bool,
     unexplained_run: u32,
-    /// Frames that corrected the object, and those that did not.
-    pub frames_used: u64,
-    pub frames_skipped: u64,
     /// The last frame's fit.
     pub last: Option<FrameFit>,
 }
@@ -108,11 +103,9 @@ impl TrackState {
             return Verdict::Replace(format!("a cloud {after:.2} s after the last: {why}"));
         }
         if applied {
-            self.frames_used += 1;
             self.unexplained_run = 0;
             return Verdict::Used { resumed };
         }
-        self.frames_skipped += 1;
         self.unexplained_run += 1;
         if self.unexplained_run >= params.replace_after_frames {
             let frames = self.unexplained_run;
