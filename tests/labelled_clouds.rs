@@ -8,20 +8,14 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use nalgebra::Vector3;
-use physskin::bag::{
-    read_messages, replay, BagWriter, QosProfile, RecordOptions, ReplayOptions, TopicInfo,
-};
 use physskin::geometry::{sdf_mesh, Camera};
 use physskin::ros::camera_cloud::{camera_cloud, SeenObject};
-use physskin::ros::messages::{from_cdr, to_cdr, Header, PointCloud2, Status, SubspaceState, Time};
+use physskin::ros::messages::{from_cdr, Header, PointCloud2, Status, SubspaceState, Time};
 use physskin::ros::NodeParams;
-use physskin::skinning::NeuralModel;
 
 mod common;
 
 use common::scenes::{table_scene, OPTICAL_FRAME as FRAME};
-
-const TOPIC: &str = "/physskin/points";
 
 fn instance_of(cloud: &PointCloud2, pixel: usize) -> u16 {
     let at = pixel * cloud.point_step as usize + 16;
@@ -39,39 +33,7 @@ fn replay_clouds(
     clouds: &[(f64, PointCloud2)],
     params: NodeParams,
 ) -> Vec<physskin::bag::BagMessage> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/test-labelled");
-    std::fs::create_dir_all(&dir).unwrap();
-    let input = dir.join(format!("{name}-in.mcap"));
-    let output = dir.join(format!("{name}-out.mcap"));
-    let mut writer = BagWriter::create(RecordOptions {
-        path: input.clone(),
-        ..Default::default()
-    })
-    .unwrap();
-    writer
-        .add_topic(TopicInfo::of::<PointCloud2>(TOPIC, QosProfile::sensor(5)))
-        .unwrap();
-    for (t, cloud) in clouds {
-        let ns = (t * 1e9) as i64;
-        let mut cloud = cloud.clone();
-        cloud.header.stamp = Time::from_nanos(ns);
-        writer.write(TOPIC, ns, ns, &to_cdr(&cloud)).unwrap();
-    }
-    writer.finish().unwrap();
-    let options = ReplayOptions {
-        params,
-        record: Some(RecordOptions {
-            path: output.clone(),
-            ..Default::default()
-        }),
-        tail_s: 0.5,
-        ..Default::default()
-    };
-    let model = NeuralModel::bundled().unwrap();
-    let bytes = std::fs::read(&input).unwrap();
-    let summary = replay(&bytes, name, &model, &options, &mut |_| {}).unwrap();
-    assert_eq!(summary.rejected, 0, "{summary:?}");
-    read_messages(&std::fs::read(&output).unwrap(), "output").unwrap()
+    common::replay_clouds("test-labelled", name, clouds, params, 0.5).1
 }
 
 fn statuses(messages: &[physskin::bag::BagMessage], event: &str) -> Vec<(i64, Status)> {

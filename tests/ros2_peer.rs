@@ -64,6 +64,20 @@ fn node_with_peer(domain: u16, node_args: &str, peer: &str, log_name: &str) -> (
     (stdout, log)
 }
 
+/// The statuses of `event` in a node's recording, in their order.
+fn statuses_of(
+    messages: &[physskin::bag::BagMessage],
+    event: &str,
+) -> Vec<physskin::ros::messages::Status> {
+    use physskin::ros::messages::{from_cdr, Status};
+    messages
+        .iter()
+        .filter(|m| m.topic == "/physskin/status")
+        .map(|m| from_cdr::<Status>(&m.data).unwrap())
+        .filter(|s| s.event == event)
+        .collect()
+}
+
 /// Runs a bash `script` in a private network namespace; fails the test, with its output and
 /// the named logs, unless it exits 0. Returns its stdout.
 fn in_private_net(script: &str, logs: &[&Path]) -> String {
@@ -271,7 +285,7 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
 /// place; the node's recording shows two builds and the same two shape ids throughout.
 #[test]
 fn rclpy_labelled_coloured_scan_in_an_optical_frame_becomes_two_objects() {
-    use physskin::ros::messages::{from_cdr, to_cdr, Status, SubspaceState};
+    use physskin::ros::messages::{from_cdr, to_cdr, SubspaceState};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scan = root.join("target/labelled-scan.cdr");
     std::fs::write(&scan, to_cdr(&common::scenes::table_scene(160, 120))).unwrap();
@@ -286,14 +300,7 @@ fn rclpy_labelled_coloured_scan_in_an_optical_frame_becomes_two_objects() {
     assert!(stdout.contains("ok: labelled scan"), "{stdout}");
     let messages =
         physskin::bag::read_messages(&std::fs::read(&bag).unwrap(), "node recording").unwrap();
-    let statuses = |event: &str| -> Vec<Status> {
-        messages
-            .iter()
-            .filter(|m| m.topic == "/physskin/status")
-            .map(|m| from_cdr::<Status>(&m.data).unwrap())
-            .filter(|s| s.event == event)
-            .collect()
-    };
+    let statuses = |event: &str| statuses_of(&messages, event);
     let ready = statuses("shape_ready");
     assert_eq!(ready.len(), 2, "one build per object: {ready:?}\n{log}");
     // Each object started on the network's field and switched to its refinement while it ran,
@@ -385,7 +392,7 @@ fn rclpy_joint_states_drive_a_scene_robot() {
 /// stops (`tracking_paused`).
 #[test]
 fn rclpy_stream_is_one_object_kept_replaced_and_paused() {
-    use physskin::ros::messages::{from_cdr, to_cdr, Status, SubspaceState};
+    use physskin::ros::messages::{from_cdr, to_cdr, SubspaceState};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = root.join("target/stream-frames");
     let _ = std::fs::remove_dir_all(&dir);
@@ -413,14 +420,7 @@ fn rclpy_stream_is_one_object_kept_replaced_and_paused() {
     assert!(stdout.contains("ok: stream tracked"), "{stdout}");
     let messages =
         physskin::bag::read_messages(&std::fs::read(&bag).unwrap(), "node recording").unwrap();
-    let statuses = |event: &str| -> Vec<Status> {
-        messages
-            .iter()
-            .filter(|m| m.topic == "/physskin/status")
-            .map(|m| from_cdr::<Status>(&m.data).unwrap())
-            .filter(|s| s.event == event)
-            .collect()
-    };
+    let statuses = |event: &str| statuses_of(&messages, event);
     let ready = statuses("shape_ready");
     assert_eq!(
         ready.len(),

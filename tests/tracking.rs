@@ -5,19 +5,13 @@
 //! byte for byte, and `tracking.enabled: false` rebuilds from every frame as before. Against
 //! the FEM, `bench track`'s poked ball stays within 1 % of its diagonal.
 
-use physskin::bag::{
-    read_messages, replay, BagMessage, BagWriter, QosProfile, RecordOptions, ReplayOptions,
-    ReplaySummary, TopicInfo,
-};
-use physskin::ros::messages::{from_cdr, to_cdr, PointCloud2, Status, SubspaceState, Time};
+use physskin::bag::{BagMessage, ReplaySummary};
+use physskin::ros::messages::{from_cdr, PointCloud2, Status, SubspaceState};
 use physskin::ros::NodeParams;
-use physskin::skinning::NeuralModel;
 
 mod common;
 
 use common::scenes::{noisy_view, stream_ball, stream_block};
-
-const TOPIC: &str = "/physskin/points";
 
 /// The ball at rest for 2 s at 30 Hz, no frame for 0.5 s, the ball again for 0.5 s, then a
 /// box in its place for 0.5 s.
@@ -35,45 +29,13 @@ fn stream() -> Vec<(f64, PointCloud2)> {
     clouds
 }
 
-/// Replays `clouds` with `params`, recording every output to `name`-out.mcap.
+/// Replays `clouds` with `params`, recording every output.
 fn replay_stream(
     name: &str,
     clouds: &[(f64, PointCloud2)],
     params: NodeParams,
-) -> (ReplaySummary, Vec<u8>) {
-    let dir = common::root().join("target/test-tracking");
-    std::fs::create_dir_all(&dir).unwrap();
-    let input = dir.join(format!("{name}-in.mcap"));
-    let output = dir.join(format!("{name}-out.mcap"));
-    let mut writer = BagWriter::create(RecordOptions {
-        path: input.clone(),
-        ..Default::default()
-    })
-    .unwrap();
-    writer
-        .add_topic(TopicInfo::of::<PointCloud2>(TOPIC, QosProfile::sensor(5)))
-        .unwrap();
-    for (t, cloud) in clouds {
-        let ns = (t * 1e9) as i64;
-        let mut cloud = cloud.clone();
-        cloud.header.stamp = Time::from_nanos(ns);
-        writer.write(TOPIC, ns, ns, &to_cdr(&cloud)).unwrap();
-    }
-    writer.finish().unwrap();
-    let options = ReplayOptions {
-        params,
-        record: Some(RecordOptions {
-            path: output.clone(),
-            ..Default::default()
-        }),
-        tail_s: 0.3,
-        ..Default::default()
-    };
-    let model = NeuralModel::bundled().unwrap();
-    let bytes = std::fs::read(&input).unwrap();
-    let summary = replay(&bytes, name, &model, &options, &mut |_| {}).unwrap();
-    assert_eq!(summary.rejected, 0, "{summary:?}");
-    (summary, std::fs::read(&output).unwrap())
+) -> (ReplaySummary, Vec<BagMessage>) {
+    common::replay_clouds("test-tracking", name, clouds, params, 0.3)
 }
 
 fn statuses(messages: &[BagMessage], event: &str) -> Vec<(f64, Status)> {
@@ -93,8 +55,7 @@ fn statuses(messages: &[BagMessage], event: &str) -> Vec<(f64, Status)> {
 #[test]
 fn a_stream_is_one_object_tracked_paused_relocked_and_replaced() {
     let clouds = stream();
-    let (summary, bytes) = replay_stream("stream", &clouds, NodeParams::default());
-    let out = read_messages(&bytes, "output").unwrap();
+    let (summary, out) = replay_stream("stream", &clouds, NodeParams::default());
     let ready = statuses(&out, "shape_ready");
     for (t, s) in &ready {
         println!("{t:.3} s: {}", s.message);
@@ -182,7 +143,6 @@ fn a_stream_is_one_object_tracked_paused_relocked_and_replaced() {
 
     // Two replays of the stream give the same messages, byte for byte.
     let (_, again) = replay_stream("stream-again", &clouds, NodeParams::default());
-    let again = read_messages(&again, "again").unwrap();
     assert_eq!(again.len(), out.len());
     for (x, y) in again.iter().zip(&out) {
         assert_eq!((&x.topic, x.log_time), (&y.topic, y.log_time));
@@ -195,8 +155,7 @@ fn without_tracking_every_frame_rebuilds_the_object() {
     let clouds: Vec<_> = stream().into_iter().take(8).collect();
     let mut params = NodeParams::default();
     params.tracking.enabled = false;
-    let (summary, bytes) = replay_stream("rebuild", &clouds, params);
-    let out = read_messages(&bytes, "output").unwrap();
+    let (summary, out) = replay_stream("rebuild", &clouds, params);
     // The first frame builds; each later one differs (noise) and rebuilds the object in place.
     assert_eq!(summary.observations, 0);
     let ready = statuses(&out, "shape_ready");

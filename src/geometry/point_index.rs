@@ -92,11 +92,7 @@ impl<'a> PointIndex<'a> {
             return Vec::new();
         }
         let center = self.key(query);
-        // Past this ring every cell of the grid has been seen.
-        let last_ring = (0..3)
-            .map(|a| center[a].abs().max((self.dims[a] - 1 - center[a]).abs()))
-            .max()
-            .unwrap_or(0);
+        let last_ring = self.last_ring(center);
         let margin = self.depth_in_cell(query, center);
         let mut found: Vec<(f64, usize)> = Vec::new();
         for ring in 0..=last_ring {
@@ -131,10 +127,7 @@ impl<'a> PointIndex<'a> {
             return None;
         }
         let center = self.key(query);
-        let last_ring = (0..3)
-            .map(|a| center[a].abs().max((self.dims[a] - 1 - center[a]).abs()))
-            .max()
-            .unwrap_or(0);
+        let last_ring = self.last_ring(center);
         let margin = self.depth_in_cell(query, center);
         let mut best = (usize::MAX, f64::INFINITY);
         for ring in 0..=last_ring {
@@ -149,6 +142,14 @@ impl<'a> PointIndex<'a> {
             }
         }
         Some((best.0, best.1.sqrt()))
+    }
+
+    /// The ring around `center` past which every cell of the grid has been seen.
+    fn last_ring(&self, center: [i64; 3]) -> i64 {
+        (0..3)
+            .map(|a| center[a].abs().max((self.dims[a] - 1 - center[a]).abs()))
+            .max()
+            .unwrap_or(0)
     }
 
     /// Calls `visit` with every point in the cells `ring` cells (Chebyshev) from `center`. Cells

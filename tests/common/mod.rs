@@ -125,3 +125,56 @@ pub fn python_counts(files: &[PathBuf]) -> Vec<BTreeMap<String, u64>> {
         })
         .collect()
 }
+
+/// Records `clouds` (log time in s, cloud) on /physskin/points to `target/DIR/NAME-in.mcap`,
+/// replays it through the node's pipeline with `params`, stepping `tail_s` past the last, and
+/// records every output to `target/DIR/NAME-out.mcap`; fails unless no input was refused.
+/// Returns the replay's summary and the recorded outputs.
+#[allow(dead_code)] // only the tests that replay clouds
+pub fn replay_clouds(
+    dir: &str,
+    name: &str,
+    clouds: &[(f64, physskin::ros::messages::PointCloud2)],
+    params: physskin::ros::NodeParams,
+    tail_s: f64,
+) -> (physskin::bag::ReplaySummary, Vec<physskin::bag::BagMessage>) {
+    use physskin::bag::{
+        read_messages, replay, BagWriter, QosProfile, RecordOptions, ReplayOptions, TopicInfo,
+    };
+    use physskin::ros::messages::{to_cdr, PointCloud2, Time};
+    const TOPIC: &str = "/physskin/points";
+    let dir = root().join("target").join(dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join(format!("{name}-in.mcap"));
+    let output = dir.join(format!("{name}-out.mcap"));
+    let mut writer = BagWriter::create(RecordOptions {
+        path: input.clone(),
+        ..Default::default()
+    })
+    .unwrap();
+    writer
+        .add_topic(TopicInfo::of::<PointCloud2>(TOPIC, QosProfile::sensor(5)))
+        .unwrap();
+    for (t, cloud) in clouds {
+        let ns = (t * 1e9) as i64;
+        let mut cloud = cloud.clone();
+        cloud.header.stamp = Time::from_nanos(ns);
+        writer.write(TOPIC, ns, ns, &to_cdr(&cloud)).unwrap();
+    }
+    writer.finish().unwrap();
+    let options = ReplayOptions {
+        params,
+        record: Some(RecordOptions {
+            path: output.clone(),
+            ..Default::default()
+        }),
+        tail_s,
+        ..Default::default()
+    };
+    let model = physskin::skinning::NeuralModel::bundled().unwrap();
+    let bytes = std::fs::read(&input).unwrap();
+    let summary = replay(&bytes, name, &model, &options, &mut |_| {}).unwrap();
+    assert_eq!(summary.rejected, 0, "{summary:?}");
+    let messages = read_messages(&std::fs::read(&output).unwrap(), "output").unwrap();
+    (summary, messages)
+}
