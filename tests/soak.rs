@@ -1,6 +1,7 @@
 //! A short soak of the node (the README reports the 10-minute one): changing shapes, pokes,
-//! pins and bad inputs through DDS in a private network namespace. Bad inputs are answered on
-//! the status topic while the other objects keep publishing finite states, and the split
+//! pins, bad inputs and two 30 Hz streams through DDS in a private network namespace. Bad
+//! inputs are answered on the status topic while the other objects keep publishing finite
+//! states, and the split
 //! recording reads back complete.
 
 use std::path::Path;
@@ -46,6 +47,11 @@ fn a_short_soak_keeps_serving_and_records_everything() {
     assert!(status("input_rejected") >= bad / 2, "{r}");
     assert!(status("interaction_ignored") >= bad / 2, "{r}");
     assert!(status("shape_ready") >= 10, "{r}");
+    // Two streamed objects, one pushed now and then, one leaving the view and coming back:
+    // built once each, every later frame tracked.
+    assert!(count("stream_frames_sent") >= 1000, "{r}");
+    assert_eq!(count("stream_builds"), 2, "{r}");
+    assert!(status("tracking_resumed") >= 3, "{r}");
     assert_eq!(r["recording_complete"], true, "{r}");
     assert!(count("recording_files") >= 1, "{r}");
     let recorded = |topic: &str| r["recorded"][topic].as_u64().unwrap_or(0);

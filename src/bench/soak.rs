@@ -54,6 +54,12 @@ pub struct SoakReport {
     /// Bad inputs sent, one every 5 s: alternately a cloud without z and a poke with a
     /// NaN force.
     pub bad_inputs_sent: usize,
+    /// Frames of the two streamed objects sent, 30 a second: one always in view and pushed
+    /// every 3 s, one out of view for 3 s of every 10.
+    pub stream_frames_sent: usize,
+    /// Builds of the streamed objects (`shape_ready` in their frames): one each when their
+    /// frames are tracked.
+    pub stream_builds: usize,
     /// Node ticks and ticks skipped because one ran past the next one's start.
     pub ticks: u64,
     /// Ticks skipped because a tick ran past the next one's start.
@@ -154,6 +160,8 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
         shapes_sent: 0,
         pokes_sent: 0,
         bad_inputs_sent: 0,
+        stream_frames_sent: 0,
+        stream_builds: 0,
         ticks: 0,
         missed_ticks: 0,
         states_received: 0,
@@ -258,6 +266,8 @@ fn drive(options: &SoakOptions, client: &Client, report: &mut SoakReport, log: &
         }
     };
     let (mut next_shape, mut next_poke, mut next_bad, mut next_sample) = (0.0, 0.0, 1.0, 0.0);
+    let views = stream_views();
+    let (mut next_frame, mut next_push) = (0.0, 1.5);
     let mut n = 0usize;
     while started.elapsed().as_secs_f64() < options.seconds {
         let t = started.elapsed().as_secs_f64();
@@ -284,6 +294,20 @@ fn drive(options: &SoakOptions, client: &Client, report: &mut SoakReport, log: &
             }
             next_poke += 0.1;
         }
+        if t >= next_frame {
+            send_stream_frame(client, &views, t, report, &send);
+            next_frame += 1.0 / 30.0;
+        }
+        if t >= next_push {
+            let mut push = poke(STREAMS[0], Interaction::FORCE, 20.0);
+            push.point = Point {
+                x: STREAM_AT[0],
+                y: STREAM_AT[1],
+                z: STREAM_AT[2],
+            };
+            let _ = client.pokes.publish(push);
+            next_push += 3.0;
+        }
         if t >= next_bad {
             send_bad_input(client, report.bad_inputs_sent, &send);
             report.bad_inputs_sent += 1;
@@ -308,6 +332,63 @@ fn scheduled_poke(k: usize) -> Interaction {
         _ => (Interaction::FORCE, if k % 2 == 0 { 3.0 } else { -3.0 }),
     };
     poke(frame, kind, x)
+}
+
+/// The streamed objects' frames: the first always in view, the second out of view for 3 s of
+/// every 10.
+const STREAMS: [&str; 2] = ["soak_stream_a", "soak_stream_b"];
+/// Where the streamed ball lies in its camera's frame, m.
+const STREAM_AT: [f64; 3] = [0.0, 0.0, 1.0];
+
+/// Ten noisy views of the bundled 0.5 m ball from a 160 x 120 camera 1 m away at its frame's
+/// origin, 2 mm of depth noise at 1 m: the frames a depth camera streams of a resting object.
+fn stream_views() -> Vec<Vec<f32>> {
+    use physskin::geometry::{bundled, scan_points, Camera};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let ball = bundled("sphere").expect("a bundled shape");
+    let camera = Camera::looking_at(&ball, nalgebra::Vector3::new(0.0, 0.0, -1.0), 1.0, 160, 120);
+    let offset = nalgebra::Vector3::from(STREAM_AT) - camera.position;
+    let points = scan_points(&ball, &camera).expect("the ball is a mesh");
+    let unit = Normal::new(0.0, 1.0).expect("a unit normal distribution");
+    (0..10)
+        .map(|seed| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            points
+                .iter()
+                .flat_map(|p| {
+                    let ray = p - camera.position;
+                    let depth = ray.norm();
+                    let q =
+                        p + offset + ray / depth * unit.sample(&mut rng) * 0.002 * depth * depth;
+                    [q.x as f32, q.y as f32, q.z as f32]
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// One frame of each streamed object in view at `t` (s).
+fn send_stream_frame(
+    client: &Client,
+    views: &[Vec<f32>],
+    t: f64,
+    report: &mut SoakReport,
+    send: &dyn Fn(&str, bool),
+) {
+    let view = &views[report.stream_frames_sent % views.len()];
+    for (i, frame) in STREAMS.iter().enumerate() {
+        if i == 1 && t % 10.0 >= 7.0 {
+            continue;
+        }
+        let header = Header {
+            frame_id: (*frame).into(),
+            ..Header::default()
+        };
+        let cloud = physskin::ros::cloud::encode_cloud(header, view, &[], &[]);
+        send("a stream's frame", client.points.publish(cloud).is_ok());
+    }
+    report.stream_frames_sent += 1;
 }
 
 /// Sends the `k`th bad input; `send` logs a cloud that failed to go out.
@@ -354,6 +435,8 @@ fn receive(client: &Client, report: &mut SoakReport) {
         report.non_finite_states += !finite as usize;
     }
     while let Ok(Some((status, _))) = client.statuses.take() {
+        let streamed = status.message.contains("soak_stream");
+        report.stream_builds += usize::from(status.event == "shape_ready" && streamed);
         *report.statuses.entry(status.event).or_default() += 1;
     }
 }
