@@ -217,7 +217,15 @@ impl BuildRequest {
 /// Which geometry each object runs, and its id, shared with the stepper so that a removed
 /// object builds again when the same geometry comes back.
 #[derive(Clone, Default)]
-pub struct BuiltRegistry(Arc<Mutex<HashMap<ObjectKey, (u64, u32)>>>);
+pub struct BuiltRegistry(Arc<Mutex<HashMap<ObjectKey, Running>>>);
+
+/// What an object runs: its geometry's hash, its id, and when a cloud last named it.
+#[derive(Clone, Copy)]
+struct Running {
+    hash: u64,
+    id: u32,
+    last_ns: i64,
+}
 
 impl BuiltRegistry {
     /// Forgets what `key` runs (None: every object).
@@ -236,18 +244,23 @@ impl BuiltRegistry {
     /// geometry is `hash`.
     fn lookup(&self, key: &ObjectKey, hash: u64) -> Option<(u32, bool)> {
         let built = self.0.lock().ok()?;
-        built.get(key).map(|(h, id)| (*id, *h == hash))
+        built.get(key).map(|r| (r.id, r.hash == hash))
     }
 
-    /// The id of the object `key`, when it runs.
-    fn running(&self, key: &ObjectKey) -> Option<u32> {
-        let built = self.0.lock().ok()?;
-        built.get(key).map(|(_, id)| *id)
+    /// The id of the object `key` when it runs and a cloud named it at most `within_ns`
+    /// before `now_ns`; the cloud of `now_ns` is noted either way.
+    fn streaming(&self, key: &ObjectKey, now_ns: i64, within_ns: i64) -> Option<u32> {
+        let mut built = self.0.lock().ok()?;
+        let running = built.get_mut(key)?;
+        let recent = now_ns - running.last_ns <= within_ns;
+        running.last_ns = now_ns;
+        recent.then_some(running.id)
     }
 
-    fn insert(&self, key: ObjectKey, hash: u64, id: u32) {
+    fn insert(&self, key: ObjectKey, hash: u64, id: u32, now_ns: i64) {
         if let Ok(mut built) = self.0.lock() {
-            built.insert(key, (hash, id));
+            let last_ns = now_ns;
+            built.insert(key, Running { hash, id, last_ns });
         }
     }
 }
@@ -319,8 +332,23 @@ pub enum BuildOutcome {
 }
 
 impl Builder {
-    /// Builds the body of `request`.
+    /// The body of `request`, or the observation it makes of the running object it is a frame of.
     pub fn build(
+        &mut self,
+        request: &BuildRequest,
+        params: &NodeParams,
+        model: &Arc<NeuralModel>,
+        outputs: &Outputs,
+    ) -> BuildOutcome {
+        let now = outputs.clock.now_nanos().unwrap_or(0);
+        match self.observation(request, &request.key(), params, now) {
+            Some(observed) => BuildOutcome::Observed(observed),
+            None => self.build_new(request, params, model, outputs),
+        }
+    }
+
+    /// Builds the body of `request`, which is no frame of a running object's stream.
+    fn build_new(
         &mut self,
         request: &BuildRequest,
         params: &NodeParams,
@@ -329,9 +357,7 @@ impl Builder {
     ) -> BuildOutcome {
         let hash = request.content_hash();
         let key = request.key();
-        if let Some(observed) = self.observation(request, &key, params) {
-            return BuildOutcome::Observed(observed);
-        }
+        let now = outputs.clock.now_nanos().unwrap_or(0);
         // A running object keeps its id when its geometry changes: it is the same object.
         let id = match self.built.lookup(&key, hash) {
             Some((_, true)) => return BuildOutcome::Unchanged,
@@ -353,7 +379,7 @@ impl Builder {
                 return BuildOutcome::Rejected;
             }
         };
-        self.built.insert(key.clone(), hash, id);
+        self.built.insert(key.clone(), hash, id, now);
         let output_frame = request
             .fixed_frame
             .clone()
@@ -423,19 +449,23 @@ impl Builder {
 }
 
 impl Builder {
-    /// The observation a cloud makes of the object it names, when tracking is on and that
-    /// object runs.
+    /// The observation a cloud arriving at node time `now_ns` makes of the object it names,
+    /// when tracking is on, that object runs and a cloud named it within
+    /// `tracking.relock_within_s`. A cloud after a longer gap (clouds sent now and then, not a
+    /// stream) builds, as without tracking.
     fn observation(
         &self,
         request: &BuildRequest,
         key: &ObjectKey,
         params: &NodeParams,
+        now_ns: i64,
     ) -> Option<Observation> {
-        if !params.tracking.enabled {
+        let tracking = &params.tracking;
+        if !tracking.enabled {
             return None;
         }
-        let id = self.built.running(key)?;
-        let tracking = &params.tracking;
+        let within = (tracking.relock_within_s * 1e9) as i64;
+        let id = self.built.streaming(key, now_ns, within)?;
         // A mesh is not one camera's view: it builds.
         Some(Observation {
             key: key.clone(),
@@ -552,14 +582,16 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
                 continue;
             }
             // A frame of a running object is no build: the refinement does not give way to it.
-            if let Some(observed) = builder.observation(&request, &request.key(), &snapshot) {
+            let now = cx.outputs.clock.now_nanos().unwrap_or(0);
+            if let Some(observed) = builder.observation(&request, &request.key(), &snapshot, now) {
                 if ready.send(Built::Observed(observed)).is_err() {
                     return;
                 }
                 continue;
             }
             building.store(true, Ordering::Relaxed);
-            let built = pool.install(|| builder.build(&request, &snapshot, &cx.model, &cx.outputs));
+            let built =
+                pool.install(|| builder.build_new(&request, &snapshot, &cx.model, &cx.outputs));
             // Until the next build, refinement may run.
             building.store(false, Ordering::Relaxed);
             if let BuildOutcome::Ready(body, announcement) = built {

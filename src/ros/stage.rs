@@ -301,7 +301,6 @@ impl Stage {
             ready.body.prepare();
         }
         let now = outputs.clock.now_nanos().unwrap_or(0);
-        ready.tracking.begin(now);
         if let Some(i) = self.bodies.iter().position(|b| b.key == ready.key) {
             self.bodies[i] = ready;
             self.unpublished[i] = early;

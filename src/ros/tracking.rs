@@ -23,10 +23,6 @@ pub struct Observation {
     pub params: TrackingParams,
 }
 
-/// A cloud after more than `tracking.relock_within_s` without one is taken for the same
-/// object only with at most this share of its points beyond the gate.
-const NEW_CLOUD_UNEXPLAINED: f64 = 0.1;
-
 /// What a frame did to its object.
 pub enum Verdict {
     /// It corrected the object (after a pause: `resumed` says for how long frames had stopped).
@@ -44,8 +40,6 @@ pub struct TrackState {
     tracker: Option<Tracker>,
     /// Node time of the last frame, ns.
     last_frame_ns: Option<i64>,
-    /// Node time of the build, ns.
-    built_ns: Option<i64>,
     pause_after_ns: i64,
     paused: bool,
     unexplained_run: u32,
@@ -54,15 +48,8 @@ pub struct TrackState {
 }
 
 impl TrackState {
-    /// The object was built at node time `now_ns`.
-    pub fn begin(&mut self, now_ns: i64) {
-        self.built_ns = Some(now_ns);
-    }
-
-    /// Takes `frame`, arrived at node time `now_ns`, for `body`. In a stream,
-    /// `tracking.replace_after_frames` unexplained frames in a row replace the object; a cloud
-    /// after more than `tracking.relock_within_s` without one replaces it at once unless it
-    /// explains nearly all of it.
+    /// Takes `frame`, arrived at node time `now_ns`, for `body`:
+    /// `tracking.replace_after_frames` unexplained frames in a row replace the object.
     pub fn observe(&mut self, body: &mut SoftBody, frame: &Observation, now_ns: i64) -> Verdict {
         let params = &frame.params;
         let options = params.options();
@@ -75,8 +62,6 @@ impl TrackState {
             .filter(|_| self.paused)
             .map(|t| (now_ns - t) as f64 / 1e9);
         self.pause_after_ns = (params.pause_after_s * 1e9) as i64;
-        let since = self.last_frame_ns.or(self.built_ns);
-        let gap = since.map_or(0, |t| now_ns - t);
         self.last_frame_ns = Some(now_ns);
         self.paused = false;
         let fit = match tracker.observe(body, &frame.points, &frame.viewpoint) {
@@ -93,15 +78,7 @@ impl TrackState {
             params.gate_fraction,
             fit.residual_m * 1e3
         );
-        let share = fit.unexplained_share;
         self.last = Some(fit);
-        // A cloud long after the last (sent now and then, not a stream) is the same object
-        // only if it explains nearly all of it: no later frame will say more.
-        let new_cloud = gap > (params.relock_within_s * 1e9) as i64;
-        if new_cloud && (!applied || share > NEW_CLOUD_UNEXPLAINED) {
-            let after = gap as f64 / 1e9;
-            return Verdict::Replace(format!("a cloud {after:.2} s after the last: {why}"));
-        }
         if applied {
             self.unexplained_run = 0;
             return Verdict::Used { resumed };

@@ -32,8 +32,7 @@ pub struct TrackingParams {
     pub pause_after_s: f64,
     /// Frames that return within this long lock on again, pulled back with the wider gate if
     /// the object moved unseen; a cloud after a longer gap (clouds sent now and then, not a
-    /// stream) is the same object only if 90 % of its points lie within the gate, else it
-    /// replaces the object at once, s. Default 2.
+    /// stream) builds the object anew, as without tracking, s. Default 2.
     pub relock_within_s: f64,
     /// Points of a frame matched, at most (a cloud's pixels thinned evenly). Default 500.
     pub max_points: usize,
