@@ -6,12 +6,7 @@
 # latency), ARGS added to the bench's command (e.g. `latency-refine-off --refine off`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-venv=target/ros-venv
-if ! "$venv/bin/python" -c "import rclpy, sensor_msgs.msg, numpy" 2>/dev/null; then
-    python3 -m venv "$venv"
-    "$venv/bin/pip" install -q ros-rclpy ros-rmw-fastrtps-cpp ros-sensor-msgs ros-std-msgs numpy
-fi
-cargo build --release --locked
+source benches/ros_venv.sh
 name=${1:-latency}
 shift || true
 exec benches/record.sh "$name" unshare -n tests/peers/private_net.sh \

@@ -7,12 +7,7 @@
 # Usage: benches/stream_cpu.sh [NODE ARGS...] (e.g. `-p tracking.enabled:=false`)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-venv=target/ros-venv
-if ! "$venv/bin/python" -c "import rclpy, sensor_msgs.msg, numpy" 2>/dev/null; then
-    python3 -m venv "$venv"
-    "$venv/bin/pip" install -q ros-rclpy ros-rmw-fastrtps-cpp ros-sensor-msgs ros-std-msgs numpy
-fi
-cargo build --release --locked
+source benches/ros_venv.sh
 name=${STREAM_CPU_NAME:-stream-cpu}
 node_args=("$@")
 exec benches/record.sh "$name" unshare -n tests/peers/private_net.sh bash -c '
