@@ -44,6 +44,20 @@ impl MarkerSurface {
         }
     }
 
+    /// After `body` switched to another field (its refinement): a cloud's surface lifted by
+    /// the new field, whose state the old field's weights would misread; the colours by the
+    /// new field's handles.
+    pub fn rebase(&mut self, body: &SoftBody) {
+        match &self.lifter {
+            Some(lifter) => {
+                let lifter = body.lifter_for(&lifter.rest_points());
+                self.colors = dominant_colors(&lifter);
+                self.lifter = Some(lifter);
+            }
+            None => self.colors = dominant_colors(body.lifter()),
+        }
+    }
+
     /// The ADD marker of the body's current pose.
     pub fn marker(&mut self, body: &SoftBody, header: Header, ns: &str, id: u32) -> Marker {
         let vertices: &[f32] = match &self.lifter {
@@ -152,6 +166,59 @@ fn palette(handle: usize, handles: usize) -> ColorRGBA {
 mod tests {
     use super::*;
     use crate::geometry::{Shape, VoxelGrid};
+
+    /// After its body switches to the refined field, a cloud's surface is lifted by that
+    /// field: its marker matches the solid's surface lifted afresh, where the surface made
+    /// before the switch would read the new state with the old field's weights.
+    #[test]
+    fn a_cloud_surface_follows_its_body_to_the_refined_field() {
+        use crate::pipeline::{BodyOptions, Support};
+        use crate::skinning::{NeuralModel, RefineBudget, RefineOptions};
+        let shape = crate::geometry::bundled("rod").unwrap();
+        let options = BodyOptions {
+            support: Support::Free,
+            refine: RefineBudget::Off,
+            ..BodyOptions::default()
+        };
+        let model = std::sync::Arc::new(NeuralModel::bundled().unwrap());
+        let mut body = SoftBody::build(&model, &shape, &shape.positions, &options).unwrap();
+        assert!(body.pin(&Vector3::new(-0.6, 0.0, 0.0), 0.1) > 0);
+        for _ in 0..10 {
+            body.step();
+        }
+        let (mut surface, mut stale) =
+            (MarkerSurface::of(&body, &[]), MarkerSurface::of(&body, &[]));
+        let prepared = body
+            .basis_plan()
+            .refined(&RefineOptions::default())
+            .unwrap();
+        body.switch_to(prepared).unwrap();
+        surface.rebase(&body);
+        body.step();
+        let vertices = |s: &mut MarkerSurface| -> Vec<f64> {
+            let marker = s.marker(&body, Header::default(), "rod", 1);
+            marker.points.iter().flat_map(|p| [p.x, p.y, p.z]).collect()
+        };
+        let (now, before) = (vertices(&mut surface), vertices(&mut stale));
+        let mut expected = MarkerSurface::of(&body, &[]);
+        let expected = vertices(&mut expected);
+        let off = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            off(&now, &expected) < 1e-6,
+            "rebased surface off by {}",
+            off(&now, &expected)
+        );
+        assert!(
+            off(&before, &expected) > 1e-3,
+            "the surface made before the switch is off by {}",
+            off(&before, &expected)
+        );
+    }
 
     #[test]
     fn the_voxel_boundary_is_closed_and_faces_out() {

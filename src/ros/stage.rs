@@ -332,6 +332,9 @@ impl Stage {
             }
         };
         b.tracking.rebased();
+        if let Some(surface) = &mut b.surface {
+            surface.rebase(&b.body);
+        }
         let rest: Vec<f32> = (b.body.lifter().rest_points().iter())
             .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
             .collect();
