@@ -366,8 +366,8 @@ impl Stage {
         let Some(i) = found else {
             return;
         };
+        // Its cloud already marked it seen (`seen`, before the builder took the cloud).
         let now = outputs.clock.now_nanos().unwrap_or(0);
-        self.last_seen[i] = now;
         let b = &mut self.bodies[i];
         let verdict = b.tracking.observe(&mut b.body, &frame, now);
         if let Some(fit) = &b.tracking.last {

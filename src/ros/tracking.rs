@@ -66,7 +66,11 @@ impl TrackState {
         self.paused = false;
         let fit = match tracker.observe(body, &frame.points, &frame.viewpoint) {
             Ok(fit) => fit,
-            Err(e) => return Verdict::Replace(format!("its frame could not be matched: {e}")),
+            Err(e) => {
+                // No fit of this frame: the last one is not counted again.
+                self.last = None;
+                return Verdict::Replace(format!("its frame could not be matched: {e}"));
+            }
         };
         let applied = fit.applied;
         let why = format!(
