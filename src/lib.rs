@@ -95,6 +95,7 @@ pub mod bag;
 pub mod error;
 pub mod geometry;
 mod linalg;
+pub mod msg;
 pub mod physics;
 pub mod pipeline;
 pub mod ros;

@@ -9,11 +9,8 @@ use std::time::{Duration, Instant};
 mod common;
 
 use common::{python_counts, root};
-use physskin::bag::{
-    read_messages, replay, BagMessage, BagWriter, QosProfile, RecordOptions, ReplayOptions,
-    TopicInfo,
-};
-use physskin::ros::messages::{from_cdr, SkinningWeights, Status, SubspaceState};
+use physskin::bag::{read_messages, replay, BagMessage, BagWriter, RecordOptions, ReplayOptions};
+use physskin::msg::{from_cdr, QosProfile, SkinningWeights, Status, SubspaceState, TopicInfo};
 use physskin::skinning::NeuralModel;
 
 /// The tests here each replay the demo; one at a time, so that the paced replay of the kill

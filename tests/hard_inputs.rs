@@ -8,12 +8,10 @@ use std::path::PathBuf;
 mod common;
 
 use common::root;
-use physskin::bag::{
-    read_messages, replay, BagWriter, QosProfile, RecordOptions, ReplayOptions, TopicInfo,
-};
-use physskin::ros::messages::{
+use physskin::bag::{read_messages, replay, BagWriter, RecordOptions, ReplayOptions};
+use physskin::msg::{
     from_cdr, to_cdr, Header, Interaction, Mesh, MeshTriangle, Point, PointCloud2, PointField,
-    RosMessage, Status, Time, Vector3 as RosVector,
+    QosProfile, RosMessage, Status, Time, TopicInfo, Vector3 as RosVector,
 };
 use physskin::ros::{BuildRequest, NodeParams};
 use physskin::skinning::NeuralModel;
@@ -692,7 +690,7 @@ fn a_channel_without_its_schema_is_named_and_the_others_replay() {
     let mut schema = 1u16.to_le_bytes().to_vec();
     schema.extend(string(&PointCloud2::type_name()));
     schema.extend(string("ros2msg"));
-    schema.extend(string(&physskin::bag::schema_text::<PointCloud2>()));
+    schema.extend(string(&physskin::msg::schema_text::<PointCloud2>()));
     let mut header = string("ros2");
     header.extend(string("hand"));
     let mut bytes = mcap::MAGIC.to_vec();

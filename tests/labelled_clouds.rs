@@ -9,8 +9,8 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use nalgebra::Vector3;
 use physskin::geometry::{sdf_mesh, Camera};
-use physskin::ros::camera_cloud::{camera_cloud, SeenObject};
-use physskin::ros::messages::{from_cdr, Header, PointCloud2, Status, SubspaceState, Time};
+use physskin::msg::camera_cloud::{camera_cloud, SeenObject};
+use physskin::msg::{from_cdr, Header, PointCloud2, Status, SubspaceState, Time};
 use physskin::ros::NodeParams;
 
 mod common;
@@ -215,8 +215,8 @@ fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
 #[test]
 fn objects_of_one_cloud_rest_on_each_other() {
     use physskin::geometry::box_grid_mesh;
+    use physskin::msg::cloud::{point_field, FLOAT32};
     use physskin::pipeline::Support;
-    use physskin::ros::cloud::{point_field, FLOAT32};
     let blocks = [(1u16, 0.2, 0.1), (2u16, 0.16, 0.285)];
     let mut data = Vec::new();
     for (instance, side, height) in blocks {

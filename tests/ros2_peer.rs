@@ -65,11 +65,8 @@ fn node_with_peer(domain: u16, node_args: &str, peer: &str, log_name: &str) -> (
 }
 
 /// The statuses of `event` in a node's recording, in their order.
-fn statuses_of(
-    messages: &[physskin::bag::BagMessage],
-    event: &str,
-) -> Vec<physskin::ros::messages::Status> {
-    use physskin::ros::messages::{from_cdr, Status};
+fn statuses_of(messages: &[physskin::bag::BagMessage], event: &str) -> Vec<physskin::msg::Status> {
+    use physskin::msg::{from_cdr, Status};
     messages
         .iter()
         .filter(|m| m.topic == "/physskin/status")
@@ -285,7 +282,7 @@ fn rclpy_peer_gets_deformed_and_weights_clouds() {
 /// place; the node's recording shows two builds and the same two shape ids throughout.
 #[test]
 fn rclpy_labelled_coloured_scan_in_an_optical_frame_becomes_two_objects() {
-    use physskin::ros::messages::{from_cdr, to_cdr, SubspaceState};
+    use physskin::msg::{from_cdr, to_cdr, SubspaceState};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scan = root.join("target/labelled-scan.cdr");
     std::fs::write(&scan, to_cdr(&common::scenes::table_scene(160, 120))).unwrap();
@@ -392,7 +389,7 @@ fn rclpy_joint_states_drive_a_scene_robot() {
 /// stops (`tracking_paused`).
 #[test]
 fn rclpy_stream_is_one_object_kept_replaced_and_paused() {
-    use physskin::ros::messages::{from_cdr, to_cdr, SubspaceState};
+    use physskin::msg::{from_cdr, to_cdr, SubspaceState};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = root.join("target/stream-frames");
     let _ = std::fs::remove_dir_all(&dir);

@@ -1,6 +1,6 @@
 //! The Rust message types against the .msg files in msg/, field by field, and their CDR bytes.
 
-use physskin::ros::messages::{
+use physskin::msg::{
     from_cdr, to_cdr, Header, Interaction, MeshStamped, RosMessage, SkinningWeights, Status,
     SubspaceState, Time,
 };
@@ -72,8 +72,8 @@ fn skinning_weights_cdr_layout_is_the_ros_one() {
 
 #[test]
 fn the_fast_point_cloud_encoder_writes_what_serde_writes() {
-    use physskin::ros::cloud::encode_cloud;
-    use physskin::ros::messages::{encode, to_cdr, Header, Time};
+    use physskin::msg::cloud::encode_cloud;
+    use physskin::msg::{encode, to_cdr, Header, Time};
     for (frame, points, channels) in [
         ("", 0usize, 0usize),
         ("a", 1, 0),

@@ -6,7 +6,7 @@
 //! the FEM, `bench track`'s poked ball stays within 1 % of its diagonal.
 
 use physskin::bag::{BagMessage, ReplaySummary};
-use physskin::ros::messages::{from_cdr, PointCloud2, Status, SubspaceState};
+use physskin::msg::{from_cdr, PointCloud2, Status, SubspaceState};
 use physskin::ros::NodeParams;
 
 mod common;

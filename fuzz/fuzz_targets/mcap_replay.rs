@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use physskin::bag::read_recording;
-use physskin::ros::messages::{
+use physskin::msg::{
     from_cdr, Interaction, JointState, Mesh, PointCloud2, TFMessage,
 };
 use physskin::ros::{BuildRequest, TfBuffer};

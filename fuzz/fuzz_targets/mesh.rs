@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use physskin::geometry::{parse_obj, parse_ply, parse_stl, Shape};
-use physskin::ros::messages::{from_cdr, Mesh, MeshStamped};
+use physskin::msg::{from_cdr, Mesh, MeshStamped};
 use physskin::ros::BuildRequest;
 
 fn shape_of(mesh: &Mesh) {

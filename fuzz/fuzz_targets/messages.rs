@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use physskin::ros::messages::{
+use physskin::msg::{
     from_cdr, to_cdr, Clock, Interaction, JointState, SkinningWeights, Status, SubspaceState,
 };
 

@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use physskin::ros::messages::{from_cdr, PointCloud2, PointField};
+use physskin::msg::{from_cdr, PointCloud2, PointField};
 use physskin::ros::BuildRequest;
 
 const CAP: usize = 100_000;

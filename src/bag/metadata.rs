@@ -7,34 +7,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use super::qos::QosProfile;
-use super::schema::schema_text;
-use crate::ros::messages::RosMessage;
-
-/// A recorded topic: its name, type and the QoS it was offered with.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TopicInfo {
-    /// The topic's resolved name.
-    pub name: String,
-    /// "pkg/msg/Type".
-    pub type_name: String,
-    /// The `ros2msg` schema text.
-    pub schema: String,
-    /// The QoS it was offered with, kept for `ros2 bag play`.
-    pub qos: QosProfile,
-}
-
-impl TopicInfo {
-    /// The topic `name` carrying messages of type `M`, offered with `qos`.
-    pub fn of<M: RosMessage>(name: &str, qos: QosProfile) -> Self {
-        Self {
-            name: name.into(),
-            type_name: M::type_name(),
-            schema: schema_text::<M>(),
-            qos,
-        }
-    }
-}
+use crate::msg::TopicInfo;
 
 /// What one file holds.
 #[derive(Clone, Debug, Default, Serialize)]

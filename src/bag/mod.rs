@@ -1,21 +1,17 @@
 //! MCAP recording and replay in the ROS 2 profile: what rosbag2, `ros2 bag` and Foxglove read.
 
 mod metadata;
-mod qos;
 mod reader;
 mod recorder;
 mod replay;
-mod schema;
 mod writer;
 
 use std::path::PathBuf;
 
-pub use metadata::{FileSummary, TopicInfo};
-pub use qos::QosProfile;
+pub use metadata::FileSummary;
 pub use reader::{read_messages, read_recording, recover, BagMessage, Recording, Recovered};
 pub use recorder::{Recorder, RecorderHealth};
 pub use replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
-pub use schema::schema_text;
 pub use writer::{BagWriter, RecordOptions, RecordSummary};
 
 /// What went wrong with a recording, naming the file.

@@ -8,10 +8,9 @@ use std::path::Path;
 
 use mcap::sans_io::LinearReaderOptions;
 
-use super::metadata::TopicInfo;
-use super::qos::QosProfile;
 use super::writer::{BagWriter, RecordOptions, RecordSummary};
 use super::BagError;
+use crate::msg::{QosProfile, TopicInfo};
 
 /// One message of a recording.
 #[derive(Clone, Debug)]

@@ -6,10 +6,9 @@ use std::sync::mpsc::{sync_channel, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
-use super::metadata::TopicInfo;
 use super::writer::{BagWriter, RecordOptions, RecordSummary};
 use super::BagError;
-use crate::ros::messages::{encode, RosMessage};
+use crate::msg::{encode, RosMessage, TopicInfo};
 
 enum Command {
     Topic(TopicInfo),

@@ -13,7 +13,7 @@ use super::reader::{read_recording, BagMessage};
 use super::recorder::Recorder;
 use super::writer::{RecordOptions, RecordSummary};
 use super::BagError;
-use crate::ros::messages::{
+use crate::msg::{
     from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
     TFMessage, Time,
 };
@@ -292,9 +292,9 @@ fn replay_outputs(
     outputs.declare_topics();
     if let Some(recorder) = &outputs.recorder {
         for topic in joint_topics.keys() {
-            recorder.declare(crate::bag::TopicInfo::of::<JointState>(
+            recorder.declare(crate::msg::TopicInfo::of::<JointState>(
                 topic,
-                crate::bag::QosProfile::sensor(5),
+                crate::msg::QosProfile::sensor(5),
             ))?;
         }
     }

@@ -13,8 +13,9 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::metadata::{bag_metadata, FileSummary, TopicInfo};
+use super::metadata::{bag_metadata, FileSummary};
 use super::BagError;
+use crate::msg::TopicInfo;
 
 /// Where and how to record.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -341,8 +342,9 @@ fn add_channel(open: &mut OpenFile, topic: &TopicInfo) -> Result<(), BagError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bag::{read_messages, QosProfile};
-    use crate::ros::messages::Status;
+    use crate::bag::read_messages;
+    use crate::msg::QosProfile;
+    use crate::msg::Status;
 
     #[test]
     fn files_split_by_size_are_each_complete() {

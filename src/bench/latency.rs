@@ -11,8 +11,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use physskin::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
-use physskin::ros::cloud::encode_cloud;
-use physskin::ros::messages::{Header, PointCloud2};
+use physskin::msg::cloud::encode_cloud;
+use physskin::msg::{Header, PointCloud2};
 use physskin::ros::params::Topics;
 use physskin::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
 use physskin::skinning::NeuralModel;
@@ -81,7 +81,7 @@ pub struct RclpyLatency {
 /// image (width about 180), as a depth camera driver publishes it (organized, NaN where
 /// nothing is seen, with colours), in `frame`.
 fn box_scan(frame: &str, width: usize) -> PointCloud2 {
-    use physskin::ros::camera_cloud::{camera_cloud, SeenObject};
+    use physskin::msg::camera_cloud::{camera_cloud, SeenObject};
     let shape = physskin::geometry::bundled("box").expect("the bundled box");
     let camera = physskin::geometry::Camera::looking_at(
         &shape,

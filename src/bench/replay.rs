@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::latency::sample_cloud;
 use physskin::bag::{replay, RecordOptions, Recorder, ReplayOptions};
-use physskin::ros::messages::Time;
+use physskin::msg::Time;
 use physskin::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
 use physskin::skinning::NeuralModel;
 use physskin::Result;
@@ -171,7 +171,7 @@ fn record_overhead(
 }
 
 fn poke(stage: &mut Stage, outputs: &Outputs, i: usize) {
-    use physskin::ros::messages::{Header, Interaction, Point, Vector3 as RosVector3};
+    use physskin::msg::{Header, Interaction, Point, Vector3 as RosVector3};
     let side = if (i / 60) % 2 == 0 { 1.0 } else { -1.0 };
     let force = Vector3::new(0.0, 200.0 * side, 0.0);
     stage.interact(

@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::latency::{client_node, dds, open_interfaces, sample_cloud};
 use physskin::bag::read_messages;
-use physskin::ros::messages::{
+use physskin::msg::{
     from_cdr, Header, Interaction, Point, PointCloud2, Status, SubspaceState, Vector3,
 };
 use physskin::ros::params::Topics;
@@ -385,7 +385,7 @@ fn send_stream_frame(
             frame_id: (*frame).into(),
             ..Header::default()
         };
-        let cloud = physskin::ros::cloud::encode_cloud(header, view, &[], &[]);
+        let cloud = physskin::msg::cloud::encode_cloud(header, view, &[], &[]);
         send("a stream's frame", client.points.publish(cloud).is_ok());
     }
     report.stream_frames_sent += 1;

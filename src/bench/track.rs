@@ -714,9 +714,10 @@ fn write_stream(
     camera: &Camera,
     dt: f64,
 ) -> Result<()> {
-    use physskin::bag::{BagWriter, QosProfile, RecordOptions, TopicInfo};
-    use physskin::ros::cloud::encode_cloud;
-    use physskin::ros::messages::{self as m, to_cdr, Header, PointCloud2, TFMessage, Time};
+    use physskin::bag::{BagWriter, RecordOptions};
+    use physskin::msg::cloud::encode_cloud;
+    use physskin::msg::{self as m, to_cdr, Header, PointCloud2, TFMessage, Time};
+    use physskin::msg::{QosProfile, TopicInfo};
     let pose = camera.optical_pose();
     let (t, q) = (pose.translation.vector, pose.rotation);
     let mut writer = BagWriter::create(RecordOptions {

@@ -12,8 +12,8 @@ use rand_chacha::ChaCha8Rng;
 
 use physskin::bag::{BagError, BagWriter, RecordOptions, RecordSummary};
 use physskin::geometry::{bundled, sdf_mesh, Shape};
-use physskin::ros::cloud::encode_cloud;
-use physskin::ros::messages::{
+use physskin::msg::cloud::encode_cloud;
+use physskin::msg::{
     to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
     Vector3 as RosVector3,
 };

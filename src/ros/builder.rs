@@ -8,10 +8,8 @@ use std::sync::{Arc, Mutex, RwLock};
 
 use nalgebra::{Isometry3, Point3, Vector3};
 
-use super::cloud::{decode_cloud, DecodedCloud};
 use super::cloud_objects::{instance_field as instance_field_of, split_by_instance, CloudTemplate};
 use super::markers::MarkerSurface;
-use super::messages::{Mesh, PointCloud2, Status};
 pub use super::object_key::ObjectKey;
 use super::outputs::{Outputs, SharedOutputs};
 use super::params::NodeParams;
@@ -19,6 +17,8 @@ use super::refiner::RefineJob;
 pub use super::refiner::RefinedField;
 use super::tf::{TfBuffer, TfError};
 use super::tracking::{Observation, TrackState};
+use crate::msg::cloud::{decode_cloud, DecodedCloud};
+use crate::msg::{Mesh, PointCloud2, Status};
 use crate::pipeline::{build_seen, SeenBody, SoftBody};
 use crate::skinning::{NeuralModel, RefineBudget};
 

@@ -4,7 +4,7 @@ use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::Arc;
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use super::messages::Time;
+use crate::msg::Time;
 
 /// Where stamps and the step schedule take their time from.
 #[derive(Clone)]

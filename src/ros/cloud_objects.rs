@@ -6,8 +6,10 @@
 use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
 
-use super::cloud::{coordinates, datatype_size, read_scalar, records, Coordinate, DecodedCloud};
-use super::messages::{Header, PointCloud2, PointField};
+use crate::msg::cloud::{
+    coordinates, datatype_size, read_scalar, records, Coordinate, DecodedCloud,
+};
+use crate::msg::{Header, PointCloud2, PointField};
 
 /// The names an instance field is looked up by when `instance_field` is left at its default.
 pub const INSTANCE_FIELDS: [&str; 4] = ["instance", "label", "segment", "object_id"];
@@ -272,7 +274,7 @@ impl CloudTemplate {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ros::cloud::{decode_cloud, point_field};
+    use crate::msg::cloud::{decode_cloud, point_field};
 
     /// An organized `w` x `h` cloud: float32 x, y, z, then rgb (4 bytes) and a uint16 label,
     /// padded to 20 bytes; pixel i is at (i, 0, 1), label `label(i)`, NaN where `nan(i)`.

@@ -5,8 +5,8 @@
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::sync::Mutex;
 
-use super::messages::{DiagnosticArray, DiagnosticStatus, Header, KeyValue};
 use crate::bag::RecorderHealth;
+use crate::msg::{DiagnosticArray, DiagnosticStatus, Header, KeyValue};
 
 /// Counters shared by the threads of the node.
 #[derive(Default)]

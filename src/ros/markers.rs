@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 
-use super::messages::{ColorRGBA, Header, Marker, Point, Pose, Quaternion, Vector3 as RosVector3};
+use crate::msg::{ColorRGBA, Header, Marker, Point, Pose, Quaternion, Vector3 as RosVector3};
 use crate::physics::Lifter;
 use crate::pipeline::SoftBody;
 

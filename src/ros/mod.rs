@@ -3,14 +3,11 @@
 
 mod args;
 mod builder;
-pub mod camera_cloud;
 mod clock;
-pub mod cloud;
 pub mod cloud_objects;
 mod dds;
 mod diagnostics;
 mod markers;
-pub mod messages;
 mod names;
 mod network;
 mod node;

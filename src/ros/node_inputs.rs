@@ -10,10 +10,6 @@ use ros2_client::{Node, Publisher, Server, Subscription};
 
 use super::builder::BuildRequest;
 use super::dds::{sensor_qos, subscription, NodeError, QosTable};
-use super::messages::{
-    Clock, DiagnosticArray, Interaction, JointState, Mesh, MeshStamped, PointCloud2, Status,
-    TFMessage,
-};
 use super::names::NameResolver;
 use super::outputs::{Outputs, TF, TF_STATIC};
 use super::params::Topics;
@@ -21,7 +17,11 @@ use super::qos_overrides::Endpoint;
 use super::services::{serve as serve_trigger, trigger_server, Control as Kind, Trigger};
 use super::shared::Shared;
 use super::stepper::StepperCommand;
-use crate::bag::{QosProfile, TopicInfo};
+use crate::msg::{
+    Clock, DiagnosticArray, Interaction, JointState, Mesh, MeshStamped, PointCloud2, Status,
+    TFMessage,
+};
+use crate::msg::{QosProfile, TopicInfo};
 use crate::scene::SceneFile;
 
 /// The node's subscriptions.

@@ -7,15 +7,16 @@ use ros2_client::{NodeLoggingHandle, Publisher, RosoutRaw};
 
 use super::args::LogLevel;
 use super::clock::NodeClock;
-use super::cloud::encode_cloud;
 use super::cloud_objects::CloudTemplate;
 use super::markers::{delete_marker, MarkerSurface};
-use super::messages::{
+use super::params::{PublishParams, Topics};
+use crate::bag::Recorder;
+use crate::msg::cloud::encode_cloud;
+use crate::msg::{
     Header, Interaction, MarkerArray, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights,
     Status, SubspaceState, TFMessage,
 };
-use super::params::{PublishParams, Topics};
-use crate::bag::{QosProfile, Recorder, TopicInfo};
+use crate::msg::{QosProfile, TopicInfo};
 use crate::pipeline::SoftBody;
 use crate::shm::ShmPublisher;
 

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use serde_json::Value;
 
 use super::params::ParamError;
-use crate::bag::QosProfile;
+use crate::msg::QosProfile;
 
 /// Which side of a topic an override is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]

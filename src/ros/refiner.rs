@@ -8,9 +8,9 @@ use std::sync::mpsc::Receiver;
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::messages::Status;
 use super::object_key::ObjectKey;
 use super::outputs::SharedOutputs;
+use crate::msg::Status;
 use crate::pipeline::{BasisPlan, PreparedBasis};
 use crate::skinning::{RefineBudget, RefineOptions};
 

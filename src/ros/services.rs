@@ -10,8 +10,8 @@ use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
 use ros2_client::{AService, Name, Node, Server, ServiceMapping, ServiceTypeName};
 
 use super::dds::NodeError;
-use super::messages::{TriggerRequest, TriggerResponse};
 use super::stepper::StepperCommand;
+use crate::msg::{TriggerRequest, TriggerResponse};
 
 impl ros2_client::Message for TriggerRequest {}
 impl ros2_client::Message for TriggerResponse {}

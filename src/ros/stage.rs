@@ -8,10 +8,10 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use super::builder::{BuiltRegistry, ObjectKey, ReadyBody, RefinedField};
-use super::messages::{Interaction, JointState, Status};
 use super::outputs::{DeformedCloud, Outputs};
 use super::tf::TfBuffer;
 use super::tracking::{Observation, TrackingWindow, Verdict};
+use crate::msg::{Interaction, JointState, Status};
 use crate::physics::Obstacle;
 use crate::pipeline::{contact_hulls, SoftBody};
 use crate::scene::Scene;
@@ -437,7 +437,7 @@ impl Stage {
         for (b, unpublished) in self.bodies.iter_mut().zip(&mut self.unpublished) {
             b.body.reset();
             *unpublished = false;
-            let header = super::messages::Header {
+            let header = crate::msg::Header {
                 stamp: stamp.clone(),
                 frame_id: b.output_frame.clone(),
             };

@@ -7,9 +7,9 @@ use std::time::{Duration, Instant};
 
 use super::builder::{ReadyBody, RefinedField};
 use super::diagnostics::Health;
-use super::messages::{Interaction, JointState};
 use super::outputs::SharedOutputs;
 use super::stage::Stage;
+use crate::msg::{Interaction, JointState};
 use crate::scene::Scene;
 
 /// What the stepping thread is asked between ticks.

@@ -5,7 +5,7 @@ use std::collections::{HashMap, VecDeque};
 
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 
-use super::messages::TransformStamped;
+use crate::msg::TransformStamped;
 
 /// Why a transform is not available.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -189,7 +189,7 @@ fn sample(link: &Link, stamp_ns: i64) -> Result<Isometry3<f64>, (i64, i64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ros::messages::{Header, Quaternion as Q, Time, Transform, Vector3 as V};
+    use crate::msg::{Header, Quaternion as Q, Time, Transform, Vector3 as V};
     use nalgebra::{Point3, Vector3};
 
     fn tf(parent: &str, child: &str, t_s: f64, xyz: [f64; 3], q: [f64; 4]) -> TransformStamped {

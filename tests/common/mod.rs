@@ -134,14 +134,12 @@ pub fn python_counts(files: &[PathBuf]) -> Vec<BTreeMap<String, u64>> {
 pub fn replay_clouds(
     dir: &str,
     name: &str,
-    clouds: &[(f64, physskin::ros::messages::PointCloud2)],
+    clouds: &[(f64, physskin::msg::PointCloud2)],
     params: physskin::ros::NodeParams,
     tail_s: f64,
 ) -> (physskin::bag::ReplaySummary, Vec<physskin::bag::BagMessage>) {
-    use physskin::bag::{
-        read_messages, replay, BagWriter, QosProfile, RecordOptions, ReplayOptions, TopicInfo,
-    };
-    use physskin::ros::messages::{to_cdr, PointCloud2, Time};
+    use physskin::bag::{read_messages, replay, BagWriter, RecordOptions, ReplayOptions};
+    use physskin::msg::{to_cdr, PointCloud2, QosProfile, Time, TopicInfo};
     const TOPIC: &str = "/physskin/points";
     let dir = root().join("target").join(dir);
     std::fs::create_dir_all(&dir).unwrap();

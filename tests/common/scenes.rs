@@ -2,8 +2,8 @@
 
 use nalgebra::Vector3;
 use physskin::geometry::{box_mesh, sdf_mesh, Camera, Shape};
-use physskin::ros::camera_cloud::{camera_cloud, merged, SeenObject};
-use physskin::ros::messages::{Header, PointCloud2, Time};
+use physskin::msg::camera_cloud::{camera_cloud, merged, SeenObject};
+use physskin::msg::{Header, PointCloud2, Time};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 

@@ -1,7 +1,7 @@
 //! `ros2msg` schemas for MCAP channels: the message's definition, then every type it uses
 //! (transitively), each after a line of 80 `=` and `MSG: pkg/msg/Name`, as rosbag2 writes them.
 
-use crate::ros::messages::{
+use super::messages::{
     Clock, ColorRGBA, CompressedImage, Duration, Header, JointState, Marker, MarkerArray, Mesh,
     MeshFile, MeshTriangle, Point, PointCloud2, PointField, Pose, Quaternion, RosMessage,
     TFMessage, Time, Transform, TransformStamped, UVCoordinate, Vector3,
@@ -98,7 +98,7 @@ pub fn schema_text<M: RosMessage>() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ros::messages::{Interaction, MeshStamped, SkinningWeights, Status, SubspaceState};
+    use crate::msg::{Interaction, MeshStamped, SkinningWeights, Status, SubspaceState};
 
     #[test]
     fn point_cloud2_lists_every_dependency_once() {

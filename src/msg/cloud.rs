@@ -98,7 +98,7 @@ pub struct DecodedCloud {
 
 /// Where a coordinate sits in each point record.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Coordinate {
+pub(crate) struct Coordinate {
     pub offset: usize,
     pub double: bool,
 }
@@ -161,7 +161,7 @@ pub fn read_scalar(bytes: &[u8], datatype: u8, big: bool) -> f64 {
     }
 }
 
-pub(super) fn coordinate(
+pub(crate) fn coordinate(
     cloud: &PointCloud2,
     name: &'static str,
 ) -> Result<Coordinate, CloudError> {
@@ -192,7 +192,7 @@ pub(super) fn coordinate(
 }
 
 /// x, y and z of a cloud's point records.
-pub(super) fn coordinates(cloud: &PointCloud2) -> Result<[Coordinate; 3], CloudError> {
+pub(crate) fn coordinates(cloud: &PointCloud2) -> Result<[Coordinate; 3], CloudError> {
     Ok([
         coordinate(cloud, "x")?,
         coordinate(cloud, "y")?,
@@ -267,7 +267,7 @@ pub fn decode_cloud(cloud: &PointCloud2, max_points: usize) -> Result<DecodedClo
 }
 
 /// Every point record of a cloud whose layout was checked against its data, row by row.
-pub(super) fn records(cloud: &PointCloud2) -> impl Iterator<Item = &[u8]> {
+pub(crate) fn records(cloud: &PointCloud2) -> impl Iterator<Item = &[u8]> {
     let step = cloud.point_step as usize;
     let width = cloud.width as usize;
     cloud
