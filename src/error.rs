@@ -142,10 +142,10 @@ pub enum NodeError {
     Signal(String),
     /// A name could not be expanded or remapped.
     #[error(transparent)]
-    Names(#[from] crate::ros::NameError),
+    Names(#[from] crate::runtime::NameError),
     /// The `--ros-args` were refused.
     #[error(transparent)]
-    RosArgs(#[from] crate::ros::RosArgsError),
+    RosArgs(#[from] crate::node::RosArgsError),
     /// The recording could not start.
     #[error(transparent)]
     Record(#[from] crate::bag::BagError),

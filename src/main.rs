@@ -228,7 +228,7 @@ fn main() -> ExitCode {
     settle_thread_count();
     // rcl's arguments (`--ros-args ... [--]`) are taken out before clap reads the rest.
     let argv: Vec<String> = std::env::args().collect();
-    let (own, ros) = match physskin::ros::split_ros_args(&argv) {
+    let (own, ros) = match physskin::node::split_ros_args(&argv) {
         Ok(split) => split,
         Err(e) => {
             eprintln!("physskin: {e}");
@@ -236,8 +236,11 @@ fn main() -> ExitCode {
         }
     };
     let cli = Cli::parse_from(own);
+    // Every command logs through the one facade; `--log-level` (node, replay) sets its level.
+    let level = ros.log_level.unwrap_or(physskin::node::LogLevel::Info);
+    physskin::node::install_logger(level.filter());
     let takes_ros_args = matches!(cli.command, Command::Node(_) | Command::Replay(_));
-    if !takes_ros_args && ros != physskin::ros::RosArgs::default() {
+    if !takes_ros_args && ros != physskin::node::RosArgs::default() {
         eprintln!("physskin: --ros-args is taken by `node` and `replay` only");
         return ExitCode::from(2);
     }

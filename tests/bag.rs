@@ -9,8 +9,9 @@ use std::time::{Duration, Instant};
 mod common;
 
 use common::{python_counts, root};
-use physskin::bag::{read_messages, replay, BagMessage, BagWriter, RecordOptions, ReplayOptions};
+use physskin::bag::{read_messages, BagMessage, BagWriter, RecordOptions};
 use physskin::msg::{from_cdr, QosProfile, SkinningWeights, Status, SubspaceState, TopicInfo};
+use physskin::replay::{replay, ReplayOptions};
 use physskin::skinning::NeuralModel;
 
 /// The tests here each replay the demo; one at a time, so that the paced replay of the kill
@@ -46,7 +47,7 @@ fn demo_bag() -> Vec<u8> {
     std::fs::read(root().join("bags/demo.mcap")).expect("bags/demo.mcap is in the repository")
 }
 
-fn replay_to(out: &Path, topics: &[&str]) -> physskin::bag::ReplaySummary {
+fn replay_to(out: &Path, topics: &[&str]) -> physskin::replay::ReplaySummary {
     let model = NeuralModel::bundled().unwrap();
     let options = ReplayOptions {
         record: Some(RecordOptions {

@@ -8,12 +8,13 @@ use std::path::PathBuf;
 mod common;
 
 use common::root;
-use physskin::bag::{read_messages, replay, BagWriter, RecordOptions, ReplayOptions};
+use physskin::bag::{read_messages, BagWriter, RecordOptions};
 use physskin::msg::{
     from_cdr, to_cdr, Header, Interaction, Mesh, MeshTriangle, Point, PointCloud2, PointField,
     QosProfile, RosMessage, Status, Time, TopicInfo, Vector3 as RosVector,
 };
-use physskin::ros::{BuildRequest, NodeParams};
+use physskin::replay::{replay, ReplayOptions};
+use physskin::runtime::{BuildRequest, NodeParams};
 use physskin::skinning::NeuralModel;
 
 const POINTS: &str = "/physskin/points";
@@ -560,7 +561,7 @@ fn chunked_bag(path: &std::path::Path, pushes: usize) {
     writer.finish().unwrap();
 }
 
-fn replay_damaged(bytes: &[u8]) -> physskin::bag::ReplaySummary {
+fn replay_damaged(bytes: &[u8]) -> physskin::replay::ReplaySummary {
     let model = NeuralModel::bundled().unwrap();
     replay(
         bytes,

@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use physskin::geometry::{sdf_mesh, Camera};
 use physskin::msg::camera_cloud::{camera_cloud, SeenObject};
 use physskin::msg::{from_cdr, Header, PointCloud2, Status, SubspaceState, Time};
-use physskin::ros::NodeParams;
+use physskin::runtime::NodeParams;
 
 mod common;
 

@@ -11,8 +11,8 @@ mod common;
 
 type Module = Vec<String>;
 
-#[test]
-fn no_two_source_files_use_each_other() {
+/// Every use of one source file by another that is not nested in it.
+fn edges() -> BTreeMap<Module, BTreeSet<Module>> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let files = common::rust_sources(&src);
     // lib.rs and main.rs are both the root: the binary's modules and the library's share src/.
@@ -40,6 +40,12 @@ fn no_two_source_files_use_each_other() {
         edges.values().map(BTreeSet::len).sum::<usize>() > 100,
         "too few uses found: the parser is broken"
     );
+    edges
+}
+
+#[test]
+fn no_two_source_files_use_each_other() {
+    let edges = edges();
     let cycles: Vec<String> = cycles(&edges)
         .iter()
         .map(|c| c.iter().map(|m| m.join("/")).collect::<Vec<_>>().join(", "))
@@ -48,6 +54,44 @@ fn no_two_source_files_use_each_other() {
         cycles.is_empty(),
         "files that use each other, directly or through the others listed:\n{}",
         cycles.join("\n")
+    );
+}
+
+/// The folders of src/ from the bottom up (docs/layout.md draws them): the wire types below
+/// the recordings, the runtime above both and knowing neither DDS nor MCAP, the two shells
+/// (the node, the replay) on top, the binary's folders above the library. `error.rs`, the
+/// crate's error that wraps each folder's, stands outside the layers.
+const LAYERS: [&str; 17] = [
+    "linalg", "geometry", "skinning", "physics", "pipeline", "scene", "msg", "shm", "bag",
+    "runtime", "node", "replay", "io", "training", "bench", "demo", "cli",
+];
+
+#[test]
+fn folders_use_only_the_layers_below_them() {
+    let layer = |m: &Module| m.first().and_then(|f| LAYERS.iter().position(|l| l == f));
+    let mut upward = BTreeSet::new();
+    for (from, targets) in edges() {
+        for to in targets {
+            if let (Some(a), Some(b)) = (layer(&from), layer(&to)) {
+                if b > a {
+                    upward.insert((LAYERS[a], LAYERS[b]));
+                }
+            }
+        }
+    }
+    let shells = ["runtime", "node", "replay"];
+    let wrong: Vec<_> = upward
+        .iter()
+        .filter(|(from, to)| {
+            // The recordings and the runtime never reach up into a shell.
+            (*from == "bag" && shells.contains(to)) || (*from == "runtime" && shells.contains(to))
+        })
+        .collect();
+    assert!(wrong.is_empty(), "reaching up into the shells: {wrong:?}");
+    assert!(
+        upward.len() <= 3,
+        "{} upward uses between folders (at most 3): {upward:?}",
+        upward.len()
     );
 }
 

@@ -5,9 +5,10 @@
 //! byte for byte, and `tracking.enabled: false` rebuilds from every frame as before. Against
 //! the FEM, `bench track`'s poked ball stays within 1 % of its diagonal.
 
-use physskin::bag::{BagMessage, ReplaySummary};
+use physskin::bag::BagMessage;
 use physskin::msg::{from_cdr, PointCloud2, Status, SubspaceState};
-use physskin::ros::NodeParams;
+use physskin::replay::ReplaySummary;
+use physskin::runtime::NodeParams;
 
 mod common;
 

@@ -7,7 +7,7 @@ use physskin::bag::read_recording;
 use physskin::msg::{
     from_cdr, Interaction, JointState, Mesh, PointCloud2, TFMessage,
 };
-use physskin::ros::{BuildRequest, TfBuffer};
+use physskin::runtime::{BuildRequest, TfBuffer};
 
 fuzz_target!(|bytes: &[u8]| {
     let Ok(recording) = read_recording(bytes, "fuzz") else {

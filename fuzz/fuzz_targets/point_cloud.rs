@@ -5,7 +5,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use physskin::msg::{from_cdr, PointCloud2, PointField};
-use physskin::ros::BuildRequest;
+use physskin::runtime::BuildRequest;
 
 const CAP: usize = 100_000;
 

@@ -3,7 +3,6 @@
 mod metadata;
 mod reader;
 mod recorder;
-mod replay;
 mod writer;
 
 use std::path::PathBuf;
@@ -11,7 +10,6 @@ use std::path::PathBuf;
 pub use metadata::FileSummary;
 pub use reader::{read_messages, read_recording, recover, BagMessage, Recording, Recovered};
 pub use recorder::{Recorder, RecorderHealth};
-pub use replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
 pub use writer::{BagWriter, RecordOptions, RecordSummary};
 
 /// What went wrong with a recording, naming the file.

@@ -8,7 +8,7 @@ use std::thread::JoinHandle;
 
 use super::writer::{BagWriter, RecordOptions, RecordSummary};
 use super::BagError;
-use crate::msg::{encode, RosMessage, TopicInfo};
+use crate::msg::{encode, Output, RosMessage, Sink, TopicInfo};
 
 enum Command {
     Topic(TopicInfo),
@@ -214,5 +214,23 @@ impl Recorder {
                 "the recording was already finished".into(),
             ))
         })
+    }
+}
+
+/// A recording is a sink of the runtime's outputs: each is recorded with its log time as its
+/// publish time too. A message the recording refuses is logged, and the runtime goes on.
+impl Sink for Recorder {
+    fn send(&self, topic: &str, log_time_ns: i64, message: &Output) {
+        let (t, at) = (topic, log_time_ns);
+        let recorded = match message {
+            Output::Cloud(m) => self.record(t, at, at, m),
+            Output::Weights(m) => self.record(t, at, at, m),
+            Output::State(m) => self.record(t, at, at, m),
+            Output::Status(m) => self.record(t, at, at, m),
+            Output::Markers(m) => self.record(t, at, at, m),
+        };
+        if let Err(e) = recorded {
+            log::error!("recording {topic}: {e}");
+        }
     }
 }

@@ -13,8 +13,8 @@ use serde::Serialize;
 use physskin::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
 use physskin::msg::cloud::encode_cloud;
 use physskin::msg::{Header, PointCloud2};
-use physskin::ros::params::Topics;
-use physskin::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use physskin::node::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use physskin::runtime::Topics;
 use physskin::skinning::NeuralModel;
 use physskin::{Error, Result};
 
@@ -436,7 +436,7 @@ fn rclpy_latency(
 }
 
 pub(crate) fn dds(message: String) -> Error {
-    Error::Node(physskin::ros::NodeError::Dds(message))
+    Error::Node(physskin::node::NodeError::Dds(message))
 }
 
 /// A benchmark's own ROS 2 node (no rosout) named `name`, in `ctx`.

@@ -13,7 +13,7 @@ use physskin::error::{Error, Result};
 use physskin::geometry::{load_geometry, Completion, Shape};
 use physskin::physics::Solver;
 use physskin::pipeline::{build_seen, BodyOptions, SoftBody, Support, DEFAULT_MAX_BUILD_POINTS};
-use physskin::ros::REPLAY_REFINE_ITERATIONS;
+use physskin::runtime::REPLAY_REFINE_ITERATIONS;
 use physskin::skinning::{NeuralModel, RefineBudget};
 
 /// What to simulate and against what.

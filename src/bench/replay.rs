@@ -9,9 +9,12 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::latency::sample_cloud;
-use physskin::bag::{replay, RecordOptions, Recorder, ReplayOptions};
+use physskin::bag::{RecordOptions, Recorder};
 use physskin::msg::Time;
-use physskin::ros::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
+use physskin::replay::{replay, ReplayOptions};
+use physskin::runtime::{
+    BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage,
+};
 use physskin::skinning::NeuralModel;
 use physskin::Result;
 
@@ -101,18 +104,9 @@ fn record_overhead(
         .map_err(physskin::Error::Geometry)?
         .remove(0);
     let clock = NodeClock::simulated();
-    let outputs = |recorder: Option<Recorder>| Outputs {
-        log: None,
-        dropped: Default::default(),
-        dds: None,
-        recorder,
-        shm: None,
-        topics: physskin::ros::params::Topics::default_resolved(),
-        publish: params.publish.clone(),
-        clock: clock.clone(),
-        timings: true,
-    };
-    let quiet = outputs(None);
+    let topics = physskin::runtime::Topics::default_resolved();
+    let outputs = || Outputs::new(topics.clone(), params.publish.clone(), clock.clone(), true);
+    let quiet = outputs();
     let BuildOutcome::Ready(body, _) = Builder::default().build(&request, &params, model, &quiet)
     else {
         return Err(physskin::Error::Geometry(
@@ -122,14 +116,18 @@ fn record_overhead(
     let points = body.body.point_count();
     let mut stage = Stage::default();
     stage.add(*body, &quiet, false);
-    let recording = outputs(Some(Recorder::start(
+    let recorder = Arc::new(Recorder::start(
         RecordOptions {
             path,
             ..Default::default()
         },
         Vec::new(),
-    )?));
-    recording.declare_topics();
+    )?);
+    for topic in physskin::runtime::topic_table(&topics) {
+        recorder.declare(topic)?;
+    }
+    let mut recording = outputs();
+    recording.sinks.push(Box::new(recorder.clone()));
     let period = Duration::from_secs_f64(1.0 / params.rate_hz);
     let mut times = [Vec::new(), Vec::new()];
     let mut tick = 0i64;
@@ -163,9 +161,7 @@ fn record_overhead(
             mean(&times[side][times[side].len() - TICKS_PER_BLOCK..])
         ));
     }
-    if let Some(r) = &recording.recorder {
-        r.finish()?;
-    }
+    recorder.finish()?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     Ok((points, mean(&times[0]), mean(&times[1])))
 }

@@ -16,8 +16,8 @@ use physskin::bag::read_messages;
 use physskin::msg::{
     from_cdr, Header, Interaction, Point, PointCloud2, Status, SubspaceState, Vector3,
 };
-use physskin::ros::params::Topics;
-use physskin::ros::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use physskin::node::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
+use physskin::runtime::Topics;
 use physskin::skinning::NeuralModel;
 use physskin::Result;
 

@@ -12,7 +12,7 @@ use serde::Serialize;
 use physskin::geometry::{box_grid_mesh, bundled, Shape};
 use physskin::physics::{SimParams, Solver};
 use physskin::pipeline::{BodyOptions, SoftBody, Support};
-use physskin::ros::REPLAY_REFINE_ITERATIONS;
+use physskin::runtime::REPLAY_REFINE_ITERATIONS;
 use physskin::skinning::{NeuralModel, RefineBudget, SkinningField};
 use physskin::Result;
 

@@ -24,7 +24,7 @@ use physskin::geometry::{
 };
 use physskin::physics::{FemSim, Obstacle, Poke};
 use physskin::pipeline::{build_seen, strided, SoftBody, Support, Tracker, TrackingOptions};
-use physskin::ros::NodeParams;
+use physskin::runtime::NodeParams;
 use physskin::skinning::{NeuralModel, RefineBudget};
 
 use super::stats::{median, quantile};

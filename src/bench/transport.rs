@@ -10,7 +10,7 @@ use super::latency::{client_node, dds, open_interfaces, sample_cloud};
 use super::stats::median;
 use physskin::msg::cloud::decode_cloud;
 use physskin::msg::{PointCloud2, Time};
-use physskin::ros::{context, publisher, reliable_qos, subscription};
+use physskin::node::{context, publisher, reliable_qos, subscription};
 use physskin::shm::{ShmOptions, ShmPublisher, ShmSubscriber};
 use physskin::Result;
 

@@ -2,8 +2,9 @@
 
 use std::path::PathBuf;
 
-use physskin::bag::{recover, replay, RecordOptions, ReplayOptions};
-use physskin::ros::RosArgs;
+use physskin::bag::{recover, RecordOptions};
+use physskin::node::RosArgs;
+use physskin::replay::{replay, ReplayOptions};
 use physskin::shm::ShmOptions;
 use physskin::skinning::NeuralModel;
 use physskin::Error;

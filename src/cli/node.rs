@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use physskin::ros::{run_node, NameResolver, NodeConfig, NodeError, ParamLoader, RosArgs};
+use physskin::node::{run_node, NodeConfig, NodeError, RosArgs};
+use physskin::runtime::{NameResolver, ParamLoader};
 use physskin::skinning::NeuralModel;
 
 #[derive(clap::Args)]
@@ -80,7 +81,7 @@ pub fn run(args: NodeArgs, ros: RosArgs) -> physskin::Result<()> {
             .or_else(|| std::env::var("ROS_DOMAIN_ID").ok()?.parse().ok())
             .unwrap_or(0),
         loopback_only: args.loopback_only,
-        log_level: ros.log_level.unwrap_or(physskin::ros::LogLevel::Info),
+        log_level: ros.log_level.unwrap_or(physskin::node::LogLevel::Info),
         rosout: !ros.rosout_disabled,
     };
     if let Some(path) = &args.record {

@@ -14,8 +14,9 @@ use serde::Serialize;
 
 pub use script::{write_demo_bag, DemoScript, DEMO_START_NS};
 
-use physskin::bag::{replay, RecordOptions, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
-use physskin::ros::NodeParams;
+use physskin::bag::RecordOptions;
+use physskin::replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
+use physskin::runtime::NodeParams;
 use physskin::skinning::NeuralModel;
 use physskin::{Error, Result};
 

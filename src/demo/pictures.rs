@@ -13,8 +13,8 @@ use super::script::DEMO_START_NS;
 use crate::io::{
     line_plot_svg, render_strip_png, weight_colors, LineSeries, Panel, StripFrame, StripObject,
 };
-use physskin::bag::Tick;
 use physskin::pipeline::SoftBody;
+use physskin::replay::Tick;
 use physskin::{Error, Result};
 
 /// Height of each frame's scene in the strip, px.

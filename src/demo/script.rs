@@ -17,7 +17,7 @@ use physskin::msg::{
     to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
     Vector3 as RosVector3,
 };
-use physskin::ros::topic_table;
+use physskin::runtime::topic_table;
 
 /// Log time of the demo's first message: 2026-01-01T00:00:00Z, ns.
 pub const DEMO_START_NS: i64 = 1_767_225_600_000_000_000;
@@ -216,7 +216,7 @@ pub fn cloud_points(shape: &Shape, count: usize) -> Vec<Vector3<f64>> {
 
 /// Writes the script's inputs as an MCAP recording, as the node would have recorded them.
 pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary, BagError> {
-    let t = &physskin::ros::params::Topics::default_resolved();
+    let t = &physskin::runtime::Topics::default_resolved();
     let mut writer = BagWriter::create(RecordOptions {
         path: path.into(),
         ..Default::default()

@@ -7,9 +7,11 @@ pub mod cloud;
 mod messages;
 mod qos;
 mod schema;
+mod sink;
 mod topic;
 
 pub use messages::*;
 pub use qos::QosProfile;
 pub use schema::schema_text;
+pub use sink::{Collector, Output, Sink};
 pub use topic::TopicInfo;

@@ -249,3 +249,22 @@ impl ShmSubscriber {
         Ok(count)
     }
 }
+
+/// Local programs are a sink of the runtime's arrays: deformed points after each step and a
+/// new shape's weights, copied once into shared memory. Messages are not theirs. A frame that
+/// cannot be handed over is logged; DDS and the recording go on.
+impl crate::msg::Sink for ShmPublisher {
+    fn send(&self, _topic: &str, _log_time_ns: i64, _message: &crate::msg::Output) {}
+
+    fn deformed(&self, shape_id: u32, stamp_ns: i64, handles: usize, points: &[f32]) {
+        if let Err(e) = self.publish_deformed(shape_id, stamp_ns, handles, points) {
+            log::warn!("deformed points not handed over on iceoryx2: {e}");
+        }
+    }
+
+    fn weights(&self, shape_id: u32, stamp_ns: i64, handles: usize, weights: &[f32]) {
+        if let Err(e) = self.publish_weights(shape_id, stamp_ns, handles, weights) {
+            log::warn!("weights not handed over on iceoryx2: {e}");
+        }
+    }
+}

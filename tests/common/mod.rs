@@ -135,11 +135,15 @@ pub fn replay_clouds(
     dir: &str,
     name: &str,
     clouds: &[(f64, physskin::msg::PointCloud2)],
-    params: physskin::ros::NodeParams,
+    params: physskin::runtime::NodeParams,
     tail_s: f64,
-) -> (physskin::bag::ReplaySummary, Vec<physskin::bag::BagMessage>) {
-    use physskin::bag::{read_messages, replay, BagWriter, RecordOptions, ReplayOptions};
+) -> (
+    physskin::replay::ReplaySummary,
+    Vec<physskin::bag::BagMessage>,
+) {
+    use physskin::bag::{read_messages, BagWriter, RecordOptions};
     use physskin::msg::{to_cdr, PointCloud2, QosProfile, Time, TopicInfo};
+    use physskin::replay::{replay, ReplayOptions};
     const TOPIC: &str = "/physskin/points";
     let dir = root().join("target").join(dir);
     std::fs::create_dir_all(&dir).unwrap();

@@ -9,9 +9,9 @@ use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
 use ros2_client::rustdds::DomainParticipantBuilder;
 use ros2_client::{Context, MessageTypeName, Name, Node, Publisher, Subscription};
 
-use super::qos_overrides::{Endpoint, QosOverrides};
 use crate::msg::RosMessage;
 use crate::msg::{QosProfile, TopicInfo};
+use crate::runtime::qos_overrides::{Endpoint, QosOverrides};
 
 // Lives in `crate::error` (the crate error wraps it, and nothing there may depend on the ROS
 // layer); named here too, where it always was.

@@ -7,19 +7,22 @@ use std::sync::{Arc, RwLock};
 use ros2_client::{Context, Node, NodeName, NodeOptions, ParameterValue};
 
 use super::args::LogLevel;
-use super::builder::Built;
-use super::clock::NodeClock;
 use super::dds::{context, publisher, reliable_qos, NodeError, QosTable};
-use super::diagnostics::Health;
-use super::names::NameResolver;
-use super::outputs::{topic_table, NodeLog, Outputs, Publishers};
-use super::params::NodeParams;
-use super::qos_overrides::{Endpoint, QosOverrides};
+use super::logger::{attach_rosout, detach_rosout, install_logger};
+use super::publishers::Publishers;
+use super::ros_params::RosParams;
 use super::shared::Shared;
-use super::stepper::{StepperCommand, StepperStats};
-use super::tf::TfBuffer;
 use crate::bag::{RecordOptions, Recorder};
 use crate::msg::Status;
+use crate::runtime::builder::Built;
+use crate::runtime::clock::NodeClock;
+use crate::runtime::diagnostics::Health;
+use crate::runtime::names::NameResolver;
+use crate::runtime::outputs::{topic_table, Outputs};
+use crate::runtime::params::{NodeParams, Topics};
+use crate::runtime::qos_overrides::QosOverrides;
+use crate::runtime::stepper::{StepperCommand, StepperStats};
+use crate::runtime::tf::TfBuffer;
 use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::shm::{ShmOptions, ShmPublisher};
 use crate::skinning::NeuralModel;
@@ -78,7 +81,7 @@ pub fn run_node(
     config
         .params
         .validate()
-        .map_err(|e| super::params::ParamError::Invalid {
+        .map_err(|e| crate::runtime::params::ParamError::Invalid {
             name: "parameters".into(),
             reason: e.to_string(),
         })?;
@@ -97,24 +100,23 @@ pub fn run_node(
     } else {
         NodeClock::Wall
     };
-    let dds = make_publishers(&mut node, &topics, &qos, &p)?;
-    let log = NodeLog {
-        rosout: config.rosout.then(|| node.logging_handle()),
-        name: config.fully_qualified_name(),
-        level: config.log_level,
-    };
-    let outputs = Arc::new(Outputs {
-        dds: Some(dds),
-        recorder: start_recorder(&p)?,
-        shm: start_shm(&p),
-        topics: topics.clone(),
-        publish: p.publish.clone(),
-        clock: clock.clone(),
-        timings: true,
-        log: Some(log),
-        dropped: Default::default(),
-    });
-    outputs.declare_topics();
+    install_logger(config.log_level.filter());
+    if config.rosout {
+        attach_rosout(node.logging_handle(), config.fully_qualified_name());
+    }
+    let publishers = Publishers::create(&mut node, &topics, &qos, &p)?;
+    let dropped = publishers.dropped.clone();
+    let recorder = start_recorder(&p, &topics)?.map(Arc::new);
+    let mut outputs = Outputs::new(topics.clone(), p.publish.clone(), clock.clone(), true);
+    outputs.status_level = config.log_level.filter();
+    if let Some(recorder) = &recorder {
+        outputs.sinks.push(Box::new(recorder.clone()));
+    }
+    if let Some(shm) = start_shm(&p) {
+        outputs.sinks.push(Box::new(shm));
+    }
+    outputs.sinks.push(Box::new(publishers));
+    let outputs = Arc::new(outputs);
     for warning in config.warnings.iter().chain(&network_warnings) {
         outputs.report(Status::WARN, 0, "node_warning", warning.clone());
     }
@@ -128,13 +130,15 @@ pub fn run_node(
         &topics,
         &qos,
         scene_file.as_ref(),
-        &outputs,
+        recorder.as_deref(),
     )?;
     let shared = Shared {
         params,
         outputs: outputs.clone(),
         tf: Arc::new(RwLock::new(TfBuffer::new(p.tf.buffer_s))),
         health: Arc::new(Health::default()),
+        recorder,
+        dropped,
     };
     let threads = Threads::start(&shared, &model, scene_file, &p)?;
     let control = super::node_inputs::Control::create(&mut node, &config.names)?;
@@ -168,7 +172,8 @@ pub fn run_node(
     };
     smol::block_on(executor.run(smol::future::race(served, stopped)));
     let stats = threads.join();
-    finish(&outputs, &stats);
+    finish(&shared, &stats);
+    detach_rosout();
     node.stop_spinner();
     drop(executor);
     Ok(stats)
@@ -190,17 +195,27 @@ fn create_node(
     let (check, apply) = (params.clone(), params.clone());
     options = options
         .parameter_validator(Box::new(move |name: &str, value: &ParameterValue| {
-            let current = check.read().map_err(|_| "parameters poisoned".to_string())?.clone();
-            current.with_ros(name, value).map(|_| ()).map_err(|e| e.to_string())
+            let current = check
+                .read()
+                .map_err(|_| "parameters poisoned".to_string())?
+                .clone();
+            current
+                .with_ros(name, value)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
         }))
         .parameter_set_action(Box::new(move |name: &str, value: &ParameterValue| {
-            let mut current = apply.write().map_err(|_| "parameters poisoned".to_string())?;
+            let mut current = apply
+                .write()
+                .map_err(|_| "parameters poisoned".to_string())?;
             let updated = current.with_ros(name, value).map_err(|e| e.to_string())?;
             if updated == *current {
                 return Ok(());
             }
             *current = updated;
-            eprintln!("[physskin] info: parameter {name} set to {value:?}; it applies to shapes that arrive from now on");
+            log::info!(
+                "parameter {name} set to {value:?}; it applies to shapes that arrive from now on"
+            );
             Ok(())
         }));
     let names = &config.names;
@@ -215,39 +230,9 @@ fn create_node(
     Ok(node)
 }
 
-fn make_publishers(
-    node: &mut Node,
-    t: &super::params::Topics,
-    qos: &QosTable,
-    p: &NodeParams,
-) -> Result<Publishers, NodeError> {
-    let pubs = &p.publish;
-    let out = |topic: &str| qos.of(topic, Endpoint::Publisher);
-    Ok(Publishers {
-        deformed_points: pubs
-            .deformed_points
-            .then(|| publisher(node, &t.deformed_points, out(&t.deformed_points)))
-            .transpose()?,
-        weights: pubs
-            .weights
-            .then(|| publisher(node, &t.weights, out(&t.weights)))
-            .transpose()?,
-        weights_cloud: pubs
-            .weights_cloud
-            .then(|| publisher(node, &t.weights_cloud, out(&t.weights_cloud)))
-            .transpose()?,
-        state: pubs
-            .state
-            .then(|| publisher(node, &t.state, out(&t.state)))
-            .transpose()?,
-        status: publisher(node, &t.status, out(&t.status))?,
-        markers: (p.markers.rate_hz > 0.0)
-            .then(|| publisher(node, &t.markers, out(&t.markers)))
-            .transpose()?,
-    })
-}
-
-fn start_recorder(p: &NodeParams) -> Result<Option<Recorder>, NodeError> {
+/// The recording `record.*` asks for, with every output topic declared (a silent topic
+/// still gets its channel).
+fn start_recorder(p: &NodeParams, topics: &Topics) -> Result<Option<Recorder>, NodeError> {
     if p.record.path.is_empty() {
         return Ok(None);
     }
@@ -257,9 +242,11 @@ fn start_recorder(p: &NodeParams) -> Result<Option<Recorder>, NodeError> {
         split_duration_s: p.record.split_duration_s,
         ..Default::default()
     };
-    Ok(Some(
-        Recorder::start(options, p.record.topics.clone()).map_err(NodeError::Record)?,
-    ))
+    let recorder = Recorder::start(options, p.record.topics.clone()).map_err(NodeError::Record)?;
+    for topic in topic_table(topics) {
+        recorder.declare(topic).map_err(NodeError::Record)?;
+    }
+    Ok(Some(recorder))
 }
 
 fn start_shm(p: &NodeParams) -> Option<ShmPublisher> {
@@ -274,12 +261,12 @@ fn start_shm(p: &NodeParams) -> Option<ShmPublisher> {
     ShmPublisher::create(&options)
         .map_err(|e| {
             // Local zero-copy consumers are optional: DDS and the recording go on.
-            eprintln!("[physskin] error: no iceoryx2 hand-off: {e}");
+            log::error!("no iceoryx2 hand-off: {e}");
         })
         .ok()
 }
 
-fn started_line(config: &NodeConfig, t: &super::params::Topics) -> String {
+fn started_line(config: &NodeConfig, t: &Topics) -> String {
     let p = &config.params;
     let frame = if p.fixed_frame.is_empty() {
         String::new()
@@ -301,17 +288,17 @@ fn started_line(config: &NodeConfig, t: &super::params::Topics) -> String {
     )
 }
 
-fn finish(outputs: &Outputs, stats: &StepperStats) {
-    outputs.report(
+fn finish(shared: &Shared, stats: &StepperStats) {
+    shared.outputs.report(
         Status::INFO,
         0,
         "node_stopped",
         format!("{} ticks, {} missed", stats.ticks, stats.missed),
     );
-    if let Some(recorder) = &outputs.recorder {
+    if let Some(recorder) = &shared.recorder {
         match recorder.finish() {
-            Ok(summary) => eprintln!(
-                "[physskin] info: recorded {} messages in {}",
+            Ok(summary) => log::info!(
+                "recorded {} messages in {}",
                 summary.messages,
                 summary
                     .files
@@ -320,14 +307,14 @@ fn finish(outputs: &Outputs, stats: &StepperStats) {
                     .collect::<Vec<_>>()
                     .join(", ")
             ),
-            Err(e) => eprintln!("[physskin] error: recording: {e}"),
+            Err(e) => log::error!("recording: {e}"),
         }
     }
 }
 
 /// The build thread, the stepper and what feeds them.
 struct Threads {
-    build_tx: std::sync::mpsc::Sender<super::builder::BuildRequest>,
+    build_tx: std::sync::mpsc::Sender<crate::runtime::builder::BuildRequest>,
     step_tx: std::sync::mpsc::Sender<StepperCommand>,
     builder: std::thread::JoinHandle<()>,
     forward: std::thread::JoinHandle<()>,
@@ -353,8 +340,8 @@ impl Threads {
         let (build_tx, build_rx) = channel();
         let (ready_tx, ready_rx) = channel();
         let (step_tx, step_rx) = channel::<StepperCommand>();
-        let registry = super::builder::BuiltRegistry::default();
-        let cx = super::builder::BuildContext {
+        let registry = crate::runtime::builder::BuiltRegistry::default();
+        let cx = crate::runtime::builder::BuildContext {
             params: shared.params.clone(),
             model: model.clone(),
             outputs: shared.outputs.clone(),
@@ -365,7 +352,7 @@ impl Threads {
         };
         let builder = std::thread::Builder::new()
             .name("physskin-build".into())
-            .spawn(move || super::builder::run_builder(build_rx, ready_tx, cx))
+            .spawn(move || crate::runtime::builder::run_builder(build_rx, ready_tx, cx))
             .map_err(spawn_error)?;
         let scene_builder = scene_file.map(|file| {
             let (outputs, step_tx) = (shared.outputs.clone(), step_tx.clone());
@@ -388,20 +375,21 @@ impl Threads {
                 }
             })
         };
-        let stage = super::stage::Stage::on_the_beat(super::stage::StageOptions {
-            fixed_frame: p.fixed_frame.clone(),
-            tf: Some(shared.tf.clone()),
-            object_timeout_ns: (p.object_timeout_s * 1e9) as i64,
-            marker_every: marker_every(p),
-            cloud_every: cloud_every(p),
-            registry: Some(registry),
-        });
+        let stage = crate::runtime::stage::Stage::on_the_beat(
+            crate::runtime::stage::StageOptions::from_params(
+                p,
+                Some(shared.tf.clone()),
+                Some(registry),
+            ),
+        );
         let stepper = {
             let (outputs, health, rate) =
                 (shared.outputs.clone(), shared.health.clone(), p.rate_hz);
             std::thread::Builder::new()
                 .name("physskin-step".into())
-                .spawn(move || super::stepper::run_stepper(step_rx, rate, stage, outputs, health))
+                .spawn(move || {
+                    crate::runtime::stepper::run_stepper(step_rx, rate, stage, outputs, health)
+                })
                 .map_err(spawn_error)?
         };
         Ok(Self {
@@ -435,25 +423,6 @@ fn scene_frame(p: &NodeParams) -> String {
     }
 }
 
-/// Markers go out every this many ticks (0: never), at most once a tick.
-pub fn marker_every(p: &NodeParams) -> u64 {
-    ticks_per(p.rate_hz, p.markers.rate_hz)
-}
-
-/// Deformed clouds go out every this many ticks (0: every tick).
-pub fn cloud_every(p: &NodeParams) -> u64 {
-    ticks_per(p.rate_hz, p.publish.rate_hz)
-}
-
-/// Ticks of a `step_hz` clock between events at `rate_hz` (0: none), at least 1.
-fn ticks_per(step_hz: f64, rate_hz: f64) -> u64 {
-    if rate_hz <= 0.0 {
-        0
-    } else {
-        (step_hz / rate_hz).round().max(1.0) as u64
-    }
-}
-
 /// Builds a scene's objects off the stepping thread, at low priority, and hands the scene to
 /// the stepper; a failure is reported and the node goes on without it.
 fn build_scene(
@@ -463,14 +432,14 @@ fn build_scene(
     step_tx: &std::sync::mpsc::Sender<StepperCommand>,
     frame: String,
 ) {
-    super::builder::yield_to_stepping();
+    crate::runtime::builder::yield_to_stepping();
     let options = SceneOptions {
         scripted: false,
         ..SceneOptions::default()
     };
     let built = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
-        .start_handler(|_| super::builder::yield_to_stepping())
+        .start_handler(|_| crate::runtime::builder::yield_to_stepping())
         .build()
         .map_err(|e| e.to_string())
         .and_then(|pool| {

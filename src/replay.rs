@@ -9,20 +9,17 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::reader::{read_recording, BagMessage};
-use super::recorder::Recorder;
-use super::writer::{RecordOptions, RecordSummary};
-use super::BagError;
+use crate::bag::{read_recording, BagError, BagMessage, RecordOptions, RecordSummary, Recorder};
 use crate::msg::{
-    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, Status,
-    TFMessage, Time,
+    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, QosProfile, RosMessage,
+    Status, TFMessage, Time, TopicInfo,
 };
-use crate::ros::params::Topics;
-use crate::ros::{
+use crate::runtime::Topics;
+use crate::runtime::{topic_table, TF, TF_STATIC};
+use crate::runtime::{
     BuildOutcome, BuildRequest, Builder, NameResolver, NodeClock, NodeParams, Outputs, Stage,
     StageOptions, TfBuffer,
 };
-use crate::ros::{TF, TF_STATIC};
 use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::skinning::NeuralModel;
 
@@ -164,7 +161,7 @@ pub fn replay(
     let recording = read_recording(bytes, source)?;
     let inputs = replayed_inputs(recording.messages, topics, &joint_topics);
     let clock = NodeClock::simulated();
-    let outputs = replay_outputs(options, topics, &clock, &joint_topics)?;
+    let (outputs, recorder) = replay_outputs(options, topics, &clock, &joint_topics)?;
 
     // A damaged recording replays what is intact; each damaged part is reported once.
     for damage in &recording.damage {
@@ -176,7 +173,7 @@ pub fn replay(
         ..Default::default()
     };
     let (Some(first), Some(last)) = (inputs.first(), inputs.last()) else {
-        summary.recording = finish(&outputs)?;
+        summary.recording = finish(recorder.as_deref())?;
         return Ok(summary);
     };
     let (start, end) = (
@@ -199,7 +196,7 @@ pub fn replay(
         while let Some((m, d)) = next_input.next_if(|(m, _)| m.log_time <= tick_time) {
             clock.set(&Time::from_nanos(m.log_time));
             run.take(m.log_time, d, &mut transforms, &mut summary);
-            if let Some(recorder) = &outputs.recorder {
+            if let Some(recorder) = &recorder {
                 recorder.record_raw(&m.topic, m.log_time, m.publish_time, &m.data)?;
             }
         }
@@ -220,7 +217,7 @@ pub fn replay(
     summary.sim_seconds = (tick_time - period - start) as f64 / 1e9;
     summary.realtime_factor = summary.sim_seconds / summary.wall_seconds.max(1e-9);
     run.summarize(&mut summary);
-    summary.recording = finish(&outputs)?;
+    summary.recording = finish(recorder.as_deref())?;
     Ok(summary)
 }
 
@@ -260,45 +257,41 @@ fn replayed_inputs(
 }
 
 /// The replay's outputs: the recorder and shared memory the options ask for, on the simulated
-/// `clock`, with every output topic and the scene robots' joint-state topics declared.
+/// `clock`, with every output topic and the scene robots' joint-state topics declared. The
+/// recorder is also returned on its own: the replay copies the recording's inputs into it.
 fn replay_outputs(
     options: &ReplayOptions,
     topics: &Topics,
     clock: &NodeClock,
     joint_topics: &BTreeMap<String, Vec<String>>,
-) -> crate::Result<Outputs> {
+) -> crate::Result<(Outputs, Option<Arc<Recorder>>)> {
+    let mut outputs = Outputs::new(
+        topics.clone(),
+        options.params.publish.clone(),
+        clock.clone(),
+        options.timings,
+    );
     let recorder = match &options.record {
-        Some(record) => Some(Recorder::start(
-            record.clone(),
-            options.record_topics.clone(),
-        )?),
+        Some(record) => {
+            let recorder = Recorder::start(record.clone(), options.record_topics.clone())?;
+            for topic in topic_table(topics) {
+                recorder.declare(topic)?;
+            }
+            for topic in joint_topics.keys() {
+                recorder.declare(TopicInfo::of::<JointState>(topic, QosProfile::sensor(5)))?;
+            }
+            let recorder = Arc::new(recorder);
+            outputs.sinks.push(Box::new(recorder.clone()));
+            Some(recorder)
+        }
         None => None,
     };
-    let outputs = Outputs {
-        dds: None,
-        recorder,
-        shm: options
-            .shm
-            .as_ref()
-            .map(crate::shm::ShmPublisher::create)
-            .transpose()?,
-        topics: topics.clone(),
-        publish: options.params.publish.clone(),
-        clock: clock.clone(),
-        timings: options.timings,
-        log: None,
-        dropped: Default::default(),
-    };
-    outputs.declare_topics();
-    if let Some(recorder) = &outputs.recorder {
-        for topic in joint_topics.keys() {
-            recorder.declare(crate::msg::TopicInfo::of::<JointState>(
-                topic,
-                crate::msg::QosProfile::sensor(5),
-            ))?;
-        }
+    if let Some(shm) = &options.shm {
+        outputs
+            .sinks
+            .push(Box::new(crate::shm::ShmPublisher::create(shm)?));
     }
-    Ok(outputs)
+    Ok((outputs, recorder))
 }
 
 /// Sleeps until the wall clock since `wall` catches up with `elapsed_ns` of log time played
@@ -345,14 +338,11 @@ impl<'a> Run<'a> {
         let tf = Arc::new(std::sync::RwLock::new(TfBuffer::new(params.tf.buffer_s)));
         let mut builder = Builder::default();
         builder.refine_in_build();
-        let mut stage = Stage::immediate(StageOptions {
-            fixed_frame: params.fixed_frame.clone(),
-            tf: Some(tf.clone()),
-            object_timeout_ns: (params.object_timeout_s * 1e9) as i64,
-            marker_every: crate::ros::marker_every(params),
-            cloud_every: crate::ros::cloud_every(params),
-            registry: Some(builder.registry()),
-        });
+        let mut stage = Stage::immediate(StageOptions::from_params(
+            params,
+            Some(tf.clone()),
+            Some(builder.registry()),
+        ));
         let mut reserved = 0;
         let mut scene_rest: BTreeMap<u32, Vec<f32>> = BTreeMap::new();
         if let Some(file) = scene_file {
@@ -525,8 +515,8 @@ fn max_distance(a: &[f32], b: &[f32]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn finish(outputs: &Outputs) -> Result<Option<RecordSummary>, BagError> {
-    outputs.recorder.as_ref().map(|r| r.finish()).transpose()
+fn finish(recorder: Option<&Recorder>) -> Result<Option<RecordSummary>, BagError> {
+    recorder.map(|r| r.finish()).transpose()
 }
 
 enum Input {
@@ -544,7 +534,7 @@ fn input(
     m: &BagMessage,
     source: &str,
     params: &NodeParams,
-    t: &crate::ros::params::Topics,
+    t: &crate::runtime::Topics,
     joint_topics: &BTreeMap<String, Vec<String>>,
 ) -> Result<Input, String> {
     let robots = joint_topics.get(&m.topic);

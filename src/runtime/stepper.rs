@@ -113,7 +113,7 @@ pub fn run_stepper(
             health.missed(missed);
             if !outputs.clock.is_simulated() {
                 let ms = started.elapsed().as_secs_f64() * 1e3;
-                eprintln!("[physskin] warn: tick took {ms:.1} ms, behind schedule");
+                log::warn!("tick took {ms:.1} ms, behind schedule");
             }
             now + period
         } else {

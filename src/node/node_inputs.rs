@@ -8,20 +8,21 @@ use std::time::Duration;
 use futures::StreamExt;
 use ros2_client::{Node, Publisher, Server, Subscription};
 
-use super::builder::BuildRequest;
 use super::dds::{sensor_qos, subscription, NodeError, QosTable};
-use super::names::NameResolver;
-use super::outputs::{Outputs, TF, TF_STATIC};
-use super::params::Topics;
-use super::qos_overrides::Endpoint;
 use super::services::{serve as serve_trigger, trigger_server, Control as Kind, Trigger};
 use super::shared::Shared;
-use super::stepper::StepperCommand;
+use crate::bag::Recorder;
 use crate::msg::{
     Clock, DiagnosticArray, Interaction, JointState, Mesh, MeshStamped, PointCloud2, Status,
     TFMessage,
 };
 use crate::msg::{QosProfile, TopicInfo};
+use crate::runtime::builder::BuildRequest;
+use crate::runtime::names::NameResolver;
+use crate::runtime::outputs::{TF, TF_STATIC};
+use crate::runtime::params::Topics;
+use crate::runtime::qos_overrides::Endpoint;
+use crate::runtime::stepper::StepperCommand;
 use crate::scene::SceneFile;
 
 /// The node's subscriptions.
@@ -47,7 +48,7 @@ impl Inputs {
         t: &Topics,
         qos: &QosTable,
         scene: Option<&SceneFile>,
-        outputs: &Outputs,
+        recorder: Option<&Recorder>,
     ) -> Result<Self, NodeError> {
         let q = |topic: &str| qos.of(topic, Endpoint::Subscription);
         let mut inputs = Self {
@@ -71,10 +72,10 @@ impl Inputs {
                 .push(r.name.clone());
         }
         for (topic, robots) in topics {
-            if let Some(recorder) = &outputs.recorder {
+            if let Some(recorder) = recorder {
                 let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
                 if let Err(e) = recorder.declare(info) {
-                    eprintln!("[physskin] error: recording: {e}");
+                    log::error!("recording: {e}");
                 }
             }
             let sub = subscription::<JointState>(node, topic, q(topic))?;
@@ -130,7 +131,7 @@ pub async fn serve(
     let t = &inputs.topics;
     let clouds = inputs.points.async_stream().for_each(|m| {
         if let Ok((cloud, _)) = m {
-            outputs.record_input(&t.points, Some(cloud.header.stamp.nanos()), &cloud);
+            shared.record_input(&t.points, Some(cloud.header.stamp.nanos()), &cloud);
             submit(BuildRequest::from_cloud(
                 &cloud,
                 max_points,
@@ -141,7 +142,7 @@ pub async fn serve(
     });
     let meshes = inputs.mesh.async_stream().for_each(|m| {
         if let Ok((mesh, _)) = m {
-            outputs.record_input(&t.mesh, None, &mesh);
+            shared.record_input(&t.mesh, None, &mesh);
             submit(BuildRequest::from_mesh(&mesh, &mesh_frame, 0, max_points).map(|r| vec![r]));
         }
         async {}
@@ -149,7 +150,7 @@ pub async fn serve(
     let stamped = inputs.mesh_stamped.async_stream().for_each(|m| {
         if let Ok((m, _)) = m {
             let stamp = m.header.stamp.nanos();
-            outputs.record_input(&t.mesh_stamped, Some(stamp), &m);
+            shared.record_input(&t.mesh_stamped, Some(stamp), &m);
             submit(
                 BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, max_points)
                     .map(|r| vec![r]),
@@ -159,7 +160,7 @@ pub async fn serve(
     });
     let interactions = inputs.interaction.async_stream().for_each(|m| {
         if let Ok((i, _)) = m {
-            outputs.record_input(&t.interaction, Some(i.header.stamp.nanos()), &i);
+            shared.record_input(&t.interaction, Some(i.header.stamp.nanos()), &i);
             let _ = step_tx.send(StepperCommand::Interact(i));
         }
         async {}
@@ -175,7 +176,7 @@ pub async fn serve(
     let joints = futures::future::join_all(inputs.joints.iter().map(|(robots, topic, sub)| {
         sub.async_stream().for_each(move |m| {
             if let Ok((state, _)) = m {
-                outputs.record_input(topic, Some(state.header.stamp.nanos()), &state);
+                shared.record_input(topic, Some(state.header.stamp.nanos()), &state);
                 let robots = robots.clone();
                 let _ = step_tx.send(StepperCommand::Joints { robots, state });
             }
@@ -207,7 +208,7 @@ async fn transforms(sub: &Subscription<TFMessage>, topic: &str, is_static: bool,
     let mut stream = std::pin::pin!(sub.async_stream());
     while let Some(m) = stream.next().await {
         let Ok((message, _)) = m else { continue };
-        shared.outputs.record_input(topic, None, &message);
+        shared.record_input(topic, None, &message);
         let Ok(mut buffer) = shared.tf.write() else {
             continue;
         };
@@ -229,13 +230,13 @@ async fn report_health(publisher: Publisher<DiagnosticArray>, shared: &Shared, n
     loop {
         smol::Timer::after(Duration::from_secs(1)).await;
         let outputs = &shared.outputs;
-        let recording = outputs.recorder.as_ref().map(|r| r.health());
-        let dropped = outputs.dropped.load(Ordering::Relaxed);
+        let recording = shared.recorder.as_ref().map(|r| r.health());
+        let dropped = shared.dropped.load(Ordering::Relaxed);
         let report = shared
             .health
             .report(outputs.header(""), node_name, recording, dropped);
         if let Err(e) = publisher.publish(report) {
-            eprintln!("[physskin] warn: /diagnostics not published: {e:?}");
+            log::warn!("/diagnostics not published: {e}");
         }
     }
 }

@@ -10,8 +10,8 @@ use ros2_client::ros2::{QosPolicies, QosPolicyBuilder};
 use ros2_client::{AService, Name, Node, Server, ServiceMapping, ServiceTypeName};
 
 use super::dds::NodeError;
-use super::stepper::StepperCommand;
 use crate::msg::{TriggerRequest, TriggerResponse};
+use crate::runtime::stepper::StepperCommand;
 
 impl ros2_client::Message for TriggerRequest {}
 impl ros2_client::Message for TriggerResponse {}
@@ -79,7 +79,7 @@ pub async fn serve(server: Server<Trigger>, control: Control, stepper: Sender<St
             },
         };
         if let Err(e) = server.async_send_response(id, response).await {
-            eprintln!("[physskin] warn: service response not sent: {e:?}");
+            log::warn!("service response not sent: {e:?}");
         }
     }
 }

@@ -1,72 +1,19 @@
-//! What the node (or a replay) emits: every message goes to its DDS publisher when there is one
-//! and to the recording when there is one, built once. Status reports also go to the log.
+//! What the runtime emits: every message is built once and handed to each sink of its shell
+//! (DDS publishers, a recording, iceoryx2, a test's collector). Status reports also go to the
+//! log, as records of the `log` facade.
 
 use std::sync::Arc;
 
-use ros2_client::{NodeLoggingHandle, Publisher, RosoutRaw};
-
-use super::args::LogLevel;
 use super::clock::NodeClock;
 use super::cloud_objects::CloudTemplate;
 use super::markers::{delete_marker, MarkerSurface};
 use super::params::{PublishParams, Topics};
-use crate::bag::Recorder;
 use crate::msg::cloud::encode_cloud;
 use crate::msg::{
-    Header, Interaction, MarkerArray, Mesh, MeshStamped, PointCloud2, RosMessage, SkinningWeights,
-    Status, SubspaceState, TFMessage,
+    Header, Interaction, MarkerArray, Mesh, MeshStamped, Output, PointCloud2, QosProfile, Sink,
+    SkinningWeights, Status, SubspaceState, TFMessage, TopicInfo,
 };
-use crate::msg::{QosProfile, TopicInfo};
 use crate::pipeline::SoftBody;
-use crate::shm::ShmPublisher;
-
-/// The node's DDS publishers (absent when switched off in `publish.*`).
-pub struct Publishers {
-    /// The deformed points (`publish.deformed_points`).
-    pub deformed_points: Option<Publisher<PointCloud2>>,
-    /// The weights as physskin/SkinningWeights (`publish.weights`).
-    pub weights: Option<Publisher<SkinningWeights>>,
-    /// The weights as a PointCloud2 (`publish.weights_cloud`).
-    pub weights_cloud: Option<Publisher<PointCloud2>>,
-    /// The reduced state after each step (`publish.state`).
-    pub state: Option<Publisher<SubspaceState>>,
-    /// What the node did with its inputs; always on.
-    pub status: Publisher<Status>,
-    /// The deformed surfaces for RViz (when `markers.rate_hz` > 0).
-    pub markers: Option<Publisher<MarkerArray>>,
-}
-
-/// Where the node's log lines go besides stderr: /rosout, as rcl_interfaces/msg/Log.
-pub struct NodeLog {
-    /// None with `--disable-rosout-logs`.
-    pub rosout: Option<NodeLoggingHandle>,
-    /// The logger's name: the node's fully qualified name.
-    pub name: String,
-    /// Lines below this level are dropped (`--log-level`).
-    pub level: LogLevel,
-}
-
-impl NodeLog {
-    /// Writes `line` to stderr and /rosout when its level passes.
-    pub fn write(&self, level: LogLevel, line: &str) {
-        if level < self.level {
-            return;
-        }
-        eprintln!("{line}");
-        if let Some(rosout) = &self.rosout {
-            let now = ros2_client::ros2::Timestamp::now();
-            use ros2_client::ros2::LogLevel as Rcl;
-            let rcl = match level {
-                LogLevel::Debug => Rcl::Debug,
-                LogLevel::Info => Rcl::Info,
-                LogLevel::Warn => Rcl::Warn,
-                LogLevel::Error => Rcl::Error,
-                LogLevel::Fatal => Rcl::Fatal,
-            };
-            rosout.rosout_raw(now, rcl, &self.name, line, file!(), "report", line!());
-        }
-    }
-}
 
 /// Every topic the node uses, with its type and QoS: what DDS offers and what a recording says
 /// was offered.
@@ -98,12 +45,8 @@ pub const TF_STATIC: &str = "/tf_static";
 
 /// Where outputs go, shared by the build and step threads.
 pub struct Outputs {
-    /// The DDS publishers; None in a replay.
-    pub dds: Option<Publishers>,
-    /// The recording, when one was asked for.
-    pub recorder: Option<Recorder>,
-    /// Zero-copy hand-off to local programs.
-    pub shm: Option<ShmPublisher>,
+    /// Every output goes to each of these, in order.
+    pub sinks: Vec<Box<dyn Sink>>,
     /// The topic names, resolved.
     pub topics: Topics,
     /// Which outputs are published.
@@ -113,13 +56,23 @@ pub struct Outputs {
     /// Put wall-clock timings (step_time_ms, build times) into messages. Replays leave them
     /// out so that two replays give identical bytes; they print them instead.
     pub timings: bool,
-    /// The node's log (a replay has none: its lines go to stderr only).
-    pub log: Option<NodeLog>,
-    /// Publications DDS refused because a reader was too far behind.
-    pub dropped: std::sync::atomic::AtomicU64,
+    /// Status reports less severe than this are neither sent nor logged (`--log-level`).
+    pub status_level: log::LevelFilter,
 }
 
 impl Outputs {
+    /// Outputs on `topics` that go nowhere yet: add sinks to `sinks`.
+    pub fn new(topics: Topics, publish: PublishParams, clock: NodeClock, timings: bool) -> Self {
+        Self {
+            sinks: Vec::new(),
+            topics,
+            publish,
+            clock,
+            timings,
+            status_level: log::LevelFilter::Info,
+        }
+    }
+
     /// A header in `frame`, stamped now by `clock`.
     pub fn header(&self, frame: &str) -> Header {
         Header {
@@ -128,66 +81,24 @@ impl Outputs {
         }
     }
 
-    /// Declares every topic to the recording, so a channel exists even for a silent topic.
-    pub fn declare_topics(&self) {
-        if let Some(recorder) = &self.recorder {
-            for topic in topic_table(&self.topics) {
-                if let Err(e) = recorder.declare(topic) {
-                    eprintln!("[physskin] error: recording: {e}");
-                }
-            }
+    /// Hands one message to every sink.
+    fn emit(&self, topic: &str, message: Output) {
+        let now = self.clock.now_nanos().unwrap_or(0);
+        for sink in &self.sinks {
+            sink.send(topic, now, &message);
         }
     }
 
-    /// Records an input as it arrives (log time now; publish time its stamp when it has one).
-    pub fn record_input<M: RosMessage>(&self, topic: &str, stamp: Option<i64>, message: &M) {
-        if let Some(recorder) = &self.recorder {
-            let now = self.clock.now_nanos().unwrap_or(0);
-            let sent = stamp.filter(|s| *s > 0).unwrap_or(now);
-            if let Err(e) = recorder.record(topic, now, sent, message) {
-                eprintln!("[physskin] error: recording {topic}: {e}");
-            }
-        }
-    }
-
-    /// Records and publishes one message.
-    fn emit<M: RosMessage>(&self, topic: &str, publisher: Option<&Publisher<M>>, message: M) {
-        if let Some(recorder) = &self.recorder {
-            let now = self.clock.now_nanos().unwrap_or(0);
-            if let Err(e) = recorder.record(topic, now, now, &message) {
-                eprintln!("[physskin] error: recording {topic}: {e}");
-            }
-        }
-        if let Some(p) = publisher {
-            if let Err(e) = p.publish(message) {
-                self.dropped(topic, &e);
-            }
-        }
-    }
-
-    /// Counts a publication DDS refused (a reader too far behind); says so on the first and
-    /// then every 100th. Not through `report`: a failing status publisher would recurse.
-    fn dropped<D>(&self, topic: &str, e: &ros2_client::ros2::WriteError<D>) {
-        let n = self
-            .dropped
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        if n % 100 == 0 {
-            // Display, not Debug: the Debug form carries the whole message.
-            eprintln!(
-                "[physskin] warn: {topic} not published ({e}: a reader is behind); {} publications dropped so far",
-                n + 1
-            );
-        }
-    }
-
-    /// Publishes a status and writes the same line to the log (stderr, and /rosout in a node).
+    /// Sends a status and logs the same event (node-wide events, shape 0, name no shape).
     pub fn report(&self, level: u8, shape_id: u32, event: &str, message: String) {
-        let tag = ["info", "warn", "error"][level.min(2) as usize];
-        let line = format!("[physskin] {tag} {event} (shape {shape_id}): {message}");
-        let severity = [LogLevel::Info, LogLevel::Warn, LogLevel::Error][level.min(2) as usize];
-        match &self.log {
-            Some(log) => log.write(severity, &line),
-            None => eprintln!("{line}"),
+        let severity =
+            [log::Level::Info, log::Level::Warn, log::Level::Error][level.min(2) as usize];
+        if severity > self.status_level {
+            return;
+        }
+        match shape_id {
+            0 => log::log!(severity, "{event}: {message}"),
+            id => log::log!(severity, "{event} (shape {id}): {message}"),
         }
         let status = Status {
             header: self.header(""),
@@ -196,11 +107,7 @@ impl Outputs {
             event: event.into(),
             message,
         };
-        self.emit(
-            &self.topics.status,
-            self.dds.as_ref().map(|d| &d.status),
-            status,
-        );
+        self.emit(&self.topics.status, Output::Status(status));
     }
 
     /// The weights of a new shape, as physskin/SkinningWeights and as a PointCloud2 with one
@@ -214,17 +121,13 @@ impl Outputs {
         handles: usize,
     ) {
         let header = self.header(frame);
-        if let Some(shm) = &self.shm {
-            let stamp = header.stamp.nanos();
-            if let Err(e) = shm.publish_weights(shape_id, stamp, handles, weights) {
-                eprintln!("[physskin] warn: weights not handed over on iceoryx2: {e}");
-            }
+        for sink in &self.sinks {
+            sink.weights(shape_id, header.stamp.nanos(), handles, weights);
         }
         if self.publish.weights_cloud {
             let channels: Vec<String> = (0..handles).map(|i| format!("w{i}")).collect();
             let cloud = encode_cloud(header.clone(), rest, &channels, weights);
-            let publisher = self.dds.as_ref().and_then(|d| d.weights_cloud.as_ref());
-            self.emit(&self.topics.weights_cloud, publisher, cloud);
+            self.emit(&self.topics.weights_cloud, Output::Cloud(cloud));
         }
         if self.publish.weights {
             let message = SkinningWeights {
@@ -234,8 +137,7 @@ impl Outputs {
                 handle_count: handles as u32,
                 weights: weights.to_vec(),
             };
-            let publisher = self.dds.as_ref().and_then(|d| d.weights.as_ref());
-            self.emit(&self.topics.weights, publisher, message);
+            self.emit(&self.topics.weights, Output::Weights(message));
         }
     }
 
@@ -256,11 +158,13 @@ impl Outputs {
                 markers: vec![marker],
             });
         }
-        if let Some(shm) = &self.shm {
-            let stamp = header.stamp.nanos();
-            if let Err(e) = shm.publish_deformed(shape_id, stamp, body.handles(), body.deformed()) {
-                eprintln!("[physskin] warn: deformed points not handed over on iceoryx2: {e}");
-            }
+        for sink in &self.sinks {
+            sink.deformed(
+                shape_id,
+                header.stamp.nanos(),
+                body.handles(),
+                body.deformed(),
+            );
         }
         let cloud = match cloud {
             _ if !self.publish.deformed_points => None,
@@ -269,8 +173,7 @@ impl Outputs {
             DeformedCloud::Template(t) => Some(t.fill(header.clone(), body.deformed())),
         };
         if let Some(cloud) = cloud {
-            let publisher = self.dds.as_ref().and_then(|d| d.deformed_points.as_ref());
-            self.emit(&self.topics.deformed_points, publisher, cloud);
+            self.emit(&self.topics.deformed_points, Output::Cloud(cloud));
         }
         if let (true, Some(report)) = (self.publish.state, body.last_step()) {
             let rows = |m: &nalgebra::DMatrix<f64>| -> Vec<f64> {
@@ -306,16 +209,14 @@ impl Outputs {
                     _ => 0.0,
                 },
             };
-            let publisher = self.dds.as_ref().and_then(|d| d.state.as_ref());
-            self.emit(&self.topics.state, publisher, state);
+            self.emit(&self.topics.state, Output::State(state));
         }
     }
 }
 
 impl Outputs {
     fn publish_markers(&self, markers: MarkerArray) {
-        let publisher = self.dds.as_ref().and_then(|d| d.markers.as_ref());
-        self.emit(&self.topics.markers, publisher, markers);
+        self.emit(&self.topics.markers, Output::Markers(markers));
     }
 
     /// Tells viewers that an object went away: its marker is deleted.

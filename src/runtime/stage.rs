@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use super::builder::{BuiltRegistry, ObjectKey, ReadyBody, RefinedField};
 use super::outputs::{DeformedCloud, Outputs};
+use super::params::NodeParams;
 use super::tf::TfBuffer;
 use super::tracking::{Observation, TrackingWindow, Verdict};
 use crate::msg::{Interaction, JointState, Status};
@@ -31,6 +32,34 @@ pub struct StageOptions {
     pub cloud_every: u64,
     /// Forgotten when objects go, so that their geometry builds again when it comes back.
     pub registry: Option<BuiltRegistry>,
+}
+
+impl StageOptions {
+    /// The options `p` gives, with the transforms and the registry of built objects the stage
+    /// shares with its builder.
+    pub fn from_params(
+        p: &NodeParams,
+        tf: Option<Arc<RwLock<TfBuffer>>>,
+        registry: Option<BuiltRegistry>,
+    ) -> Self {
+        Self {
+            fixed_frame: p.fixed_frame.clone(),
+            tf,
+            object_timeout_ns: (p.object_timeout_s * 1e9) as i64,
+            marker_every: ticks_per(p.rate_hz, p.markers.rate_hz),
+            cloud_every: ticks_per(p.rate_hz, p.publish.rate_hz),
+            registry,
+        }
+    }
+}
+
+/// Ticks of a `step_hz` clock between events at `rate_hz` (0: none), at least 1.
+fn ticks_per(step_hz: f64, rate_hz: f64) -> u64 {
+    if rate_hz <= 0.0 {
+        0
+    } else {
+        (step_hz / rate_hz).round().max(1.0) as u64
+    }
 }
 
 /// The running objects.

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use super::names::{NameError, Remap};
+use crate::runtime::names::{NameError, Remap};
 
 /// Why the ROS arguments were refused.
 #[derive(Debug, thiserror::Error)]
@@ -42,6 +42,16 @@ pub enum LogLevel {
 }
 
 impl LogLevel {
+    /// The `log` facade's filter for this level (it has no fatal: fatal keeps errors).
+    pub fn filter(self) -> log::LevelFilter {
+        match self {
+            Self::Debug => log::LevelFilter::Debug,
+            Self::Info => log::LevelFilter::Info,
+            Self::Warn => log::LevelFilter::Warn,
+            Self::Error | Self::Fatal => log::LevelFilter::Error,
+        }
+    }
+
     /// Parses a level name in any case (`warning` also means warn).
     pub fn parse(text: &str) -> Result<Self, RosArgsError> {
         Ok(match text.to_ascii_lowercase().as_str() {
