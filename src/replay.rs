@@ -10,12 +10,9 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use crate::bag::{read_recording, BagError, BagMessage, RecordOptions, RecordSummary, Recorder};
-use crate::msg::{
-    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, QosProfile, RosMessage,
-    Status, TFMessage, Time, TopicInfo,
-};
+use crate::msg::{JointState, QosProfile, Status, TFMessage, Time, TopicInfo};
 use crate::runtime::Topics;
-use crate::runtime::{topic_table, TF, TF_STATIC};
+use crate::runtime::{topic_table, Input, InputKind, InputTopics};
 use crate::runtime::{
     BuildOutcome, BuildRequest, Builder, NameResolver, NodeClock, NodeParams, Outputs, Stage,
     StageOptions, TfBuffer,
@@ -157,11 +154,13 @@ pub fn replay(
     } else {
         Some(SceneFile::load(std::path::Path::new(&params.scene))?)
     };
-    let joint_topics = robots_by_joint_topic(scene_file.as_ref());
+    let input_topics = InputTopics::new(topics, scene_file.as_ref());
     let recording = read_recording(bytes, source)?;
-    let inputs = replayed_inputs(recording.messages, topics, &joint_topics);
+    let inputs: Vec<BagMessage> = (recording.messages.into_iter())
+        .filter(|m| input_topics.kind(&m.topic).is_some())
+        .collect();
     let clock = NodeClock::simulated();
-    let (outputs, recorder) = replay_outputs(options, topics, &clock, &joint_topics)?;
+    let (outputs, recorder) = replay_outputs(options, topics, &clock, &input_topics)?;
 
     // A damaged recording replays what is intact; each damaged part is reported once.
     for damage in &recording.damage {
@@ -184,7 +183,11 @@ pub fn replay(
     let mut run = Run::start(params, model, &outputs, &clock, scene_file.as_ref(), start)?;
     let decoded: Vec<Result<Input, String>> = inputs
         .iter()
-        .map(|m| input(m, source, params, topics, &joint_topics))
+        .map(|m| {
+            let at = format!("{source} at {} ns, {}", m.log_time, m.topic);
+            let (kind, encoding) = (&m.type_name, &m.encoding);
+            input_topics.decode(&m.topic, kind, encoding, &m.data, params, &at)
+        })
         .collect();
     // Transforms are taken up to tf.timeout_s ahead of an input, as the node waits as long for
     // the transform of a cloud's stamp.
@@ -221,41 +224,6 @@ pub fn replay(
     Ok(summary)
 }
 
-/// Joint-state topic to the robots on it.
-fn robots_by_joint_topic(scene_file: Option<&SceneFile>) -> BTreeMap<String, Vec<String>> {
-    let mut joint_topics: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    for r in scene_file.into_iter().flat_map(|f| &f.robots) {
-        joint_topics
-            .entry(r.joint_states.clone())
-            .or_default()
-            .push(r.name.clone());
-    }
-    joint_topics
-}
-
-/// The recorded messages on the topics the node listens to, in their recorded order.
-fn replayed_inputs(
-    messages: Vec<BagMessage>,
-    topics: &Topics,
-    joint_topics: &BTreeMap<String, Vec<String>>,
-) -> Vec<BagMessage> {
-    messages
-        .into_iter()
-        .filter(|m| {
-            [
-                topics.points.as_str(),
-                &topics.mesh,
-                &topics.mesh_stamped,
-                &topics.interaction,
-                TF,
-                TF_STATIC,
-            ]
-            .contains(&m.topic.as_str())
-                || joint_topics.contains_key(&m.topic)
-        })
-        .collect()
-}
-
 /// The replay's outputs: the recorder and shared memory the options ask for, on the simulated
 /// `clock`, with every output topic and the scene robots' joint-state topics declared. The
 /// recorder is also returned on its own: the replay copies the recording's inputs into it.
@@ -263,7 +231,7 @@ fn replay_outputs(
     options: &ReplayOptions,
     topics: &Topics,
     clock: &NodeClock,
-    joint_topics: &BTreeMap<String, Vec<String>>,
+    input_topics: &InputTopics,
 ) -> crate::Result<(Outputs, Option<Arc<Recorder>>)> {
     let mut outputs = Outputs::new(
         topics.clone(),
@@ -277,8 +245,11 @@ fn replay_outputs(
             for topic in topic_table(topics) {
                 recorder.declare(topic)?;
             }
-            for topic in joint_topics.keys() {
-                recorder.declare(TopicInfo::of::<JointState>(topic, QosProfile::sensor(5)))?;
+            for (topic, kind) in input_topics.all() {
+                if let InputKind::Joints(_) = kind {
+                    let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
+                    recorder.declare(info)?;
+                }
             }
             let recorder = Arc::new(recorder);
             outputs.sinks.push(Box::new(recorder.clone()));
@@ -395,7 +366,7 @@ impl<'a> Run<'a> {
                 transforms.feed(&self.tf, log_time, false, outputs);
                 self.stage.interact(i, outputs)
             }
-            Ok(Input::Transforms) => transforms.feed(&self.tf, log_time, false, outputs),
+            Ok(Input::Transforms(..)) => transforms.feed(&self.tf, log_time, false, outputs),
             Ok(Input::Joints(robots, state)) => self.stage.set_joints(robots, state, outputs),
             Err(problem) => {
                 summary.rejected += 1;
@@ -519,69 +490,6 @@ fn finish(recorder: Option<&Recorder>) -> Result<Option<RecordSummary>, BagError
     recorder.map(|r| r.finish()).transpose()
 }
 
-enum Input {
-    /// A cloud's objects (one per instance id) or a mesh.
-    Geometry(Vec<BuildRequest>),
-    /// /tf or /tf_static, fed to the buffer through [`TransformFeed`].
-    Transforms,
-    Interaction(Interaction),
-    /// A joint state for the scene robots on its topic.
-    Joints(Vec<String>, JointState),
-}
-
-/// Decodes one recorded input, checking its channel's type and encoding.
-fn input(
-    m: &BagMessage,
-    source: &str,
-    params: &NodeParams,
-    t: &crate::runtime::Topics,
-    joint_topics: &BTreeMap<String, Vec<String>>,
-) -> Result<Input, String> {
-    let robots = joint_topics.get(&m.topic);
-    let expected = if m.topic == TF || m.topic == TF_STATIC {
-        TFMessage::type_name()
-    } else if robots.is_some() {
-        JointState::type_name()
-    } else if m.topic == t.points {
-        PointCloud2::type_name()
-    } else if m.topic == t.mesh {
-        Mesh::type_name()
-    } else if m.topic == t.mesh_stamped {
-        MeshStamped::type_name()
-    } else {
-        Interaction::type_name()
-    };
-    let at = format!("{source} at {} ns, {}", m.log_time, m.topic);
-    if m.encoding != "cdr" || m.type_name != expected {
-        return Err(format!(
-            "{at}: carries {:?} in encoding {:?}, expected {expected} in cdr",
-            m.type_name, m.encoding
-        ));
-    }
-    let bad = |e: String| format!("{at}: {e}");
-    let max = params.max_points;
-    if m.topic == TF || m.topic == TF_STATIC {
-        from_cdr::<TFMessage>(&m.data).map_err(bad)?;
-        Ok(Input::Transforms)
-    } else if let Some(robots) = robots {
-        let state: JointState = from_cdr(&m.data).map_err(bad)?;
-        Ok(Input::Joints(robots.clone(), state))
-    } else if m.topic == t.points {
-        let cloud: PointCloud2 = from_cdr(&m.data).map_err(bad)?;
-        BuildRequest::from_cloud(&cloud, max, &params.instance_field).map(Input::Geometry)
-    } else if m.topic == t.mesh {
-        let mesh: Mesh = from_cdr(&m.data).map_err(bad)?;
-        BuildRequest::from_mesh(&mesh, &params.mesh_frame, 0, max).map(|r| Input::Geometry(vec![r]))
-    } else if m.topic == t.mesh_stamped {
-        let stamped: MeshStamped = from_cdr(&m.data).map_err(bad)?;
-        let stamp = stamped.header.stamp.nanos();
-        BuildRequest::from_mesh(&stamped.mesh, &stamped.header.frame_id, stamp, max)
-            .map(|r| Input::Geometry(vec![r]))
-    } else {
-        from_cdr(&m.data).map(Input::Interaction).map_err(bad)
-    }
-}
-
 /// The recording's transforms, fed to the tf buffer in log-time order.
 struct TransformFeed {
     /// (log time, message, from /tf_static), in log-time order.
@@ -595,10 +503,11 @@ impl TransformFeed {
         let messages = inputs
             .iter()
             .zip(decoded)
-            .filter(|(_, d)| matches!(d, Ok(Input::Transforms)))
-            .filter_map(|(m, _)| {
-                let message = from_cdr::<TFMessage>(&m.data).ok()?;
-                Some((m.log_time, message, m.topic == TF_STATIC))
+            .filter_map(|(m, d)| match d {
+                Ok(Input::Transforms(message, is_static)) => {
+                    Some((m.log_time, message.clone(), *is_static))
+                }
+                _ => None,
             })
             .collect();
         Self {

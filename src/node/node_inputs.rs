@@ -23,6 +23,7 @@ use crate::runtime::outputs::{TF, TF_STATIC};
 use crate::runtime::params::Topics;
 use crate::runtime::qos_overrides::Endpoint;
 use crate::runtime::stepper::StepperCommand;
+use crate::runtime::{Input, InputKind, InputTopics};
 use crate::scene::SceneFile;
 
 /// The node's subscriptions.
@@ -62,16 +63,13 @@ impl Inputs {
             tf_static: subscription(node, TF_STATIC, q(TF_STATIC))?,
             joints: Vec::new(),
         };
-        // One subscription per joint-state topic, for every robot on it (a JointState may
-        // carry the joints of several robots).
-        let mut topics: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
-        for r in scene.iter().flat_map(|f| &f.robots) {
-            topics
-                .entry(r.joint_states.as_str())
-                .or_default()
-                .push(r.name.clone());
-        }
-        for (topic, robots) in topics {
+        // One subscription per joint-state topic, for every robot on it.
+        let input_topics = InputTopics::new(t, scene);
+        let joint_topics = input_topics.all().filter_map(|(topic, kind)| match kind {
+            InputKind::Joints(robots) => Some((topic, robots.clone())),
+            _ => None,
+        });
+        for (topic, robots) in joint_topics {
             if let Some(recorder) = recorder {
                 let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
                 if let Err(e) = recorder.declare(info) {
@@ -113,37 +111,32 @@ pub async fn serve(
     node_name: &str,
 ) {
     let outputs = &shared.outputs;
-    let (max_points, mesh_frame, instance_field) = shared
-        .params
-        .read()
-        .map(|p| (p.max_points, p.mesh_frame.clone(), p.instance_field.clone()))
-        .unwrap_or_else(|_| (1_000_000, "world".into(), "instance".into()));
-    let submit = |requests: Result<Vec<BuildRequest>, String>| match requests {
-        Ok(requests) => {
+    // Read once at start: the size limit, mesh frame and instance field the inputs are decoded
+    // with take a `ros2 param set` from the next start on.
+    let p = shared.params.read().map(|p| p.clone()).unwrap_or_default();
+    let submit = |input: Result<Input, String>| match input {
+        Ok(Input::Geometry(requests)) => {
             for request in requests {
                 let _ = step_tx.send(StepperCommand::Seen(request.key()));
                 shared.health.builds_queued.fetch_add(1, Ordering::Relaxed);
                 let _ = build_tx.send(request);
             }
         }
+        Ok(_) => {}
         Err(problem) => outputs.report(Status::ERROR, 0, "input_rejected", problem),
     };
     let t = &inputs.topics;
     let clouds = inputs.points.async_stream().for_each(|m| {
         if let Ok((cloud, _)) = m {
             shared.record_input(&t.points, Some(cloud.header.stamp.nanos()), &cloud);
-            submit(BuildRequest::from_cloud(
-                &cloud,
-                max_points,
-                &instance_field,
-            ));
+            submit(Input::cloud(&cloud, &p));
         }
         async {}
     });
     let meshes = inputs.mesh.async_stream().for_each(|m| {
         if let Ok((mesh, _)) = m {
             shared.record_input(&t.mesh, None, &mesh);
-            submit(BuildRequest::from_mesh(&mesh, &mesh_frame, 0, max_points).map(|r| vec![r]));
+            submit(Input::mesh(&mesh, &p));
         }
         async {}
     });
@@ -151,10 +144,7 @@ pub async fn serve(
         if let Ok((m, _)) = m {
             let stamp = m.header.stamp.nanos();
             shared.record_input(&t.mesh_stamped, Some(stamp), &m);
-            submit(
-                BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, max_points)
-                    .map(|r| vec![r]),
-            );
+            submit(Input::mesh_stamped(&m, &p));
         }
         async {}
     });

@@ -7,6 +7,7 @@ pub(crate) mod builder;
 pub(crate) mod clock;
 pub(crate) mod cloud_objects;
 pub(crate) mod diagnostics;
+pub(crate) mod inputs;
 pub(crate) mod markers;
 pub(crate) mod names;
 pub(crate) mod object_key;
@@ -27,6 +28,7 @@ pub use builder::{
 pub use clock::NodeClock;
 pub use cloud_objects::{split_by_instance, CloudTemplate, InstanceError, INSTANCE_FIELDS};
 pub use diagnostics::Health;
+pub use inputs::{Input, InputKind, InputTopics};
 pub use names::{NameError, NameResolver, Remap};
 pub use outputs::{topic_table, Outputs, TF, TF_STATIC};
 pub use param_file::ParamLoader;

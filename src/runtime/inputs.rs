@@ -1,0 +1,156 @@
+//! One dispatch from topic to input, for both shells: which topics the runtime listens to,
+//! what each carries, and each message turned into what the runtime takes. The node subscribes
+//! to [`InputTopics::all`] and hands each typed message to the constructors below; a replay
+//! decodes each recorded message of those topics with [`InputTopics::decode`].
+
+use std::collections::BTreeMap;
+
+use super::builder::BuildRequest;
+use super::outputs::{TF, TF_STATIC};
+use super::params::{NodeParams, Topics};
+use crate::msg::{
+    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, TFMessage,
+};
+use crate::scene::SceneFile;
+
+/// What a topic carries.
+#[derive(Clone, Debug, PartialEq)]
+pub enum InputKind {
+    /// sensor_msgs/PointCloud2: an object per instance id, or the frame's one object.
+    Cloud,
+    /// shape_msgs/Mesh, in the `mesh_frame` parameter's frame.
+    Mesh,
+    /// physskin/MeshStamped.
+    MeshStamped,
+    /// physskin/Interaction: a push, a hold, a release.
+    Interaction,
+    /// tf2_msgs/TFMessage, static or not.
+    Transforms {
+        /// From /tf_static.
+        is_static: bool,
+    },
+    /// sensor_msgs/JointState for the scene robots named.
+    Joints(Vec<String>),
+}
+
+impl InputKind {
+    /// The ROS type of the topic's messages, "pkg/msg/Name".
+    pub fn type_name(&self) -> String {
+        match self {
+            Self::Cloud => PointCloud2::type_name(),
+            Self::Mesh => Mesh::type_name(),
+            Self::MeshStamped => MeshStamped::type_name(),
+            Self::Interaction => Interaction::type_name(),
+            Self::Transforms { .. } => TFMessage::type_name(),
+            Self::Joints(_) => JointState::type_name(),
+        }
+    }
+}
+
+/// An input, decoded and ready for the runtime.
+pub enum Input {
+    /// A cloud's objects (one per instance id) or a mesh.
+    Geometry(Vec<BuildRequest>),
+    /// Transforms for the tf buffer.
+    Transforms(TFMessage, bool),
+    /// A push, hold or release.
+    Interaction(Interaction),
+    /// A joint state for the scene robots on its topic.
+    Joints(Vec<String>, JointState),
+}
+
+impl Input {
+    /// A cloud's objects, with the cloud's size limit and instance field from `p`.
+    pub fn cloud(cloud: &PointCloud2, p: &NodeParams) -> Result<Self, String> {
+        BuildRequest::from_cloud(cloud, p.max_points, &p.instance_field).map(Self::Geometry)
+    }
+
+    /// A mesh in the `mesh_frame` parameter's frame.
+    pub fn mesh(mesh: &Mesh, p: &NodeParams) -> Result<Self, String> {
+        BuildRequest::from_mesh(mesh, &p.mesh_frame, 0, p.max_points)
+            .map(|r| Self::Geometry(vec![r]))
+    }
+
+    /// A mesh in its header's frame, at its stamp.
+    pub fn mesh_stamped(m: &MeshStamped, p: &NodeParams) -> Result<Self, String> {
+        let stamp = m.header.stamp.nanos();
+        BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, p.max_points)
+            .map(|r| Self::Geometry(vec![r]))
+    }
+}
+
+/// The topics the runtime listens to and what each carries.
+#[derive(Clone, Debug)]
+pub struct InputTopics {
+    by_name: BTreeMap<String, InputKind>,
+}
+
+impl InputTopics {
+    /// The input topics of `topics` (resolved), /tf, /tf_static, and the joint-state topic of
+    /// each robot of `scene` (a JointState may carry the joints of several robots).
+    pub fn new(topics: &Topics, scene: Option<&SceneFile>) -> Self {
+        let mut by_name = BTreeMap::new();
+        for r in scene.iter().flat_map(|f| &f.robots) {
+            let entry = by_name
+                .entry(r.joint_states.clone())
+                .or_insert_with(|| InputKind::Joints(Vec::new()));
+            if let InputKind::Joints(robots) = entry {
+                robots.push(r.name.clone());
+            }
+        }
+        by_name.insert(TF.into(), InputKind::Transforms { is_static: false });
+        by_name.insert(TF_STATIC.into(), InputKind::Transforms { is_static: true });
+        by_name.insert(topics.points.clone(), InputKind::Cloud);
+        by_name.insert(topics.mesh.clone(), InputKind::Mesh);
+        by_name.insert(topics.mesh_stamped.clone(), InputKind::MeshStamped);
+        by_name.insert(topics.interaction.clone(), InputKind::Interaction);
+        Self { by_name }
+    }
+
+    /// What `topic` carries; None: not an input.
+    pub fn kind(&self, topic: &str) -> Option<&InputKind> {
+        self.by_name.get(topic)
+    }
+
+    /// Every input topic with what it carries.
+    pub fn all(&self) -> impl Iterator<Item = (&str, &InputKind)> {
+        self.by_name
+            .iter()
+            .map(|(name, kind)| (name.as_str(), kind))
+    }
+
+    /// A recorded message of an input `topic`: its type and encoding checked, decoded, and
+    /// made an input; `at` names it in errors.
+    pub fn decode(
+        &self,
+        topic: &str,
+        type_name: &str,
+        encoding: &str,
+        bytes: &[u8],
+        p: &NodeParams,
+        at: &str,
+    ) -> Result<Input, String> {
+        let kind = self
+            .kind(topic)
+            .ok_or_else(|| format!("{at}: not an input topic"))?;
+        let expected = kind.type_name();
+        if encoding != "cdr" || type_name != expected {
+            return Err(format!(
+                "{at}: carries {type_name:?} in encoding {encoding:?}, expected {expected} in cdr"
+            ));
+        }
+        let bad = |e: String| format!("{at}: {e}");
+        match kind {
+            InputKind::Cloud => Input::cloud(&from_cdr(bytes).map_err(bad)?, p),
+            InputKind::Mesh => Input::mesh(&from_cdr(bytes).map_err(bad)?, p),
+            InputKind::MeshStamped => Input::mesh_stamped(&from_cdr(bytes).map_err(bad)?, p),
+            InputKind::Interaction => from_cdr(bytes).map(Input::Interaction).map_err(bad),
+            InputKind::Transforms { is_static } => {
+                Ok(Input::Transforms(from_cdr(bytes).map_err(bad)?, *is_static))
+            }
+            InputKind::Joints(robots) => {
+                Ok(Input::Joints(robots.clone(), from_cdr(bytes).map_err(bad)?))
+            }
+        }
+    }
+}
