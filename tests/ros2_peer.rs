@@ -456,3 +456,30 @@ fn rclpy_stream_is_one_object_kept_replaced_and_paused() {
         .fold(0.0, f64::max);
     assert!(worst > 0.0 && worst < 0.005, "residual up to {worst} m");
 }
+
+/// `physskin replay bags/demo.mcap --publish` feeds a running node: the demo's three shapes
+/// (a cloud, a mesh, a stamped mesh) are built by the node from the recording's inputs, and its
+/// pokes arrive as interactions.
+#[test]
+fn replay_publish_feeds_a_running_node() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let log = root.join("target/publish-node.log");
+    let script = format!(
+        "{node} node --domain-id 35 > {log} 2>&1 & N=$!; \
+         {node} replay {bag} --publish --pace 2 --domain-id 35; RC=$?; sleep 1; \
+         kill -INT $N; wait $N; NODE_RC=$?; \
+         echo node exit $NODE_RC; exit $(( RC != 0 ? RC : NODE_RC ))",
+        node = env!("CARGO_BIN_EXE_physskin"),
+        bag = root.join("bags/demo.mcap").display(),
+        log = log.display(),
+    );
+    let stdout = in_private_net(&script, &[&log]);
+    let text = std::fs::read_to_string(&log).unwrap();
+    let built = text.matches("shape_ready").count();
+    assert_eq!(built, 3, "the node built {built} shapes\n{stdout}\n{text}");
+    assert!(
+        stdout.contains("messages on /physskin/interaction"),
+        "{stdout}"
+    );
+    assert!(!text.contains("input_rejected"), "{text}");
+}

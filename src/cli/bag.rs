@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use physskin::bag::{recover, RecordOptions};
-use physskin::node::RosArgs;
+use physskin::node::{send_recording, RosArgs, SendOptions};
 use physskin::replay::{replay, ReplayOptions};
 use physskin::shm::ShmOptions;
 use physskin::skinning::NeuralModel;
@@ -45,8 +45,46 @@ pub struct ReplayArgs {
     /// recording's JointState messages.
     #[arg(long)]
     scene: Option<PathBuf>,
+    /// Instead of replaying here, publish the recording's inputs to a running node (the one
+    /// `--ros-args` names, default /physskin) on their topics, at the recorded pace (or
+    /// `--pace`), on ROS_DOMAIN_ID (or `--domain-id`).
+    #[arg(long, conflicts_with_all = ["out", "shm", "scene", "timings"])]
+    publish: bool,
+    /// ROS_DOMAIN_ID for `--publish` (default: the environment's, else 0).
+    #[arg(long, requires = "publish")]
+    domain_id: Option<u16>,
     #[arg(long)]
     json: bool,
+}
+
+/// Publishes the inputs of `args.input` to the running node `names` resolves the topics of.
+fn publish(
+    args: &ReplayArgs,
+    bytes: &[u8],
+    topics: physskin::runtime::Topics,
+) -> physskin::Result<()> {
+    let options = SendOptions {
+        topics,
+        domain_id: args
+            .domain_id
+            .or_else(|| std::env::var("ROS_DOMAIN_ID").ok()?.parse().ok())
+            .unwrap_or(0),
+        pace: args.pace.unwrap_or(1.0),
+        wait_s: 5.0,
+    };
+    let summary = send_recording(bytes, &args.input.display().to_string(), &options)?;
+    if args.json {
+        super::print_json(&summary);
+        return Ok(());
+    }
+    for topic in &summary.unmatched {
+        eprintln!("physskin: no subscriber on {topic} within 5 s; sent anyway");
+    }
+    for (topic, n) in &summary.sent {
+        println!("{n} messages on {topic}");
+    }
+    println!("sent in {:.2} s", summary.wall_seconds);
+    Ok(())
 }
 
 /// Replays `args.input`; `ros` names the replayed node and sets its parameters as for
@@ -75,6 +113,13 @@ pub fn run_replay(args: ReplayArgs, ros: RosArgs) -> physskin::Result<()> {
         path: args.input.clone(),
         source: e,
     })?;
+    if args.publish {
+        let topics = params
+            .topics
+            .resolved(&names)
+            .map_err(|e| Error::Geometry(e.to_string()))?;
+        return publish(&args, &bytes, topics);
+    }
     let model = NeuralModel::bundled()?;
     let options = ReplayOptions {
         params,

@@ -10,6 +10,7 @@ mod node;
 mod node_inputs;
 mod publishers;
 mod ros_params;
+mod send;
 mod services;
 mod shared;
 
@@ -17,3 +18,4 @@ pub use args::{split_ros_args, LogLevel, RosArgs, RosArgsError};
 pub use dds::{context, publisher, qos_of, reliable_qos, sensor_qos, subscription, NodeError};
 pub use logger::install_logger;
 pub use node::{run_node, NodeConfig};
+pub use send::{send_recording, SendOptions, SendSummary};
