@@ -31,5 +31,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })?;
         std::thread::sleep(Duration::from_millis(2));
     }
+    println!("{seen} frames received, {} lost", subscriber.lost());
     Ok(())
 }

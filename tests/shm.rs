@@ -71,10 +71,62 @@ fn a_second_rust_process_reads_frames_in_place() {
         "{} deformed frames in 5 s",
         sequences.len()
     );
+    // A subscriber that keeps up gets every frame: the replay's catch-up after a slow build
+    // included.
     assert!(
-        sequences.windows(2).all(|w| w[1] > w[0]),
-        "sequence numbers increase"
+        sequences.windows(2).all(|w| w[1] == w[0] + 1),
+        "sequence numbers without gaps: {sequences:?}"
     );
+    assert_eq!(deformed.lost(), 0);
+}
+
+/// A subscriber that falls behind is told how many frames it lost: the publisher sends more
+/// than the service holds for it, and the oldest are overwritten.
+#[test]
+fn a_subscriber_that_falls_behind_counts_what_it_lost() {
+    use physskin::shm::{ShmOptions, ShmPublisher, SUBSCRIBER_BUFFER};
+    let prefix = format!("physskin_behind_{}/", std::process::id());
+    let options = ShmOptions {
+        deformed_service: format!("{prefix}deformed_points"),
+        weights_service: format!("{prefix}weights"),
+        initial_max_floats: 300,
+    };
+    let subscriber = ShmSubscriber::open(&options.deformed_service).unwrap();
+    let publisher = ShmPublisher::create(&options).unwrap();
+    let xyz = vec![0.5f32; 300];
+    let sent = SUBSCRIBER_BUFFER + 36;
+    for frame in 0..sent {
+        publisher
+            .publish_deformed(1, frame as i64, 2, &xyz)
+            .unwrap();
+    }
+    let mut sequences = Vec::new();
+    let received = subscriber
+        .receive(|h, values| {
+            assert_eq!(values.len(), 300);
+            sequences.push(h.sequence);
+        })
+        .unwrap();
+    assert_eq!(
+        received, SUBSCRIBER_BUFFER,
+        "the newest frames the service held"
+    );
+    assert_eq!(sequences.last(), Some(&(sent as u64 - 1)));
+    // The first frame it got tells it nothing of those before; the next gap does.
+    publisher.publish_deformed(1, 0, 2, &xyz).unwrap();
+    assert_eq!(subscriber.receive(|_, _| {}).unwrap(), 1);
+    assert_eq!(
+        subscriber.lost(),
+        0,
+        "no gap after the first frame received"
+    );
+    for frame in 0..(SUBSCRIBER_BUFFER + 10) {
+        publisher
+            .publish_deformed(1, frame as i64, 2, &xyz)
+            .unwrap();
+    }
+    subscriber.receive(|_, _| {}).unwrap();
+    assert_eq!(subscriber.lost(), 10);
 }
 
 #[test]

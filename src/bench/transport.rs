@@ -34,10 +34,18 @@ pub struct TransportReport {
     pub dds_p99_ms: f64,
     /// Frames the DDS subscriber received of those sent.
     pub dds_received: usize,
+    /// Frames streamed over iceoryx2 at 60 Hz to a subscriber polling every 2 ms.
+    pub iceoryx2_stream_frames: usize,
+    /// Of those, frames the subscriber received.
+    pub iceoryx2_stream_received: usize,
+    /// Of those, frames the subscriber counted lost (gaps in the sequence numbers).
+    pub iceoryx2_stream_lost: u64,
 }
 
 const POINTS: usize = 100_000;
 const FRAMES: usize = 200;
+/// Frames of the 60 Hz stream (2 s).
+const STREAM_FRAMES: usize = 120;
 
 fn p99(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -93,6 +101,10 @@ pub fn run_transport_bench(domain_id: u16, log: impl Fn(&str)) -> Result<Transpo
         "iceoryx2: {} frames, median {:.4} ms",
         shm_ms.len(),
         median(&shm_ms)
+    ));
+    let (received, lost) = stream_at_60_hz(&shm, &options, &xyz)?;
+    log(&format!(
+        "iceoryx2 at 60 Hz: {received} of {STREAM_FRAMES} frames received, {lost} lost"
     ));
 
     // DDS: the same frame as a PointCloud2, through RustDDS, reliable.
@@ -152,5 +164,27 @@ pub fn run_transport_bench(domain_id: u16, log: impl Fn(&str)) -> Result<Transpo
         dds_median_ms: median(&dds_ms),
         dds_received: dds_ms.len(),
         dds_p99_ms: p99(dds_ms),
+        iceoryx2_stream_frames: STREAM_FRAMES,
+        iceoryx2_stream_received: received,
+        iceoryx2_stream_lost: lost,
     })
+}
+
+/// Streams `xyz` at 60 Hz to a new subscriber that polls every 2 ms between frames, as a
+/// local consumer would; returns the frames it received and those it counted lost.
+fn stream_at_60_hz(shm: &ShmPublisher, options: &ShmOptions, xyz: &[f32]) -> Result<(usize, u64)> {
+    let subscriber = ShmSubscriber::open(&options.deformed_service)?;
+    let (start, period) = (Instant::now(), Duration::from_secs_f64(1.0 / 60.0));
+    let mut received = 0;
+    for frame in 0..STREAM_FRAMES {
+        shm.publish_deformed(2, frame as i64, 17, xyz)?;
+        while start.elapsed() < period * (frame as u32 + 1) {
+            received += subscriber.receive(|_, values| {
+                std::hint::black_box(values.last());
+            })?;
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+    received += subscriber.receive(|_, _| {})?;
+    Ok((received, subscriber.lost()))
 }

@@ -7,6 +7,8 @@
 //! [`FrameHeader`] (type name "PhysskinFrameHeader"), so C, C++ and Python subscribers can open
 //! them too.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::*;
 use iceoryx2::service::ipc_threadsafe;
@@ -67,7 +69,7 @@ pub struct ShmOptions {
     /// Default "physskin/weights".
     pub weights_service: String,
     /// Floats a frame may hold before the publisher reallocates (it grows by powers of two).
-    /// Default 3,000,000 (1M points of x, y, z).
+    /// Default 300,000 (100k points of x, y, z).
     pub initial_max_floats: usize,
 }
 
@@ -76,12 +78,22 @@ impl Default for ShmOptions {
         Self {
             deformed_service: "physskin/deformed_points".into(),
             weights_service: "physskin/weights".into(),
-            initial_max_floats: 3_000_000,
+            initial_max_floats: 300_000,
         }
     }
 }
 
 type Service = ipc_threadsafe::Service;
+
+/// Frames a subscriber holds before the oldest is overwritten: a second of one object at 60 Hz,
+/// or a replay's catch-up after a slow build (a burst of up to about 30 frames of three
+/// objects), while the subscriber polls every few milliseconds. Every opener of a service must
+/// ask for the same (tests/peers/shm_peer.py does).
+pub const SUBSCRIBER_BUFFER: usize = 64;
+
+/// Subscribers per service. The shared segment holds about MAX_SUBSCRIBERS x SUBSCRIBER_BUFFER
+/// frames of the largest size so far (address space; only written frames take memory).
+pub const MAX_SUBSCRIBERS: usize = 8;
 
 /// An iceoryx2 node; its own log is kept to errors (it would otherwise note on every start that
 /// no config file exists). What processes killed with SIGKILL left behind (in /dev/shm and
@@ -100,7 +112,7 @@ fn new_node() -> Result<Node<Service>, ShmError> {
 pub struct ShmPublisher {
     deformed: Publisher<Service, [f32], FrameHeader>,
     weights: Publisher<Service, [f32], FrameHeader>,
-    sequences: [std::sync::atomic::AtomicU64; 2],
+    sequences: [AtomicU64; 2],
     // Dropped last: the ports above belong to it.
     _node: Node<Service>,
 }
@@ -121,9 +133,9 @@ pub(crate) fn open_service(
         .publish_subscribe::<[f32]>()
         .user_header::<FrameHeader>()
         .history_size(1)
-        .subscriber_max_buffer_size(4)
+        .subscriber_max_buffer_size(SUBSCRIBER_BUFFER)
         .max_publishers(4)
-        .max_subscribers(16)
+        .max_subscribers(MAX_SUBSCRIBERS)
         .open_or_create()
         .map_err(transport)
 }
@@ -199,8 +211,7 @@ impl ShmPublisher {
         values: &[f32],
         per_point: usize,
     ) -> Result<(), ShmError> {
-        let sequence =
-            self.sequences[kind as usize].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let sequence = self.sequences[kind as usize].fetch_add(1, Ordering::Relaxed);
         let mut sample = publisher
             .loan_slice_uninit(values.len())
             .map_err(transport)?;
@@ -218,9 +229,14 @@ impl ShmPublisher {
     }
 }
 
-/// Receives the frames of one service, reading the publisher's memory in place.
+/// Receives the frames of one service, reading the publisher's memory in place, and counts
+/// the frames it lost (gaps in the sequence numbers: it fell more than [`SUBSCRIBER_BUFFER`]
+/// frames behind, and the oldest were overwritten).
 pub struct ShmSubscriber {
     subscriber: iceoryx2::port::subscriber::Subscriber<Service, [f32], FrameHeader>,
+    /// The sequence number the next frame should carry; u64::MAX before the first.
+    next: AtomicU64,
+    lost: AtomicU64,
     _node: Node<Service>,
 }
 
@@ -234,8 +250,16 @@ impl ShmSubscriber {
             .map_err(transport)?;
         Ok(Self {
             subscriber,
+            next: AtomicU64::new(u64::MAX),
+            lost: AtomicU64::new(0),
             _node: node,
         })
+    }
+
+    /// Frames lost since the first received: sent by the publisher, overwritten before this
+    /// subscriber took them.
+    pub fn lost(&self) -> u64 {
+        self.lost.load(Ordering::Relaxed)
     }
 
     /// Calls `frame` with each frame received since the last call (its header and its floats,
@@ -243,7 +267,14 @@ impl ShmSubscriber {
     pub fn receive(&self, mut frame: impl FnMut(&FrameHeader, &[f32])) -> Result<usize, ShmError> {
         let mut count = 0;
         while let Some(sample) = self.subscriber.receive().map_err(transport)? {
-            frame(sample.user_header(), sample.payload());
+            let header = sample.user_header();
+            let expected = self.next.swap(header.sequence + 1, Ordering::Relaxed);
+            if expected != u64::MAX {
+                // A publisher that restarted counts from 0 again: nothing lost.
+                let gap = header.sequence.saturating_sub(expected);
+                self.lost.fetch_add(gap, Ordering::Relaxed);
+            }
+            frame(header, sample.payload());
             count += 1;
         }
         Ok(count)

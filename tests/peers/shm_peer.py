@@ -41,9 +41,9 @@ def main():
         .publish_subscribe(iox2.Slice[ctypes.c_float])
         .user_header(FrameHeader)
         .history_size(1)
-        .subscriber_max_buffer_size(4)
+        .subscriber_max_buffer_size(64)  # physskin::shm::SUBSCRIBER_BUFFER
         .max_publishers(4)
-        .max_subscribers(16)
+        .max_subscribers(8)  # physskin::shm::MAX_SUBSCRIBERS
         .open_or_create()
     )
     subscriber = service.subscriber_builder().create()
