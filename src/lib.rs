@@ -43,6 +43,31 @@
 //! To hand the slices to other processes without a copy, publish them with
 //! [`shm::ShmPublisher`]; `examples/embed.rs` does both.
 //!
+//! # The node, the replay and the recordings
+//!
+//! [`node::run`] runs the ROS 2 node in this process until a flag is set ([`node::NodeConfig`]
+//! carries its parameters, names and DDS domain). [`replay::replay`] feeds a recording's
+//! inputs through the same runtime on the log's time and records the outputs; two replays give
+//! identical bytes. [`bag`] reads and writes MCAP in rosbag2's profile, [`msg`] holds the ROS 2
+//! message types and their CDR codec.
+//!
+//! ```
+//! use physskin::replay::{replay, ReplayOptions};
+//! use physskin::skinning::NeuralModel;
+//!
+//! # fn main() -> physskin::Result<()> {
+//! let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/demo.mcap");
+//! let bytes = std::fs::read(demo).expect("the bundled demo recording");
+//! let options = ReplayOptions { tail_s: 0.0, ..Default::default() };
+//! let model = NeuralModel::bundled()?;
+//! let summary = replay(&bytes, "demo.mcap", &model, &options, &mut |_tick| {})?;
+//! // A creature (a cloud), a ball and a rounded block (meshes), built and stepped.
+//! assert_eq!(summary.shapes.len(), 3);
+//! assert_eq!(summary.rejected, 0);
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! # The layers underneath
 //!
 //! ```
@@ -92,8 +117,12 @@
 #![warn(missing_docs)]
 
 pub mod bag;
+mod bench;
+pub mod cli;
+mod demo;
 pub mod error;
 pub mod geometry;
+mod io;
 mod linalg;
 pub mod msg;
 pub mod node;
@@ -104,6 +133,7 @@ pub mod runtime;
 pub mod scene;
 pub mod shm;
 pub mod skinning;
+mod training;
 
 pub use error::{Error, Result};
 pub use pipeline::{BodyOptions, SoftBody, Support};

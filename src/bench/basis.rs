@@ -13,12 +13,12 @@ use super::fields::{fem_references, field_errors};
 use super::input::prepare_input;
 use super::plot::{scatter_svg, Series};
 use super::sim::{prepare_shape, scenario_params, BenchShape};
-use physskin::geometry::{bundled, load_geometry, Cubature, Shape, TetMesh};
-use physskin::physics::SimParams;
-use physskin::skinning::{
+use crate::geometry::{bundled, load_geometry, Cubature, Shape, TetMesh};
+use crate::physics::SimParams;
+use crate::skinning::{
     refine_field, NeuralField, NeuralModel, RefineBudget, RefineOptions, SkinningField,
 };
-use physskin::Result;
+use crate::Result;
 
 /// What to run.
 #[derive(Clone, Debug)]

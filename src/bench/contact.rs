@@ -15,9 +15,9 @@ use serde::Serialize;
 
 use super::soft_contact::{soft_contact, SoftContactRow};
 use super::stats::quantile;
-use physskin::scene::{FieldCache, Scene, SceneFile, SceneOptions, DEFAULT_ROLLING_FRICTION};
-use physskin::skinning::NeuralModel;
-use physskin::Result;
+use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions, DEFAULT_ROLLING_FRICTION};
+use crate::skinning::NeuralModel;
+use crate::Result;
 
 /// Seconds the ball settles onto the floor before its motion is measured, and how long it is
 /// measured (60 Hz steps).
@@ -162,7 +162,7 @@ fn resting_ball(
         "floor: 0\nsleep: null\nrolling_friction: {rolling}\nobjects:\n  - name: ball\n    shape: {{sphere: {radius}}}\n    \
          position: [0, 0, {radius}]\n    material: {{young: {young}}}\n{sizes}"
     );
-    let file = SceneFile::parse(&yaml).map_err(|reason| physskin::Error::InvalidParameter {
+    let file = SceneFile::parse(&yaml).map_err(|reason| crate::Error::InvalidParameter {
         name: "contact bench scene",
         reason,
     })?;

@@ -11,14 +11,14 @@ use serde::Serialize;
 
 use super::input::prepare_input;
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, BenchShape, Scenario};
-use physskin::geometry::TetMesh;
-use physskin::geometry::{Cubature, Shape, VoxelGrid};
-use physskin::physics::{SimParams, Solver, Subspace};
-use physskin::skinning::{
+use crate::geometry::TetMesh;
+use crate::geometry::{Cubature, Shape, VoxelGrid};
+use crate::physics::{SimParams, Solver, Subspace};
+use crate::skinning::{
     refine_field, FieldMetrics, NeuralField, NeuralModel, RefineBudget, RefineOptions,
     SkinningField, DEFAULT_REFINE_MS,
 };
-use physskin::Result;
+use crate::Result;
 
 /// What to measure.
 #[derive(Clone, Debug)]

@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use physskin::geometry::{Shape, SurfaceSamples, VoxelGrid};
+use crate::geometry::{Shape, SurfaceSamples, VoxelGrid};
 
 /// What the product does with a new shape before the network: the inside test, surface samples
 /// with normals, stratified interior reference points, all in the normalized frame.
@@ -28,7 +28,7 @@ pub fn prepare_input(
     let mut grid = VoxelGrid::from_shape(shape, 128, None);
     grid.keep_largest_component();
     let (_, surface, reference) =
-        physskin::pipeline::network_input(shape, &grid, surface_points, reference_points);
+        crate::pipeline::network_input(shape, &grid, surface_points, reference_points);
     PreparedInput {
         grid,
         surface,

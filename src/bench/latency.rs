@@ -10,13 +10,13 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use physskin::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
-use physskin::msg::cloud::encode_cloud;
-use physskin::msg::{Header, PointCloud2};
-use physskin::node::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
-use physskin::runtime::Topics;
-use physskin::skinning::NeuralModel;
-use physskin::{Error, Result};
+use crate::geometry::{bundled, sample_surface, SurfaceSampling, VoxelGrid};
+use crate::msg::cloud::encode_cloud;
+use crate::msg::{Header, PointCloud2};
+use crate::node::{context, publisher, reliable_qos, subscription, NodeConfig};
+use crate::runtime::Topics;
+use crate::skinning::NeuralModel;
+use crate::{Error, Result};
 
 /// What `bench latency` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -81,9 +81,9 @@ pub struct RclpyLatency {
 /// image (width about 180), as a depth camera driver publishes it (organized, NaN where
 /// nothing is seen, with colours), in `frame`.
 fn box_scan(frame: &str, width: usize) -> PointCloud2 {
-    use physskin::msg::camera_cloud::{camera_cloud, SeenObject};
-    let shape = physskin::geometry::bundled("box").expect("the bundled box");
-    let camera = physskin::geometry::Camera::looking_at(
+    use crate::msg::camera_cloud::{camera_cloud, SeenObject};
+    let shape = crate::geometry::bundled("box").expect("the bundled box");
+    let camera = crate::geometry::Camera::looking_at(
         &shape,
         nalgebra::Vector3::new(1.0, 0.6, 0.8),
         1.5,
@@ -191,7 +191,7 @@ pub fn run_latency_bench(
         .expect("the default names are valid");
     let node = {
         let stop = stop.clone();
-        std::thread::spawn(move || run_node(config, model, stop))
+        std::thread::spawn(move || crate::node::run(config, model, stop))
     };
     let result = (|| {
         let client = Client::start(domain_id, &topics)?;
@@ -436,7 +436,7 @@ fn rclpy_latency(
 }
 
 pub(crate) fn dds(message: String) -> Error {
-    Error::Node(physskin::node::NodeError::Dds(message))
+    Error::Node(crate::node::NodeError::Dds(message))
 }
 
 /// A benchmark's own ROS 2 node (no rosout) named `name`, in `ctx`.

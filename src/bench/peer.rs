@@ -23,11 +23,11 @@ use super::sim::{
     shape_on_grid, BenchShape, Scenario,
 };
 use super::stats::{median, quantile};
-use physskin::error::{Error, Result};
-use physskin::geometry::{box_grid_mesh, VoxelGrid};
-use physskin::physics::{SimParams, Solver};
-use physskin::pipeline::SoftBody;
-use physskin::skinning::NeuralModel;
+use crate::error::{Error, Result};
+use crate::geometry::{box_grid_mesh, VoxelGrid};
+use crate::physics::{SimParams, Solver};
+use crate::pipeline::SoftBody;
+use crate::skinning::NeuralModel;
 
 /// The block's edge, m, and Young's modulus, Pa (Poisson's ratio, density, time step and
 /// gravity are `SimParams`' defaults).
@@ -190,7 +190,7 @@ fn physskin_bodies(
     PHYSSKIN_SIZES
         .iter()
         .map(|&(handles, cubature)| {
-            let options = physskin::pipeline::BodyOptions {
+            let options = crate::pipeline::BodyOptions {
                 handles: Some(handles),
                 ..scenario_body_options(cubature)
             };

@@ -8,10 +8,10 @@ use serde::Serialize;
 
 use super::real_to_sim::{build, scenario_body_options, REFERENCE_VERTICES};
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, Scenario};
-use physskin::error::Result;
-use physskin::geometry::{bundled, scan_points, Camera};
-use physskin::physics::Solver;
-use physskin::skinning::NeuralModel;
+use crate::error::Result;
+use crate::geometry::{bundled, scan_points, Camera};
+use crate::physics::Solver;
+use crate::skinning::NeuralModel;
 
 /// The shapes scanned (the plate is left out: one view of a thin plate is refused as flat).
 pub const SCANNED: [&str; 4] = ["sphere", "box", "creature", "rod"];
@@ -90,7 +90,7 @@ pub fn run_real_bench(mut progress: impl FnMut(&str)) -> Result<RealBenchReport>
             .map(|d| {
                 let camera = Camera::looking_at(&mesh, Vector3::from(*d), 1.5, IMAGE.0, IMAGE.1);
                 let points = scan_points(&mesh, &camera)?;
-                let cloud = physskin::geometry::Shape::new(points, None, Vec::new())?;
+                let cloud = crate::geometry::Shape::new(points, None, Vec::new())?;
                 let started = std::time::Instant::now();
                 let (body, completion) = build(&model, &cloud, Some(&camera.position), &options)?;
                 let build_ms = started.elapsed().as_secs_f64() * 1e3;

@@ -9,12 +9,12 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, shape_on_grid, Scenario};
-use physskin::error::{Error, Result};
-use physskin::geometry::{load_geometry, Completion, Shape};
-use physskin::physics::Solver;
-use physskin::pipeline::{build_seen, BodyOptions, SoftBody, Support, DEFAULT_MAX_BUILD_POINTS};
-use physskin::runtime::REPLAY_REFINE_ITERATIONS;
-use physskin::skinning::{NeuralModel, RefineBudget};
+use crate::error::{Error, Result};
+use crate::geometry::{load_geometry, Completion, Shape};
+use crate::physics::Solver;
+use crate::pipeline::{build_seen, BodyOptions, SoftBody, Support, DEFAULT_MAX_BUILD_POINTS};
+use crate::runtime::REPLAY_REFINE_ITERATIONS;
+use crate::skinning::{NeuralModel, RefineBudget};
 
 /// What to simulate and against what.
 #[derive(Clone, Debug)]

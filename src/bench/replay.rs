@@ -9,14 +9,12 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::latency::sample_cloud;
-use physskin::bag::{RecordOptions, Recorder};
-use physskin::msg::Time;
-use physskin::replay::{replay, ReplayOptions};
-use physskin::runtime::{
-    BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage,
-};
-use physskin::skinning::NeuralModel;
-use physskin::Result;
+use crate::bag::{RecordOptions, Recorder};
+use crate::msg::Time;
+use crate::replay::{replay, ReplayOptions};
+use crate::runtime::{BuildOutcome, BuildRequest, Builder, NodeClock, NodeParams, Outputs, Stage};
+use crate::skinning::NeuralModel;
+use crate::Result;
 
 /// What `bench replay` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -49,7 +47,7 @@ pub fn run_replay_bench(
     mut progress: impl FnMut(&str),
 ) -> Result<ReplayBenchReport> {
     let model = NeuralModel::bundled()?;
-    std::fs::create_dir_all(scratch).map_err(|e| physskin::Error::Io {
+    std::fs::create_dir_all(scratch).map_err(|e| crate::Error::Io {
         path: scratch.into(),
         source: e,
     })?;
@@ -101,15 +99,15 @@ fn record_overhead(
     let params = NodeParams::default();
     let cloud = sample_cloud("creature", 10_000, "bench", 5);
     let request = BuildRequest::from_cloud(&cloud, params.max_points, &params.instance_field)
-        .map_err(physskin::Error::Geometry)?
+        .map_err(crate::Error::Geometry)?
         .remove(0);
     let clock = NodeClock::simulated();
-    let topics = physskin::runtime::Topics::default_resolved();
+    let topics = crate::runtime::Topics::default_resolved();
     let outputs = || Outputs::new(topics.clone(), params.publish.clone(), clock.clone(), true);
     let quiet = outputs();
     let BuildOutcome::Ready(body, _) = Builder::default().build(&request, &params, model, &quiet)
     else {
-        return Err(physskin::Error::Geometry(
+        return Err(crate::Error::Geometry(
             "the bench cloud did not build".into(),
         ));
     };
@@ -123,7 +121,7 @@ fn record_overhead(
         },
         Vec::new(),
     )?);
-    for topic in physskin::runtime::topic_table(&topics) {
+    for topic in crate::runtime::topic_table(&topics) {
         recorder.declare(topic)?;
     }
     let mut recording = outputs();
@@ -167,7 +165,7 @@ fn record_overhead(
 }
 
 fn poke(stage: &mut Stage, outputs: &Outputs, i: usize) {
-    use physskin::msg::{Header, Interaction, Point, Vector3 as RosVector3};
+    use crate::msg::{Header, Interaction, Point, Vector3 as RosVector3};
     let side = if (i / 60) % 2 == 0 { 1.0 } else { -1.0 };
     let force = Vector3::new(0.0, 200.0 * side, 0.0);
     stage.interact(

@@ -7,12 +7,12 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use physskin::scene::{
+use crate::scene::{
     reference_errors, FieldCache, ObjectError, ObjectReport, Recorder, Scene, SceneFile,
     SceneOptions,
 };
-use physskin::skinning::NeuralModel;
-use physskin::Result;
+use crate::skinning::NeuralModel;
+use crate::Result;
 
 /// The bundled scene.
 pub const WORKCELL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/scenes/workcell.yaml");
@@ -184,7 +184,7 @@ pub fn run_scene_bench(seconds: f64, log: impl Fn(&str)) -> Result<SceneBenchRep
     let every: Vec<String> = file
         .objects
         .iter()
-        .filter(|o| o.kind == physskin::scene::ObjectKind::Deformable)
+        .filter(|o| o.kind == crate::scene::ObjectKind::Deformable)
         .map(|o| o.name.clone())
         .collect();
     let run = |scene: SceneOptions, compare: &[String], settle: usize, exactly: bool| {

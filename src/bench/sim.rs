@@ -10,13 +10,13 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::stats::{median, quantile};
-use physskin::error::{Error, Result};
-use physskin::geometry::{
+use crate::error::{Error, Result};
+use crate::geometry::{
     bundled, sample_surface, stratified_subset, Cubature, Shape, SurfaceSampling, TetMesh,
     VoxelGrid,
 };
-use physskin::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
-use physskin::skinning::{EigenmodeField, EigenmodeOptions, SkinningField};
+use crate::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
+use crate::skinning::{EigenmodeField, EigenmodeOptions, SkinningField};
 
 /// What to run.
 #[derive(Clone, Debug, Default)]
@@ -287,7 +287,7 @@ pub fn run_sim_bench(
 }
 
 impl BenchShape {
-    pub(crate) fn eigen_normalization(&self) -> physskin::geometry::Normalization {
+    pub(crate) fn eigen_normalization(&self) -> crate::geometry::Normalization {
         self.source.normalization()
     }
 
@@ -667,7 +667,7 @@ pub struct SimulateSummary {
 /// model's handles with the learned field, or when a simulation fails.
 pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
     let scenario = Scenario::named(&options.scenario)?;
-    let name: &'static str = physskin::geometry::BUNDLED
+    let name: &'static str = crate::geometry::BUNDLED
         .iter()
         .find(|n| **n == options.shape)
         .ok_or_else(|| Error::InvalidParameter {
@@ -675,7 +675,7 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
             reason: format!(
                 "unknown shape {:?} (one of {:?})",
                 options.shape,
-                physskin::geometry::BUNDLED
+                crate::geometry::BUNDLED
             ),
         })?;
     let source = bundled(name).expect("a bundled shape");
@@ -689,7 +689,7 @@ pub fn simulate(options: &SimulateOptions) -> Result<SimulateSummary> {
         (Vec::new(), Vec::new())
     };
     let field: Arc<dyn SkinningField> = if options.learned {
-        let model = physskin::skinning::NeuralModel::bundled()?;
+        let model = crate::skinning::NeuralModel::bundled()?;
         if model.config().handles != options.modes {
             return Err(Error::InvalidParameter {
                 name: "modes",

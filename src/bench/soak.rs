@@ -12,14 +12,14 @@ use ros2_client::{Context, Node, Publisher, Subscription};
 use serde::Serialize;
 
 use super::latency::{client_node, dds, open_interfaces, sample_cloud};
-use physskin::bag::read_messages;
-use physskin::msg::{
+use crate::bag::read_messages;
+use crate::msg::{
     from_cdr, Header, Interaction, Point, PointCloud2, Status, SubspaceState, Vector3,
 };
-use physskin::node::{context, publisher, reliable_qos, run_node, subscription, NodeConfig};
-use physskin::runtime::Topics;
-use physskin::skinning::NeuralModel;
-use physskin::Result;
+use crate::node::{context, publisher, reliable_qos, subscription, NodeConfig};
+use crate::runtime::Topics;
+use crate::skinning::NeuralModel;
+use crate::Result;
 
 /// How long and how hard.
 #[derive(Clone, Debug)]
@@ -144,7 +144,7 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
     let (config, topics) = node_config(options);
     let node = {
         let stop = stop.clone();
-        std::thread::spawn(move || run_node(config, model, stop))
+        std::thread::spawn(move || crate::node::run(config, model, stop))
     };
     let client = match connect(options.domain_id, &topics) {
         Ok(c) => c,
@@ -343,7 +343,7 @@ const STREAM_AT: [f64; 3] = [0.0, 0.0, 1.0];
 /// Ten noisy views of the bundled 0.5 m ball from a 160 x 120 camera 1 m away at its frame's
 /// origin, 2 mm of depth noise at 1 m: the frames a depth camera streams of a resting object.
 fn stream_views() -> Vec<Vec<f32>> {
-    use physskin::geometry::{bundled, scan_points, Camera};
+    use crate::geometry::{bundled, scan_points, Camera};
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
     let ball = bundled("sphere").expect("a bundled shape");
@@ -385,7 +385,7 @@ fn send_stream_frame(
             frame_id: (*frame).into(),
             ..Header::default()
         };
-        let cloud = physskin::msg::cloud::encode_cloud(header, view, &[], &[]);
+        let cloud = crate::msg::cloud::encode_cloud(header, view, &[], &[]);
         send("a stream's frame", client.points.publish(cloud).is_ok());
     }
     report.stream_frames_sent += 1;
@@ -497,7 +497,7 @@ fn check_recording(first: &Path, report: &mut SoakReport) -> Result<()> {
     report.recording_files = files.len();
     report.recording_complete = !files.is_empty();
     for file in &files {
-        let bytes = std::fs::read(file).map_err(|e| physskin::Error::Io {
+        let bytes = std::fs::read(file).map_err(|e| crate::Error::Io {
             path: file.clone(),
             source: e,
         })?;

@@ -6,9 +6,9 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use super::scene::{run_scene, SceneRunOptions};
-use physskin::scene::{FieldCache, SceneFile, SceneOptions};
-use physskin::skinning::NeuralModel;
-use physskin::Result;
+use crate::scene::{FieldCache, SceneFile, SceneOptions};
+use crate::skinning::NeuralModel;
+use crate::Result;
 
 /// A 0.16 m block set 5 mm above a 0.2 m one on the floor.
 const STACK: &str = "floor: 0\nobjects:\n  \
@@ -70,7 +70,7 @@ fn run(
     model: &Arc<NeuralModel>,
     cache: &FieldCache,
 ) -> Result<Vec<SoftContactRow>> {
-    let file = SceneFile::parse(yaml).map_err(|reason| physskin::Error::InvalidParameter {
+    let file = SceneFile::parse(yaml).map_err(|reason| crate::Error::InvalidParameter {
         name: "soft contact bench scene",
         reason,
     })?;

@@ -9,12 +9,12 @@ use std::time::Instant;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
-use physskin::geometry::{box_grid_mesh, bundled, Shape};
-use physskin::physics::{SimParams, Solver};
-use physskin::pipeline::{BodyOptions, SoftBody, Support};
-use physskin::runtime::REPLAY_REFINE_ITERATIONS;
-use physskin::skinning::{NeuralModel, RefineBudget, SkinningField};
-use physskin::Result;
+use crate::geometry::{box_grid_mesh, bundled, Shape};
+use crate::physics::{SimParams, Solver};
+use crate::pipeline::{BodyOptions, SoftBody, Support};
+use crate::runtime::REPLAY_REFINE_ITERATIONS;
+use crate::skinning::{NeuralModel, RefineBudget, SkinningField};
+use crate::Result;
 
 /// How a case starts.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -211,7 +211,7 @@ fn stress_shape(name: &str) -> Result<Shape> {
     match name {
         "sheet" => Ok(box_grid_mesh(Vector3::new(0.4, 0.004, 0.4), 0.02)),
         other => bundled(other)
-            .ok_or_else(|| physskin::Error::Geometry(format!("no bundled shape `{other}`"))),
+            .ok_or_else(|| crate::Error::Geometry(format!("no bundled shape `{other}`"))),
     }
 }
 

@@ -18,14 +18,14 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
-use physskin::error::Result;
-use physskin::geometry::{
+use crate::error::Result;
+use crate::geometry::{
     box_mesh, reference_mesh, scan_faces, sdf_mesh, Camera, PointIndex, Shape, TetMesh,
 };
-use physskin::physics::{FemSim, Obstacle, Poke};
-use physskin::pipeline::{build_seen, strided, SoftBody, Support, Tracker, TrackingOptions};
-use physskin::runtime::NodeParams;
-use physskin::skinning::{NeuralModel, RefineBudget};
+use crate::physics::{FemSim, Obstacle, Poke};
+use crate::pipeline::{build_seen, strided, SoftBody, Support, Tracker, TrackingOptions};
+use crate::runtime::NodeParams;
+use crate::skinning::{NeuralModel, RefineBudget};
 
 use super::stats::{median, quantile};
 
@@ -460,8 +460,8 @@ struct Tracked {
     body: SoftBody,
     material: Vec<(usize, [f64; 3])>,
     hidden: Vec<usize>,
-    hidden_lifter: physskin::physics::Lifter,
-    surface_lifter: physskin::physics::Lifter,
+    hidden_lifter: crate::physics::Lifter,
+    surface_lifter: crate::physics::Lifter,
 }
 
 impl Run<'_> {
@@ -588,7 +588,7 @@ impl Run<'_> {
             );
             (p - self.truth.at(step, *m)).norm_squared()
         }));
-        let lift = |lifter: &physskin::physics::Lifter| {
+        let lift = |lifter: &crate::physics::Lifter| {
             let mut out = vec![0f32; 3 * lifter.len()];
             lifter.lift(body.body.state(), &mut out);
             out.chunks_exact(3)
@@ -714,10 +714,10 @@ fn write_stream(
     camera: &Camera,
     dt: f64,
 ) -> Result<()> {
-    use physskin::bag::{BagWriter, RecordOptions};
-    use physskin::msg::cloud::encode_cloud;
-    use physskin::msg::{self as m, to_cdr, Header, PointCloud2, TFMessage, Time};
-    use physskin::msg::{QosProfile, TopicInfo};
+    use crate::bag::{BagWriter, RecordOptions};
+    use crate::msg::cloud::encode_cloud;
+    use crate::msg::{self as m, to_cdr, Header, PointCloud2, TFMessage, Time};
+    use crate::msg::{QosProfile, TopicInfo};
     let pose = camera.optical_pose();
     let (t, q) = (pose.translation.vector, pose.rotation);
     let mut writer = BagWriter::create(RecordOptions {

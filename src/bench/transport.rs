@@ -8,11 +8,11 @@ use serde::Serialize;
 
 use super::latency::{client_node, dds, open_interfaces, sample_cloud};
 use super::stats::median;
-use physskin::msg::cloud::decode_cloud;
-use physskin::msg::{PointCloud2, Time};
-use physskin::node::{context, publisher, reliable_qos, subscription};
-use physskin::shm::{ShmOptions, ShmPublisher, ShmSubscriber};
-use physskin::Result;
+use crate::msg::cloud::decode_cloud;
+use crate::msg::{PointCloud2, Time};
+use crate::node::{context, publisher, reliable_qos, subscription};
+use crate::shm::{ShmOptions, ShmPublisher, ShmSubscriber};
+use crate::Result;
 
 /// What `bench transport` reports (serialized for `--json`).
 #[derive(Clone, Debug, Serialize)]

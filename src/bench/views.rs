@@ -11,8 +11,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
-use physskin::error::Result;
-use physskin::geometry::{
+use crate::error::Result;
+use crate::geometry::{
     box_mesh, bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, Shape, VoxelGrid,
 };
 

@@ -2,12 +2,12 @@
 
 use std::path::PathBuf;
 
-use physskin::bag::{recover, RecordOptions};
-use physskin::node::{send_recording, RosArgs, SendOptions};
-use physskin::replay::{replay, ReplayOptions};
-use physskin::shm::ShmOptions;
-use physskin::skinning::NeuralModel;
-use physskin::Error;
+use crate::bag::{recover, RecordOptions};
+use crate::node::{send_recording, RosArgs, SendOptions};
+use crate::replay::{replay, ReplayOptions};
+use crate::shm::ShmOptions;
+use crate::skinning::NeuralModel;
+use crate::Error;
 
 #[derive(clap::Args)]
 pub struct ReplayArgs {
@@ -58,11 +58,7 @@ pub struct ReplayArgs {
 }
 
 /// Publishes the inputs of `args.input` to the running node `names` resolves the topics of.
-fn publish(
-    args: &ReplayArgs,
-    bytes: &[u8],
-    topics: physskin::runtime::Topics,
-) -> physskin::Result<()> {
+fn publish(args: &ReplayArgs, bytes: &[u8], topics: crate::runtime::Topics) -> crate::Result<()> {
     let options = SendOptions {
         topics,
         domain_id: args
@@ -89,7 +85,7 @@ fn publish(
 
 /// Replays `args.input`; `ros` names the replayed node and sets its parameters as for
 /// `physskin node --ros-args ...`.
-pub fn run_replay(args: ReplayArgs, ros: RosArgs) -> physskin::Result<()> {
+pub fn run_replay(args: ReplayArgs, ros: RosArgs) -> crate::Result<()> {
     let (names, loader) = super::node::ros_setup(&ros, "physskin", "/", args.params.as_deref())?;
     for warning in &loader.warnings {
         eprintln!("[physskin] warn: {warning}");
@@ -190,7 +186,7 @@ pub struct RecoverArgs {
     out: PathBuf,
 }
 
-pub fn run_recover(args: RecoverArgs) -> physskin::Result<()> {
+pub fn run_recover(args: RecoverArgs) -> crate::Result<()> {
     let recovered = recover(&args.input, &args.out)?;
     let s = &recovered.summary;
     println!(

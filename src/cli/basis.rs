@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use crate::bench::{basis_plot, run_basis_bench, BasisOptions, BasisReport};
-use physskin::Result;
+use crate::Result;
 
 #[derive(clap::Args)]
 pub struct BasisArgs {

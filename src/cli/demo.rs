@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use crate::demo::{run_demo, write_demo_bag, DemoOptions, DemoScript};
-use physskin::skinning::NeuralModel;
+use crate::skinning::NeuralModel;
 
 #[derive(clap::Args)]
 pub struct DemoArgs {
@@ -30,7 +30,7 @@ pub struct DemoArgs {
     write_input: Option<PathBuf>,
 }
 
-pub fn run(args: DemoArgs) -> physskin::Result<()> {
+pub fn run(args: DemoArgs) -> crate::Result<()> {
     if let Some(path) = &args.write_input {
         let summary = write_demo_bag(&DemoScript::new(), path)?;
         eprintln!("wrote {} messages to {}", summary.messages, path.display());

@@ -4,10 +4,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::bench::{evaluate_fields, EvalOptions, EvalReport};
+use crate::geometry::{bundled, load_geometry, Shape};
+use crate::skinning::{NeuralModel, RefineBudget, RefineOptions};
 use crate::training::{dataset, TrainingConfig};
-use physskin::geometry::{bundled, load_geometry, Shape};
-use physskin::skinning::{NeuralModel, RefineBudget, RefineOptions};
-use physskin::{Error, Result};
+use crate::{Error, Result};
 
 #[derive(clap::Args)]
 pub struct EvalArgs {

@@ -7,12 +7,12 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use crate::bench::prepare_input;
-use crate::io::{render_field_png, write_npy_f32};
-use physskin::geometry::{
+use crate::geometry::{
     complete_view, load_geometry, write_ply, RawGeometry, Shape, SurfaceSamples,
 };
-use physskin::skinning::{NeuralModel, SkinningField};
-use physskin::{Error, Result};
+use crate::io::{render_field_png, write_npy_f32};
+use crate::skinning::{NeuralModel, SkinningField};
+use crate::{Error, Result};
 
 #[derive(clap::Args)]
 pub struct InferArgs {

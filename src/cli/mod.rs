@@ -1,20 +1,24 @@
-//! The subcommands that are more than a call into the library.
+//! The `physskin` command line: [`main`] parses the arguments and runs the subcommand; the
+//! modules here run those that are more than a call into the library.
 
-pub mod bag;
-pub mod basis;
-pub mod demo;
-pub mod eval;
-pub mod infer;
-pub mod node;
-pub mod scan;
-pub mod scene;
-pub mod simulate;
-pub mod track;
-pub mod train;
+mod app;
+pub(crate) mod bag;
+pub(crate) mod basis;
+pub(crate) mod demo;
+pub(crate) mod eval;
+pub(crate) mod infer;
+pub(crate) mod node;
+pub(crate) mod scan;
+pub(crate) mod scene;
+pub(crate) mod simulate;
+pub(crate) mod track;
+pub(crate) mod train;
+
+pub use app::main;
 
 /// Writes a bench's plot (SVG text), making its folder.
-pub fn write_plot(path: &std::path::Path, svg: &str) -> physskin::Result<()> {
-    let io = |source| physskin::Error::Io {
+pub(crate) fn write_plot(path: &std::path::Path, svg: &str) -> crate::Result<()> {
+    let io = |source| crate::Error::Io {
         path: path.to_path_buf(),
         source,
     };
@@ -25,7 +29,7 @@ pub fn write_plot(path: &std::path::Path, svg: &str) -> physskin::Result<()> {
 }
 
 /// Prints a report as pretty JSON on stdout (what every `--json` flag does).
-pub fn print_json(report: &impl serde::Serialize) {
+pub(crate) fn print_json(report: &impl serde::Serialize) {
     println!(
         "{}",
         serde_json::to_string_pretty(report).expect("reports are plain data")

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use physskin::node::{run_node, NodeConfig, NodeError, RosArgs};
-use physskin::runtime::{NameResolver, ParamLoader};
-use physskin::skinning::NeuralModel;
+use crate::node::{NodeConfig, NodeError, RosArgs};
+use crate::runtime::{NameResolver, ParamLoader};
+use crate::skinning::NeuralModel;
 
 #[derive(clap::Args)]
 pub struct NodeArgs {
@@ -46,7 +46,7 @@ pub fn ros_setup(
     name: &str,
     namespace: &str,
     params: Option<&Path>,
-) -> physskin::Result<(NameResolver, ParamLoader)> {
+) -> crate::Result<(NameResolver, ParamLoader)> {
     let names = NameResolver::new(namespace, name)
         .with_rules(&ros.remaps)
         .map_err(NodeError::from)?;
@@ -69,7 +69,7 @@ pub fn ros_setup(
     Ok((names, loader))
 }
 
-pub fn run(args: NodeArgs, ros: RosArgs) -> physskin::Result<()> {
+pub fn run(args: NodeArgs, ros: RosArgs) -> crate::Result<()> {
     let (names, loader) = ros_setup(&ros, &args.name, &args.namespace, args.params.as_deref())?;
     let mut config = NodeConfig {
         names,
@@ -81,7 +81,7 @@ pub fn run(args: NodeArgs, ros: RosArgs) -> physskin::Result<()> {
             .or_else(|| std::env::var("ROS_DOMAIN_ID").ok()?.parse().ok())
             .unwrap_or(0),
         loopback_only: args.loopback_only,
-        log_level: ros.log_level.unwrap_or(physskin::node::LogLevel::Info),
+        log_level: ros.log_level.unwrap_or(crate::node::LogLevel::Info),
         rosout: !ros.rosout_disabled,
     };
     if let Some(path) = &args.record {
@@ -99,7 +99,7 @@ pub fn run(args: NodeArgs, ros: RosArgs) -> physskin::Result<()> {
     // Ctrl-C and SIGTERM stop the node cleanly, so DDS tells its peers it is leaving.
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .map_err(|e| NodeError::Signal(e.to_string()))?;
-    let stats = run_node(config, model, stop)?;
+    let stats = crate::node::run(config, model, stop)?;
     eprintln!(
         "physskin node stopped: {} ticks, {} missed",
         stats.ticks, stats.missed

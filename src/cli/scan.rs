@@ -6,11 +6,11 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::PathBuf;
 
-use nalgebra::Vector3;
-use physskin::geometry::{
+use crate::geometry::{
     bundled, load_geometry, scan_points, write_obj, write_ply, Camera, RawGeometry, Shape,
 };
-use physskin::{Error, Result};
+use crate::{Error, Result};
+use nalgebra::Vector3;
 
 #[derive(clap::Args)]
 pub struct ScanArgs {

@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 
 use crate::bench::{run_scene, run_scene_bench, SceneRun, SceneRunOptions, WORKCELL};
-use physskin::scene::{FieldCache, SceneFile, SceneOptions};
-use physskin::skinning::NeuralModel;
+use crate::scene::{FieldCache, SceneFile, SceneOptions};
+use crate::skinning::NeuralModel;
 
 #[derive(clap::Args)]
 pub struct SceneArgs {
@@ -30,12 +30,12 @@ pub struct SceneArgs {
     json: bool,
 }
 
-pub fn run(args: SceneArgs) -> physskin::Result<()> {
+pub fn run(args: SceneArgs) -> crate::Result<()> {
     let file = SceneFile::load(&args.file)?;
     let compare = if args.reference {
         file.objects
             .iter()
-            .filter(|o| o.kind == physskin::scene::ObjectKind::Deformable)
+            .filter(|o| o.kind == crate::scene::ObjectKind::Deformable)
             .map(|o| o.name.clone())
             .collect()
     } else {
@@ -103,7 +103,7 @@ fn print_run(run: &SceneRun) {
     );
 }
 
-pub fn bench(seconds: f64, json: bool) -> physskin::Result<()> {
+pub fn bench(seconds: f64, json: bool) -> crate::Result<()> {
     let r = run_scene_bench(seconds, |line| eprintln!("{line}"))?;
     if json {
         super::print_json(&r);

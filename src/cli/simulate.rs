@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 
 use crate::bench::{simulate, simulate_input, InputSimOptions, InputSimSummary, SimulateOptions};
+use crate::physics::Solver;
+use crate::{Error, Result};
 use nalgebra::Vector3;
-use physskin::physics::Solver;
-use physskin::{Error, Result};
 
 #[derive(clap::Args)]
 pub struct SimulateArgs {

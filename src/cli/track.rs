@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use physskin::pipeline::TrackingOptions;
+use crate::pipeline::TrackingOptions;
 
 use crate::bench::{run_track_bench, track_plot, TrackBenchOptions};
 
@@ -39,7 +39,7 @@ pub struct TrackArgs {
 }
 
 /// Runs the bench and prints its table (or JSON).
-pub fn run(args: TrackArgs) -> physskin::Result<()> {
+pub fn run(args: TrackArgs) -> crate::Result<()> {
     let mut tracking = TrackingOptions::default();
     tracking.stiffness = args.stiffness.unwrap_or(tracking.stiffness);
     tracking.hold_s = args.hold_s.unwrap_or(tracking.hold_s);

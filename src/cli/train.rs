@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::training::{train_from, Combine, TrainingConfig};
-use physskin::{Error, Result};
+use crate::{Error, Result};
 
 #[derive(clap::Args)]
 pub struct TrainArgs {

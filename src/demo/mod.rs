@@ -14,11 +14,11 @@ use serde::Serialize;
 
 pub use script::{write_demo_bag, DemoScript, DEMO_START_NS};
 
-use physskin::bag::RecordOptions;
-use physskin::replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
-use physskin::runtime::NodeParams;
-use physskin::skinning::NeuralModel;
-use physskin::{Error, Result};
+use crate::bag::RecordOptions;
+use crate::replay::{replay, ReplayOptions, ReplaySummary, ShapeSummary, Tick};
+use crate::runtime::NodeParams;
+use crate::skinning::NeuralModel;
+use crate::{Error, Result};
 
 /// The bundled demo recording (`bags/demo.mcap`), compiled into the binary so that a moved or
 /// installed binary still has its demo.

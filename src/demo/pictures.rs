@@ -13,9 +13,9 @@ use super::script::DEMO_START_NS;
 use crate::io::{
     line_plot_svg, render_strip_png, weight_colors, LineSeries, Panel, StripFrame, StripObject,
 };
-use physskin::pipeline::SoftBody;
-use physskin::replay::Tick;
-use physskin::{Error, Result};
+use crate::pipeline::SoftBody;
+use crate::replay::Tick;
+use crate::{Error, Result};
 
 /// Height of each frame's scene in the strip, px.
 const VIEW: u32 = 240;

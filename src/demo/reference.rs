@@ -6,9 +6,9 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::script::{DemoScript, DemoShape, DEMO_START_NS};
-use physskin::geometry::{bottom_vertices, reference_mesh, ReferenceMesh};
-use physskin::physics::{FemSim, Lifter, Poke, SimParams};
-use physskin::Result;
+use crate::geometry::{bottom_vertices, reference_mesh, ReferenceMesh};
+use crate::physics::{FemSim, Lifter, Poke, SimParams};
+use crate::Result;
 
 /// One shape's reduced trajectory at its reference mesh's vertices.
 pub struct Trajectory {
@@ -36,7 +36,7 @@ impl Trajectory {
     }
 
     /// After a tick of the replay: the body of this frame, lifted to the mesh vertices.
-    pub fn record(&mut self, time_ns: i64, body: &physskin::pipeline::SoftBody) {
+    pub fn record(&mut self, time_ns: i64, body: &crate::pipeline::SoftBody) {
         let lifter = self
             .lifter
             .get_or_insert_with(|| body.lifter_for(&self.reference.mesh.vertices));

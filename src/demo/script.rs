@@ -10,14 +10,14 @@ use rand::distr::Distribution;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use physskin::bag::{BagError, BagWriter, RecordOptions, RecordSummary};
-use physskin::geometry::{bundled, sdf_mesh, Shape};
-use physskin::msg::cloud::encode_cloud;
-use physskin::msg::{
+use crate::bag::{BagError, BagWriter, RecordOptions, RecordSummary};
+use crate::geometry::{bundled, sdf_mesh, Shape};
+use crate::msg::cloud::encode_cloud;
+use crate::msg::{
     to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
     Vector3 as RosVector3,
 };
-use physskin::runtime::topic_table;
+use crate::runtime::topic_table;
 
 /// Log time of the demo's first message: 2026-01-01T00:00:00Z, ns.
 pub const DEMO_START_NS: i64 = 1_767_225_600_000_000_000;
@@ -216,7 +216,7 @@ pub fn cloud_points(shape: &Shape, count: usize) -> Vec<Vector3<f64>> {
 
 /// Writes the script's inputs as an MCAP recording, as the node would have recorded them.
 pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary, BagError> {
-    let t = &physskin::runtime::Topics::default_resolved();
+    let t = &crate::runtime::Topics::default_resolved();
     let mut writer = BagWriter::create(RecordOptions {
         path: path.into(),
         ..Default::default()
@@ -304,7 +304,7 @@ pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use physskin::bag::read_messages;
+    use crate::bag::read_messages;
 
     #[test]
     fn the_demo_bag_is_what_its_script_writes() {

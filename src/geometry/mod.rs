@@ -17,18 +17,20 @@ mod tetmesh;
 mod voxel;
 
 pub use completion::{complete_view, Completed, Completion, CompletionError};
-pub use contact_samples::{contact_samples, ContactSamples};
-pub use cubature::{stratified_subset, Cubature};
-pub use downsample::voxel_downsample;
-pub use mesh_io::{
-    load_geometry, parse_obj, parse_ply, parse_stl, write_obj, write_ply, LoadError, RawGeometry,
-};
-pub use point_index::median_spacing;
-pub use point_index::PointIndex;
+pub(crate) use contact_samples::{contact_samples, ContactSamples};
+pub(crate) use cubature::stratified_subset;
+pub use cubature::Cubature;
+pub(crate) use downsample::voxel_downsample;
+pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
+pub use mesh_io::{parse_obj, parse_ply, parse_stl};
+pub(crate) use point_index::PointIndex;
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
-pub use reference_mesh::{bottom_vertices, pinned_slab_top, reference_mesh, ReferenceMesh};
+pub(crate) use reference_mesh::{bottom_vertices, pinned_slab_top};
+pub use reference_mesh::{reference_mesh, ReferenceMesh};
 pub use sampling::{sample_surface, SurfaceSamples, SurfaceSampling};
-pub use scan::{scan, scan_faces, scan_points, Camera};
-pub use shape::{content_hash, Normalization, Shape};
-pub use tetmesh::{TetLocation, TetMesh};
-pub use voxel::{Stretch, VoxelGrid};
+pub(crate) use scan::scan_faces;
+pub use scan::{scan, scan_points, Camera};
+pub(crate) use shape::content_hash;
+pub use shape::{Normalization, Shape};
+pub use tetmesh::TetMesh;
+pub use voxel::VoxelGrid;

@@ -205,11 +205,6 @@ impl<'a> PointIndex<'a> {
     }
 }
 
-/// Median distance from a point to its nearest neighbour (on a subsample of up to 2000 points).
-pub fn median_spacing(points: &[Vector3<f64>]) -> f64 {
-    neighbour_distance(points, 1, 0.5)
-}
-
 /// The `quantile` of the distance from a point to its `k`-th nearest neighbour (over at most
 /// 2000 points).
 pub fn neighbour_distance(points: &[Vector3<f64>], k: usize, quantile: f64) -> f64 {

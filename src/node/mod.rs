@@ -14,8 +14,11 @@ mod send;
 mod services;
 mod shared;
 
-pub use args::{split_ros_args, LogLevel, RosArgs, RosArgsError};
-pub use dds::{context, publisher, qos_of, reliable_qos, sensor_qos, subscription, NodeError};
-pub use logger::install_logger;
-pub use node::{run_node, NodeConfig};
+pub use crate::runtime::stepper::StepperStats;
+pub use args::LogLevel;
+pub(crate) use args::{split_ros_args, RosArgs, RosArgsError};
+pub use dds::NodeError;
+pub(crate) use dds::{context, publisher, reliable_qos, subscription};
+pub(crate) use logger::install_logger;
+pub use node::{run, NodeConfig};
 pub use send::{send_recording, SendOptions, SendSummary};

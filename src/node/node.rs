@@ -73,7 +73,7 @@ impl NodeConfig {
 }
 
 /// Runs the node until `stop` is set; returns the stepper's counters.
-pub fn run_node(
+pub fn run(
     config: NodeConfig,
     model: Arc<NeuralModel>,
     stop: Arc<AtomicBool>,

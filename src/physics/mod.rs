@@ -16,10 +16,13 @@ mod strain;
 mod subspace;
 
 pub use fem::FemSim;
-pub use hull::ConvexHull;
 pub use lift::Lifter;
 pub use material::{Material, MaterialModel, Matrix9};
-pub use obstacle::{Obstacle, Penetration, Stick, STICK_SLIP};
-pub use reduced::{state_projection, ObservationTerm, ReducedSim, SimSetup, Solver, StepReport};
-pub use scene::{Poke, SimParams};
-pub use subspace::{phi_of, sample, Subspace};
+pub use obstacle::Obstacle;
+pub(crate) use obstacle::Penetration;
+pub(crate) use reduced::{state_projection, SimSetup};
+pub use reduced::{ObservationTerm, ReducedSim, Solver, StepReport};
+pub use scene::Poke;
+pub use scene::SimParams;
+pub(crate) use subspace::sample;
+pub use subspace::{phi_of, Subspace};

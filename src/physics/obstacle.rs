@@ -50,7 +50,7 @@ impl Obstacle {
         ConvexHull::of(points).map(|hull| Obstacle::Hull(Arc::new(hull)))
     }
 
-    /// An obstacle that holds nothing anywhere ([`ConvexHull::nowhere`]).
+    /// An obstacle that holds nothing anywhere (`ConvexHull::nowhere`).
     pub fn nowhere() -> Self {
         Obstacle::Hull(Arc::new(ConvexHull::nowhere()))
     }

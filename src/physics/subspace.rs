@@ -279,7 +279,7 @@ impl Subspace {
     }
 
     /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).
-    /// One pass, split over threads for large cubatures (see [`FORCES_PARALLEL_WORK`]): each
+    /// One pass, split over threads for large cubatures (see `FORCES_PARALLEL_WORK`): each
     /// thread takes a run of cubature points, forms their F, their stresses, and its share of
     /// the gradient; the shares are summed.
     pub fn elastic_forces(&self, z: &DMatrix<f64>, material: &Material) -> (f64, DMatrix<f64>) {

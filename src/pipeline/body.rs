@@ -315,7 +315,7 @@ impl SoftBody {
         })
     }
 
-    /// What preparing a switch to another field of this shape needs ([`BasisPlan`]): owned,
+    /// What preparing a switch to another field of this shape needs (`BasisPlan`): owned,
     /// for another thread.
     pub fn basis_plan(&self) -> BasisPlan {
         BasisPlan {
@@ -707,7 +707,7 @@ impl SoftBody {
         self.sim.time()
     }
 
-    /// The convex hull of (up to [`HULL_POINTS`] of) the body's contact points where they are
+    /// The convex hull of (up to `HULL_POINTS` of) the body's contact points where they are
     /// now: how other deformable objects collide with it. None without contact points, or
     /// when they span no volume.
     pub fn contact_hull(&self) -> Option<Obstacle> {

@@ -1,5 +1,5 @@
 //! The runtime both shells share: decoded inputs in (clouds, meshes, interactions, transforms,
-//! joint states), bodies built, stepped and tracked, outputs out to a [`Sink`]. It knows no
+//! joint states), bodies built, stepped and tracked, outputs out to a `Sink`. It knows no
 //! DDS and no MCAP: the node (`crate::node`) feeds it from DDS subscriptions and sinks it into
 //! DDS publishers; a replay (`crate::replay`) feeds it from a recording and sinks it into one.
 
@@ -22,18 +22,18 @@ pub(crate) mod tf;
 pub(crate) mod tracking;
 pub(crate) mod tracking_params;
 
-pub use builder::{
-    BuildOutcome, BuildRequest, Builder, ObjectKey, ReadyBody, REPLAY_REFINE_ITERATIONS,
+pub use builder::BuildRequest;
+pub(crate) use builder::{BuildOutcome, Builder, REPLAY_REFINE_ITERATIONS};
+pub(crate) use clock::NodeClock;
+pub(crate) use diagnostics::Health;
+pub(crate) use inputs::{Input, InputKind, InputTopics};
+pub(crate) use names::{NameError, NameResolver};
+pub(crate) use outputs::{topic_table, Outputs};
+pub(crate) use param_file::ParamLoader;
+pub use params::{
+    InferenceParams, MarkerParams, MaterialParams, NodeParams, PublishParams, RecordParams,
+    ShmParams, SimulationParams, TfParams, Topics,
 };
-pub use clock::NodeClock;
-pub use cloud_objects::{split_by_instance, CloudTemplate, InstanceError, INSTANCE_FIELDS};
-pub use diagnostics::Health;
-pub use inputs::{Input, InputKind, InputTopics};
-pub use names::{NameError, NameResolver, Remap};
-pub use outputs::{topic_table, Outputs, TF, TF_STATIC};
-pub use param_file::ParamLoader;
-pub use params::{NodeParams, Topics};
-pub use qos_overrides::{Endpoint, QosOverrides};
-pub use stage::{Stage, StageOptions};
-pub use stepper::StepperStats;
+pub(crate) use stage::{Stage, StageOptions};
 pub use tf::{TfBuffer, TfError};
+pub use tracking_params::TrackingParams;

@@ -30,7 +30,7 @@ pub struct SceneFile {
     #[serde(default = "default_friction")]
     pub friction: f64,
     /// Rolling friction of every contact, m: the largest resisting torque per newton of normal
-    /// force (MuJoCo's rolling coefficient). Default [`DEFAULT_ROLLING_FRICTION`].
+    /// force (MuJoCo's rolling coefficient). Default `DEFAULT_ROLLING_FRICTION`.
     #[serde(default = "default_rolling_friction")]
     pub rolling_friction: f64,
     /// Largest simulation error allowed to an object whose `handles` or `cubature` is `auto`,

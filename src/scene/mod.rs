@@ -10,14 +10,10 @@ mod world;
 
 use std::path::PathBuf;
 
-pub use budget::{choose_resolution, Choice};
-pub use file::{
-    Attachment, Keyframe, MaterialSpec, ObjectKind, ObjectSpec, PoseSpec, Region, Resolution,
-    RobotSpec, SceneFile, ShapeSpec, Source, DEFAULT_ROLLING_FRICTION,
-};
-pub use reference::{reference_errors, ObjectError, Recorder};
-pub use robot::Robot;
-pub use world::{FieldCache, ObjectReport, Scene, SceneOptions, SCENE_REFINE_ITERATIONS};
+pub use file::SceneFile;
+pub(crate) use file::{ObjectKind, DEFAULT_ROLLING_FRICTION};
+pub(crate) use reference::{reference_errors, ObjectError, Recorder};
+pub use world::{FieldCache, ObjectReport, Scene, SceneOptions};
 
 /// What is wrong with a scene or a robot description.
 #[derive(Debug, thiserror::Error)]

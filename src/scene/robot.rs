@@ -165,11 +165,6 @@ impl Robot {
         })
     }
 
-    /// The robot's name as its URDF gives it.
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-
     /// The index of the link named `name`; None when the robot has none such.
     pub fn link(&self, name: &str) -> Option<usize> {
         self.link_index.get(name).copied()
@@ -178,15 +173,6 @@ impl Robot {
     /// Whether the robot has a joint named `name` (fixed joints included).
     pub fn has_joint(&self, name: &str) -> bool {
         self.joints.iter().any(|j| j.name == name)
-    }
-
-    /// Names of the joints that move.
-    pub fn moving_joints(&self) -> Vec<&str> {
-        self.joints
-            .iter()
-            .filter(|j| j.motion != JointMotion::Fixed)
-            .map(|j| j.name.as_str())
-            .collect()
     }
 
     /// Sets joint positions by name (rad or m), as a JointState carries them; positions outside

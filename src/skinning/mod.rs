@@ -3,20 +3,17 @@
 mod eigenmodes;
 mod metrics;
 mod neural;
-pub mod refine;
+pub(crate) mod refine;
 mod truncated;
 
 pub(crate) use eigenmodes::linear_gradients;
 pub use eigenmodes::{EigenmodeField, EigenmodeOptions};
 pub use metrics::FieldMetrics;
-pub use neural::{inverse_sqrt, load_tensors, save_tensors, CONFIG_KEY};
-pub use neural::{
-    ColumnNormalization, Network, NetworkConfig, NeuralField, NeuralModel, ShapeCode,
-};
-pub use refine::{
-    refine, refine_field, refine_field_until, start_block, RefineBudget, RefineOptions,
-    RefineReport, RefineSearch, Refined, DEFAULT_REFINE_MS,
-};
+pub(crate) use neural::{inverse_sqrt, load_tensors, save_tensors, CONFIG_KEY};
+pub(crate) use neural::{ColumnNormalization, Network, NetworkConfig};
+pub use neural::{NeuralField, NeuralModel};
+pub use refine::{refine, RefineBudget, RefineOptions, RefineReport};
+pub(crate) use refine::{refine_field, refine_field_until, Refined, DEFAULT_REFINE_MS};
 pub use truncated::TruncatedField;
 
 use nalgebra::Vector3;

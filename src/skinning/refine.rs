@@ -80,7 +80,7 @@ pub enum RefineSearch {
 pub struct RefineOptions {
     /// When to stop. Default [`RefineBudget::Full`].
     pub budget: RefineBudget,
-    /// The search space per iteration. Default [`RefineSearch::LocallyOptimal`].
+    /// The search space per iteration. Default `RefineSearch::LocallyOptimal`.
     pub search: RefineSearch,
     /// Converged when no Ritz value moves by more than this, relative, in one iteration.
     /// Default 1e-10. Every budget stops there.
@@ -118,7 +118,7 @@ pub struct RefineReport {
     pub ritz_values: Vec<Vec<f64>>,
     /// Wall time of each iteration, ms.
     pub iteration_ms: Vec<f64>,
-    /// Evaluating the start block from a field ([`refine_field`]; 0 for [`refine`]), ms.
+    /// Evaluating the start block from a field (`refine_field`; 0 for [`refine`]), ms.
     pub start_ms: f64,
     /// Assembly of L and M, the factorization and the start block's Rayleigh-Ritz, ms.
     pub setup_ms: f64,

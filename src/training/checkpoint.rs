@@ -8,8 +8,8 @@ use candle_core::Tensor;
 
 use super::config::TrainingConfig;
 use super::optim::{Adam, LossMomenta};
-use physskin::skinning::{load_tensors, save_tensors, NetworkConfig, CONFIG_KEY};
-use physskin::{Error, Result};
+use crate::skinning::{load_tensors, save_tensors, NetworkConfig, CONFIG_KEY};
+use crate::{Error, Result};
 
 /// The network's weights after `step` steps, loadable as a model.
 pub(super) fn save_model(

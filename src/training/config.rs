@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::shapes::DatasetSpec;
-use physskin::skinning::NetworkConfig;
+use crate::skinning::NetworkConfig;
 
 /// How the loss gradients become one update.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

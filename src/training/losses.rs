@@ -5,8 +5,8 @@ use candle_core::{DType, Device, Tensor, D};
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use physskin::skinning::{inverse_sqrt, ColumnNormalization, Network};
-use physskin::Result;
+use crate::skinning::{inverse_sqrt, ColumnNormalization, Network};
+use crate::Result;
 
 /// One training sample: a shape's encoder input and its cubature points (normalized frame).
 pub(crate) struct Batch {
@@ -238,8 +238,8 @@ fn orthogonality(w: &Tensor) -> Result<Tensor> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::skinning::NeuralModel;
     use nalgebra::{Matrix3, Vector3};
-    use physskin::skinning::NeuralModel;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
@@ -373,7 +373,7 @@ mod tests {
 
     #[test]
     fn every_parameter_receives_a_gradient() {
-        let config = physskin::skinning::NetworkConfig {
+        let config = crate::skinning::NetworkConfig {
             width: 16,
             heads: 2,
             latents: 8,

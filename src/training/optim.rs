@@ -3,7 +3,7 @@
 use candle_core::{Tensor, Var};
 use nalgebra::{DMatrix, DVector};
 
-use physskin::Result;
+use crate::Result;
 
 /// ConFIG (Liu et al. 2024): the update direction u has equal positive cosine with every loss
 /// gradient (u solves U u = 1 in least squares for the rows U of unit gradients, then is made

@@ -10,9 +10,7 @@ use serde::Serialize;
 pub use super::families::ShapeFamily;
 use super::families::{draw, random_rotation};
 use super::sdf::Sdf;
-use physskin::geometry::{
-    sample_surface, sdf_mesh, Normalization, Shape, SurfaceSampling, VoxelGrid,
-};
+use crate::geometry::{sample_surface, sdf_mesh, Normalization, Shape, SurfaceSampling, VoxelGrid};
 
 /// A generated solid: its family, seed and signed distance function (world units, about 2 m
 /// across, centered near the origin).

@@ -19,9 +19,9 @@ use super::config::{Combine, TrainingConfig};
 use super::losses::{self, Batch, LossOptions, Losses};
 use super::optim::{config_combine, learning_rate, Adam, LossMomenta};
 use super::shapes::{dataset, ShapeSample};
-use physskin::geometry::SurfaceSamples;
-use physskin::skinning::{FieldMetrics, NeuralModel, SkinningField};
-use physskin::{Error, Result};
+use crate::geometry::SurfaceSamples;
+use crate::skinning::{FieldMetrics, NeuralModel, SkinningField};
+use crate::{Error, Result};
 
 /// One line of the training log (log.jsonl).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -485,7 +485,7 @@ fn held_out_metrics(model: &NeuralModel, shapes: &[ShapeSample]) -> Result<Field
 pub(crate) fn field_of_sample(
     model: &Arc<NeuralModel>,
     shape: &ShapeSample,
-) -> Result<(physskin::skinning::NeuralField, Vec<Vector3<f64>>)> {
+) -> Result<(crate::skinning::NeuralField, Vec<Vector3<f64>>)> {
     let to64 = |p: &Vector3<f32>| p.cast::<f64>();
     let surface = SurfaceSamples {
         points: shape.surface_points.iter().map(to64).collect(),
@@ -502,7 +502,7 @@ pub(crate) fn field_of_sample(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use physskin::skinning::{load_tensors, NetworkConfig};
+    use crate::skinning::{load_tensors, NetworkConfig};
 
     #[test]
     fn the_fine_tuning_configs_parse_and_fit_the_shipped_network() {

@@ -66,7 +66,7 @@ impl ReducedSim {
     }
 
     /// Continues in `twin`'s subspace from where the body is now, the state mapped by
-    /// `projection` ([`state_projection`]: the least-squares fit on the cubature points, so the
+    /// `projection` (`state_projection`: the least-squares fit on the cubature points, so the
     /// velocity carries over too). `twin` is a [`ReducedSim::prepared_twin`] of this
     /// simulation, or any simulation in the new subspace: one set up otherwise than this one
     /// now is (its pins added or released since) is set up anew here. `contact_phis` are the

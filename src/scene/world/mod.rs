@@ -38,7 +38,7 @@ pub struct SceneOptions {
     pub scripted: bool,
     /// How a deformable object's field is refined toward the skinning eigenmodes when the
     /// object keeps all its handles (a field cut to fewer stays the network's). Default
-    /// [`SCENE_REFINE_ITERATIONS`] iterations: a count, not a time, so that a scene builds the
+    /// `SCENE_REFINE_ITERATIONS` iterations: a count, not a time, so that a scene builds the
     /// same bodies on any machine.
     pub refine: RefineBudget,
 }

@@ -10,7 +10,7 @@ mod params;
 
 pub use field::NeuralField;
 pub use model::NeuralModel;
-pub use network::{ColumnNormalization, Network, NetworkConfig, ShapeCode};
+pub use network::{ColumnNormalization, Network, NetworkConfig};
 
 pub use layers::inverse_sqrt;
 pub use model::{load_tensors, save_tensors, CONFIG_KEY};
