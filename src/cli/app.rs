@@ -22,7 +22,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// The main job: replay the bundled demo recording through the whole pipeline, record the
-    /// result to MCAP, compare with the full-space FEM, draw a strip of frames.
+    /// result to MCAP, compare with the full-space FEM, draw a grid of frames.
     Demo(crate::cli::demo::DemoArgs),
     /// Feed a recording's inputs through the pipeline on the log's time; record the outputs.
     Replay(crate::cli::bag::ReplayArgs),

@@ -1,6 +1,6 @@
 //! The demo: the bundled recording `bags/demo.mcap` (three shapes arriving as a cloud, a
 //! stamped mesh and a mesh, then pokes) replayed through the node's pipeline, recorded to MCAP,
-//! checked against the full-space FEM, and drawn as a strip of frames beside a plot of each
+//! checked against the full-space FEM, and drawn as a grid of frames beside a plot of each
 //! shape's displacement against the FEM's.
 
 mod pictures;
@@ -31,7 +31,7 @@ pub struct DemoOptions {
     pub input: Option<PathBuf>,
     /// The output recording (inputs and every output topic). Default target/demo/demo_out.mcap.
     pub out: PathBuf,
-    /// The strip of frames. Default target/demo/demo.png.
+    /// The grid of frames. Default target/demo/demo.png.
     pub picture: PathBuf,
     /// Frames in the picture. Default 6.
     pub frames: usize,
@@ -78,7 +78,7 @@ pub struct DemoSummary {
     pub replay: ReplaySummary,
     /// The output recording written.
     pub output: PathBuf,
-    /// The strip of frames written.
+    /// The grid of frames written.
     pub picture: PathBuf,
     /// Each shape's displacement over time against the FEM's (SVG beside the picture, named
     /// from it); None without the FEM reference.
@@ -134,7 +134,7 @@ pub fn run_demo(options: &DemoOptions, model: &Arc<NeuralModel>) -> Result<DemoS
         .iter()
         .map(|s| (s.frame.to_string(), s.name.to_string()))
         .collect();
-    let mut capture = pictures::Capture::new(due, names);
+    let mut capture = pictures::Capture::new(due, names, script.pokes.clone());
     let mut observe = |tick: &Tick| {
         for t in &mut trajectories {
             if let Some(b) = tick.stage.bodies().iter().find(|b| b.frame == t.frame) {

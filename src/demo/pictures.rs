@@ -1,5 +1,5 @@
-//! The demo's pictures: the strip of frames (each frame's time, each object's name, its rest
-//! pose ghosted behind it, a legend) and the plot of each shape's displacement over time, the
+//! The demo's pictures: the grid of frames (each frame's time, each object's name, its rest
+//! pose ghosted behind it, the pokes since the frame before, the ground, a legend) and the plot of each shape's displacement over time, the
 //! replay's against the FEM's.
 
 use std::collections::BTreeMap;
@@ -9,16 +9,20 @@ use std::path::{Path, PathBuf};
 use nalgebra::DMatrix;
 
 use super::reference::ReferenceError;
-use super::script::DEMO_START_NS;
+use super::script::{DemoPoke, DEMO_START_NS};
 use crate::io::{
-    line_plot_svg, render_strip_png, weight_colors, LineSeries, Panel, StripFrame, StripObject,
+    line_plot_svg, render_strip_png, weight_colors, LineSeries, Panel, StripFrame, StripMark,
+    StripObject, StripStyle,
 };
 use crate::pipeline::SoftBody;
 use crate::replay::Tick;
 use crate::{Error, Result};
 
-/// Height of each frame's scene in the strip, px.
+/// Height of each frame's scene, px.
 const VIEW: u32 = 240;
+/// Frames per row: two rows of three would be 2000 px wide, and a README shows the picture
+/// at well under half that.
+const COLUMNS: u32 = 2;
 /// One colour per shape in the plot (the replay's line and the FEM's share it).
 const COLORS: [&str; 5] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
 
@@ -38,6 +42,8 @@ struct Frame {
     time_s: f64,
     /// Each body's id and deformed points.
     bodies: Vec<(u32, Vec<f32>)>,
+    /// The pokes since the frame before: where the poked point is now, and the force.
+    marks: Vec<([f32; 3], [f32; 3])>,
 }
 
 /// The strip's frames, captured during the replay at the times due.
@@ -48,17 +54,24 @@ pub(crate) struct Capture {
     names: BTreeMap<String, String>,
     looks: BTreeMap<u32, Look>,
     frames: Vec<Frame>,
+    /// The script's pokes, marked in the first frame after each starts.
+    pokes: Vec<DemoPoke>,
 }
 
 impl Capture {
     /// Captures at the log times `due` (ns, earliest first); `names` gives the script's name of
     /// a frame's shape (frame -> name).
-    pub(crate) fn new(due: Vec<i64>, names: BTreeMap<String, String>) -> Self {
+    pub(crate) fn new(
+        due: Vec<i64>,
+        names: BTreeMap<String, String>,
+        pokes: Vec<DemoPoke>,
+    ) -> Self {
         Self {
             due,
             names,
             looks: BTreeMap::new(),
             frames: Vec::new(),
+            pokes,
         }
     }
 
@@ -69,16 +82,29 @@ impl Capture {
         }
         self.due.remove(0);
         let mut bodies = Vec::new();
+        let time_s = (tick.time_ns - DEMO_START_NS) as f64 * 1e-9;
+        let since = self.frames.last().map_or(f64::NEG_INFINITY, |f| f.time_s);
+        let mut marks = Vec::new();
         for b in tick.stage.bodies() {
             let label = self.label(&b.frame);
-            self.looks
+            let look = self
+                .looks
                 .entry(b.id)
                 .or_insert_with(|| look(label, &b.body));
-            bodies.push((b.id, b.body.deformed().to_vec()));
+            let deformed = b.body.deformed();
+            for poke in self.pokes.iter().filter(|p| p.frame == b.frame) {
+                if poke.at_s > since && poke.at_s <= time_s {
+                    let at = nearest(&look.rest, &poke.point.cast::<f32>().into());
+                    let now = [deformed[3 * at], deformed[3 * at + 1], deformed[3 * at + 2]];
+                    marks.push((now, poke.force.cast::<f32>().into()));
+                }
+            }
+            bodies.push((b.id, deformed.to_vec()));
         }
         self.frames.push(Frame {
-            time_s: (tick.time_ns - DEMO_START_NS) as f64 * 1e-9,
+            time_s,
             bodies,
+            marks,
         });
     }
 
@@ -102,10 +128,24 @@ impl Capture {
                         }
                     })
                     .collect(),
+                marks: (f.marks.iter())
+                    .map(|&(at, direction)| StripMark { at, direction })
+                    .collect(),
             })
             .collect();
+        // The objects stand on their pinned bottoms: the ground is the lowest rest point.
+        let floor_z = (self.looks.values())
+            .flat_map(|l| l.rest.chunks_exact(3).map(|p| p[2] as f64))
+            .fold(f64::INFINITY, f64::min);
+        let legend = self.legend();
+        let style = StripStyle {
+            view: VIEW,
+            columns: COLUMNS,
+            floor_z: floor_z.is_finite().then_some(floor_z),
+            legend: &legend,
+        };
         let mut file = create(path)?;
-        render_strip_png(&frames, VIEW, &self.legend(), &mut file)
+        render_strip_png(&frames, &style, &mut file)
             .map_err(|e| Error::Geometry(format!("demo picture: {e}")))
     }
 
@@ -118,8 +158,8 @@ impl Capture {
         }
     }
 
-    /// The strip's legend: what the colours and the grey mean.
-    fn legend(&self) -> String {
+    /// The legend's lines: what the colours, the grey, the red and the ground mean.
+    fn legend(&self) -> Vec<String> {
         let learned = self
             .looks
             .values()
@@ -128,11 +168,24 @@ impl Capture {
             .unwrap_or(0);
         // Says what weight_colors does: a hue per learned handle, blended by the squared
         // positive weights, the constant handle left out.
-        format!(
-            "colour: each point's dominant skinning handles ({learned} learned, one hue each, \
-             blended by squared weight; the constant one left out); light grey: rest pose"
-        )
+        vec![
+            format!(
+                "colour: each point's dominant skinning handles ({learned} learned, one hue \
+                 each, blended by squared weight; the constant one left out)"
+            ),
+            "light grey: rest pose; red: a poke since the frame before (a ring: into or out of \
+             the page); hatched line: the ground the objects are held on"
+                .to_string(),
+        ]
     }
+}
+
+/// The index of the point of `points` (x, y, z each) nearest to `p`.
+fn nearest(points: &[f32], p: &[f32; 3]) -> usize {
+    let d = |q: &[f32]| (0..3).map(|k| (q[k] - p[k]).powi(2)).sum::<f32>();
+    (points.chunks_exact(3).enumerate())
+        .min_by(|a, b| d(a.1).total_cmp(&d(b.1)))
+        .map_or(0, |(i, _)| i)
 }
 
 /// A body's look, taken when it first appears in a frame.

@@ -11,4 +11,4 @@ pub use field_image::render_field_png;
 pub(crate) use field_image::weight_colors;
 pub use npy::write_npy_f32;
 pub use plot::{line_plot_svg, svg_header, LineSeries, Panel};
-pub use strip::{render_strip_png, StripFrame, StripObject};
+pub use strip::{render_strip_png, StripFrame, StripMark, StripObject, StripStyle};
