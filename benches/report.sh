@@ -19,21 +19,23 @@
 #   eval               eval                                   (the learned field on 15 shapes, 4 min)
 #   basis              bench basis                            (error against time to a basis, 4 shapes)
 #   peer               bench peer                             (the soft block in MuJoCo and physskin)
-# Not rerun: sim.json (the full `bench sim`, about 55 minutes), sim-targets.json (its plate and
-# rod rows at 16 handles and 1024 points, about 7 minutes) and sim-creature.json (the creature's
-# rows at the same sizes, about 40 minutes, most of it the FEM):
-#   benches/record.sh sim target/release/physskin bench sim --json --plot benches/results/sim.svg
-#   benches/record.sh sim-targets target/release/physskin bench sim --shape rod,plate \
-#       --handles 16 --cubature 1024 --json --plot /tmp/sim-targets.svg
-#   benches/record.sh sim-creature target/release/physskin bench sim --shape creature \
-#       --handles 16 --cubature 1024 --json --plot /tmp/sim-creature.svg
-# Usage: benches/report.sh [NAME...]   (default: all of the above)
+#   track              bench track                            (a stream tracked, 3 minutes)
+#   stream-cpu         benches/stream_cpu.sh                  (the node's CPU share on a stream)
+#   sim-targets        bench sim, rod and plate, 16 handles, 1024 points (about 5 minutes)
+#   sim-creature       bench sim, creature, 16 handles, 1024 points (about 40 minutes, mostly FEM)
+#   sim                the full `bench sim` (about 70 minutes; docs/benchmarks.md quotes it)
+# `readme` stands for every file README.md quotes, the slow creature last: one run of
+# `benches/report.sh readme` (about an hour) puts the README's figures at one commit.
+# Usage: benches/report.sh [NAME...]   (default: all but the three sim runs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay transport scene eval basis peer)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay transport scene eval basis peer track stream-cpu)
+if [ "${names[*]}" = readme ]; then
+    names=(demo contact views real latency scene peer eval track stream-cpu sim-targets sim-creature)
+fi
 for name in "${names[@]}"; do
     started=$(date +%s)
     case $name in
@@ -65,6 +67,16 @@ for name in "${names[@]}"; do
                 || target/mujoco-venv/bin/pip install -q mujoco-core numpy
             benches/record.sh peer $bin bench peer --json \
                 --python target/mujoco-venv/bin/python --plot docs/images/peer.svg ;;
+        track)
+            benches/record.sh track $bin bench track --json --plot docs/images/track.svg ;;
+        stream-cpu) bash benches/stream_cpu.sh ;;
+        sim-targets)
+            benches/record.sh sim-targets $bin bench sim --shape rod,plate --handles 16 \
+                --cubature 1024 --json --plot /tmp/sim-targets.svg ;;
+        sim-creature)
+            benches/record.sh sim-creature $bin bench sim --shape creature --handles 16 \
+                --cubature 1024 --json --plot /tmp/sim-creature.svg ;;
+        sim) benches/record.sh sim $bin bench sim --json --plot benches/results/sim.svg ;;
         *) echo "unknown result: $name" >&2; exit 2 ;;
     esac
     echo "$name: $(( $(date +%s) - started )) s" >&2
