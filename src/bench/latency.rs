@@ -182,6 +182,10 @@ pub fn run_latency_bench(
     if let Some(refine) = refine {
         config.params.inference.refine = refine;
     }
+    // Each measured cloud is a new object in the one frame "cloud_10k" (so that the large ones
+    // do not stay and load the phases after them): a cloud replaces the frame's object, as it
+    // did before streams were tracked. Tracked, it would be a frame of the running object.
+    config.params.tracking.enabled = false;
     let refine = config.params.inference.refine.clone();
     let rate_hz = config.params.rate_hz;
     let topics = config
