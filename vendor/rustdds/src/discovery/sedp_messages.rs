@@ -135,10 +135,17 @@ impl ReaderProxy {
 
 impl From<RtpsReaderProxy> for ReaderProxy {
   fn from(rtps_reader_proxy: RtpsReaderProxy) -> Self {
+    let expects_inline_qos = rtps_reader_proxy.expects_inline_qos();
+    // `ReaderProxy` is the advertised form (SEDP, the discovery database). The loopback
+    // locators the RtpsReaderProxy holds apart go back into the unicast list, so that the
+    // writer's `from_discovered_reader_data` splits them out again: dropped here, a reader
+    // that announced only loopback locators was matched with none and never sent to.
+    let mut unicast_locator_list = rtps_reader_proxy.unicast_locator_list;
+    unicast_locator_list.extend(rtps_reader_proxy.loopback_unicast_locators);
     Self {
       remote_reader_guid: rtps_reader_proxy.remote_reader_guid,
-      expects_inline_qos: rtps_reader_proxy.expects_inline_qos(),
-      unicast_locator_list: rtps_reader_proxy.unicast_locator_list,
+      expects_inline_qos,
+      unicast_locator_list,
       multicast_locator_list: rtps_reader_proxy.multicast_locator_list,
     }
   }

@@ -125,6 +125,7 @@ impl RtpsReaderProxy {
     }
 
     if self.unicast_locator_list != update.unicast_locator_list
+      || self.loopback_unicast_locators != update.loopback_unicast_locators
       || self.multicast_locator_list != update.multicast_locator_list
     {
       info!("Update changes Locators in ReaderProxy. topic={topic:?}");

@@ -1766,6 +1766,11 @@ impl Writer {
               (DeliveryMode::Unicast, Some(_), _) => send_legacy!(reader.unicast_locator_list),
               (_, _, Some(_)) => send_legacy!(reader.multicast_locator_list),
               (_, Some(_), _) => send_legacy!(reader.unicast_locator_list),
+              // A reader that announced only loopback locators can only be on this host:
+              // sending there cannot leave it.
+              (_, None, None) if !reader.loopback_unicast_locators.is_empty() => {
+                send_legacy!(reader.loopback_unicast_locators)
+              }
               (_, None, None) => warn!("send_message_to_readers: No locators for {reader:?}"),
             }
             continue;
