@@ -5,7 +5,6 @@
 mod args;
 mod dds;
 mod logger;
-mod network;
 mod node;
 mod node_inputs;
 mod publishers;

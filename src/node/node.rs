@@ -87,7 +87,6 @@ pub fn run(
         })?;
     let p = config.params.clone();
     let topics = p.topics.resolved(&config.names)?;
-    let network_warnings = super::network::warnings(config.loopback_only);
     let context = context(config.domain_id, config.loopback_only)?;
     let params = Arc::new(RwLock::new(p.clone()));
     let mut node = create_node(&context, &config, &params)?;
@@ -117,7 +116,7 @@ pub fn run(
     }
     outputs.sinks.push(Box::new(publishers));
     let outputs = Arc::new(outputs);
-    for warning in config.warnings.iter().chain(&network_warnings) {
+    for warning in &config.warnings {
         outputs.report(Status::WARN, 0, "node_warning", warning.clone());
     }
     let scene_file = if p.scene.is_empty() {

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Runs a command in a private network namespace: nothing it sends can leave this machine.
 # Usage: unshare -n tests/peers/private_net.sh COMMAND...
-# Besides lo, the namespace gets a veth pair with a private address, because RustDDS and Fast DDS
-# do not deliver user data to each other over loopback-only locators (measured: discovery
-# succeeds, no sample arrives). The pair's other end is in the same namespace, so it too is closed.
+# Besides lo, the namespace gets a veth pair with a private address, as most hosts have an
+# interface besides loopback (tests/loopback.rs runs with lo alone). The pair's other end is in
+# the same namespace, so it too is closed.
 set -euo pipefail
 ip link set lo up
 ip link add physskin0 type veth peer name physskin1

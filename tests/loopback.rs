@@ -1,0 +1,96 @@
+//! The node on loopback-only hosts, against a real ROS 2 peer (rclpy with Fast DDS from pip):
+//! in a network namespace where only `lo` is up, plainly, under `ROS_LOCALHOST_ONLY=1` and under
+//! `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, rclpy's cloud and mesh reach the node and the
+//! node's deformed clouds, weights and parameter answers reach rclpy (tests/peers/ros2_peer.py
+//! checks what comes back). RustDDS needed a patch for it: vendor/rustdds/README.physskin.md.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+/// target/ros-venv with rclpy (Fast DDS) from pip, as tests/ros2_peer.rs makes it.
+fn ros_venv() -> std::path::PathBuf {
+    common::venv(
+        "ros-venv",
+        "import rclpy, sensor_msgs.msg, shape_msgs.msg, std_srvs.srv, diagnostic_msgs.msg, \
+         visualization_msgs.msg, geometry_msgs.msg, rcl_interfaces.msg, numpy",
+        &[
+            "ros-rclpy",
+            "ros-sensor-msgs",
+            "ros-std-msgs",
+            "ros-shape-msgs",
+            "ros-rmw-fastrtps-cpp",
+            "ros-std-srvs",
+            "ros-diagnostic-msgs",
+            "ros-visualization-msgs",
+            "ros-geometry-msgs",
+            "numpy",
+        ],
+    )
+}
+
+/// Runs the node and tests/peers/ros2_peer.py in a namespace with only `lo` up, both with the
+/// environment `env` (`NAME=VALUE ...`); fails with both outputs unless both exit 0. Returns
+/// the node's log.
+fn on_loopback_only(domain: u16, env: &str, log_name: &str) -> String {
+    let python = ros_venv();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let log = root.join("target").join(log_name);
+    let script = format!(
+        "ip link set lo up; export {env} ROS_DOMAIN_ID={domain}; \
+         [ $(ip -o link show up | grep -vc ' lo:') -eq 0 ] || {{ echo not loopback-only; exit 3; }}; \
+         {node} node > {log} 2>&1 & NODE=$!; \
+         timeout 120 {python} {peer}; RC=$?; \
+         kill -INT $NODE; wait $NODE; NODE_RC=$?; \
+         echo node exit $NODE_RC; exit $(( RC != 0 ? RC : NODE_RC ))",
+        node = env!("CARGO_BIN_EXE_physskin"),
+        log = log.display(),
+        python = python.display(),
+        peer = root.join("tests/peers/ros2_peer.py").display(),
+    );
+    let out = Command::new("unshare")
+        .args(["-n", "bash", "-c", &script])
+        .output()
+        .expect("unshare runs (root is needed for a private network namespace)");
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "loopback-only ({env}) failed\nstdout:\n{stdout}\nstderr:\n{}\nnode log:\n{text}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("ok: ") && stdout.contains("set/get ok"),
+        "{stdout}"
+    );
+    assert!(text.contains("shape_ready"), "{text}");
+    assert!(
+        !text.contains("loopback"),
+        "no warning about loopback any more:\n{text}"
+    );
+    text
+}
+
+#[test]
+fn both_ways_with_only_loopback_up() {
+    on_loopback_only(36, "PHYSSKIN_TEST=1", "loopback-plain-node.log");
+}
+
+#[test]
+fn both_ways_under_ros_localhost_only() {
+    on_loopback_only(
+        37,
+        "ROS_LOCALHOST_ONLY=1",
+        "loopback-localhost-only-node.log",
+    );
+}
+
+#[test]
+fn both_ways_under_automatic_discovery_range_localhost() {
+    on_loopback_only(
+        38,
+        "ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST",
+        "loopback-range-node.log",
+    );
+}
