@@ -165,7 +165,7 @@ ros_message!(
 );
 
 ros_message!(
-    /// sensor_msgs/msg/PointCloud2: read it with `decode_cloud` (module `ros::cloud`).
+    /// sensor_msgs/msg/PointCloud2: read it with `decode_cloud` (module `msg::cloud`).
     PointCloud2 = "sensor_msgs" {
         /// The sensor's frame and the time of the scan.
         header: Header,

@@ -248,3 +248,44 @@ impl<'a> DeformedCloud<'a> {
         template.map_or(Self::XyzOnly, Self::Template)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::msg::Collector;
+
+    /// Every sink takes each output once, on its resolved topic and at the clock's time; a
+    /// status below the level is neither sent nor logged.
+    #[test]
+    fn each_sink_takes_every_output_once() {
+        let clock = NodeClock::simulated();
+        clock.set(&crate::msg::Time::from_nanos(42));
+        let mut outputs = Outputs::new(
+            Topics::default_resolved(),
+            PublishParams::default(),
+            clock,
+            false,
+        );
+        let (first, second) = (
+            Arc::new(Collector::default()),
+            Arc::new(Collector::default()),
+        );
+        outputs.sinks.push(Box::new(first.clone()));
+        outputs.sinks.push(Box::new(second.clone()));
+        outputs.status_level = log::LevelFilter::Warn;
+        outputs.report(Status::INFO, 0, "quiet", "below the level".into());
+        outputs.report(Status::WARN, 3, "loud", "at the level".into());
+        for sink in [first, second] {
+            let got = sink.take();
+            assert_eq!(got.len(), 1, "one status each");
+            let (topic, at, message) = &got[0];
+            assert_eq!((topic.as_str(), *at), ("/physskin/status", 42));
+            let Output::Status(status) = message else {
+                panic!("a status, not {message:?}")
+            };
+            assert_eq!((status.shape_id, status.event.as_str()), (3, "loud"));
+        }
+    }
+}
