@@ -3,7 +3,6 @@
 //! Everything runs on one thread in a fixed order, so two replays give identical messages.
 
 use std::collections::BTreeMap;
-
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -11,11 +10,9 @@ use serde::Serialize;
 
 use crate::bag::{read_recording, BagError, BagMessage, RecordOptions, RecordSummary, Recorder};
 use crate::msg::{JointState, QosProfile, Status, TFMessage, Time, TopicInfo};
-use crate::runtime::Topics;
-use crate::runtime::{topic_table, Input, InputKind, InputTopics};
 use crate::runtime::{
-    BuildOutcome, BuildRequest, Builder, NameResolver, NodeClock, NodeParams, Outputs, Stage,
-    StageOptions, TfBuffer,
+    topic_table, BuildOutcome, BuildRequest, Builder, Input, InputKind, InputTopics, NameResolver,
+    NodeClock, NodeParams, Outputs, Stage, StageOptions, TfBuffer, Topics,
 };
 use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::skinning::NeuralModel;
