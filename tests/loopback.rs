@@ -30,16 +30,20 @@ fn ros_venv() -> std::path::PathBuf {
     )
 }
 
-/// Runs the node and tests/peers/ros2_peer.py in a namespace with only `lo` up, both with the
-/// environment `env` (`NAME=VALUE ...`); fails with both outputs unless both exit 0. Returns
-/// the node's log.
-fn on_loopback_only(domain: u16, env: &str, log_name: &str) -> String {
+/// Runs the node and tests/peers/ros2_peer.py in a private namespace, both with the environment
+/// `env` (`NAME=VALUE ...`): with only `lo` up, or (`beside`) with a veth pair up too, as a host
+/// with a network has; fails with both outputs unless both exit 0. Returns the node's log.
+fn on_loopback(domain: u16, env: &str, beside: bool, log_name: &str) -> String {
     let python = ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let log = root.join("target").join(log_name);
+    let check = if beside {
+        ""
+    } else {
+        "[ $(ip -o link show up | grep -vc ' lo:') -eq 0 ] || { echo not loopback-only; exit 3; }; "
+    };
     let script = format!(
-        "ip link set lo up; export {env} ROS_DOMAIN_ID={domain}; \
-         [ $(ip -o link show up | grep -vc ' lo:') -eq 0 ] || {{ echo not loopback-only; exit 3; }}; \
+        "ip link set lo up; export {env} ROS_DOMAIN_ID={domain}; {check}\
          {node} node > {log} 2>&1 & NODE=$!; \
          timeout 120 {python} {peer}; RC=$?; \
          kill -INT $NODE; wait $NODE; NODE_RC=$?; \
@@ -49,8 +53,13 @@ fn on_loopback_only(domain: u16, env: &str, log_name: &str) -> String {
         python = python.display(),
         peer = root.join("tests/peers/ros2_peer.py").display(),
     );
-    let out = Command::new("unshare")
-        .args(["-n", "bash", "-c", &script])
+    let mut command = Command::new("unshare");
+    command.arg("-n");
+    if beside {
+        command.arg(root.join("tests/peers/private_net.sh"));
+    }
+    let out = command
+        .args(["bash", "-c", &script])
         .output()
         .expect("unshare runs (root is needed for a private network namespace)");
     let text = std::fs::read_to_string(&log).unwrap_or_default();
@@ -74,23 +83,25 @@ fn on_loopback_only(domain: u16, env: &str, log_name: &str) -> String {
 
 #[test]
 fn both_ways_with_only_loopback_up() {
-    on_loopback_only(36, "PHYSSKIN_TEST=1", "loopback-plain-node.log");
+    on_loopback(36, "PHYSSKIN_TEST=1", false, "loopback-plain-node.log");
 }
 
 #[test]
 fn both_ways_under_ros_localhost_only() {
-    on_loopback_only(
-        37,
-        "ROS_LOCALHOST_ONLY=1",
-        "loopback-localhost-only-node.log",
-    );
+    let env = "ROS_LOCALHOST_ONLY=1";
+    on_loopback(37, env, false, "loopback-localhost-only-node.log");
 }
 
 #[test]
 fn both_ways_under_automatic_discovery_range_localhost() {
-    on_loopback_only(
-        38,
-        "ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST",
-        "loopback-range-node.log",
-    );
+    let env = "ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST";
+    on_loopback(38, env, false, "loopback-range-node.log");
+}
+
+/// On a host with a network, the environment keeps both the peer and the node (which reads it
+/// as rmw does) on loopback, and they still talk.
+#[test]
+fn both_ways_under_localhost_range_beside_a_network() {
+    let env = "ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST";
+    on_loopback(39, env, true, "loopback-beside-node.log");
 }

@@ -69,6 +69,13 @@ pub fn ros_setup(
     Ok((names, loader))
 }
 
+/// Whether the environment keeps ROS 2 to this host, as rmw implementations read it:
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, or the older `ROS_LOCALHOST_ONLY=1`.
+fn localhost_only_asked() -> bool {
+    let env = |name: &str| std::env::var(name).unwrap_or_default();
+    env("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST" || env("ROS_LOCALHOST_ONLY") == "1"
+}
+
 pub fn run(args: NodeArgs, ros: RosArgs) -> crate::Result<()> {
     let (names, loader) = ros_setup(&ros, &args.name, &args.namespace, args.params.as_deref())?;
     let mut config = NodeConfig {
@@ -80,7 +87,7 @@ pub fn run(args: NodeArgs, ros: RosArgs) -> crate::Result<()> {
             .domain_id
             .or_else(|| std::env::var("ROS_DOMAIN_ID").ok()?.parse().ok())
             .unwrap_or(0),
-        loopback_only: args.loopback_only,
+        loopback_only: args.loopback_only || localhost_only_asked(),
         log_level: ros.log_level.unwrap_or(crate::node::LogLevel::Info),
         rosout: !ros.rosout_disabled,
     };
