@@ -9,32 +9,11 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-/// target/ros-venv with rclpy (Fast DDS) from pip, as tests/ros2_peer.rs makes it.
-fn ros_venv() -> std::path::PathBuf {
-    common::venv(
-        "ros-venv",
-        "import rclpy, sensor_msgs.msg, shape_msgs.msg, std_srvs.srv, diagnostic_msgs.msg, \
-         visualization_msgs.msg, geometry_msgs.msg, rcl_interfaces.msg, numpy",
-        &[
-            "ros-rclpy",
-            "ros-sensor-msgs",
-            "ros-std-msgs",
-            "ros-shape-msgs",
-            "ros-rmw-fastrtps-cpp",
-            "ros-std-srvs",
-            "ros-diagnostic-msgs",
-            "ros-visualization-msgs",
-            "ros-geometry-msgs",
-            "numpy",
-        ],
-    )
-}
-
 /// Runs the node and tests/peers/ros2_peer.py in a private namespace, both with the environment
 /// `env` (`NAME=VALUE ...`): with only `lo` up, or (`beside`) with a veth pair up too, as a host
 /// with a network has; fails with both outputs unless both exit 0. Returns the node's log.
 fn on_loopback(domain: u16, env: &str, beside: bool, log_name: &str) -> String {
-    let python = ros_venv();
+    let python = common::ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let log = root.join("target").join(log_name);
     let check = if beside {

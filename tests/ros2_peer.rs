@@ -6,35 +6,14 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-/// target/ros-venv with rclpy (Fast DDS) from pip.
-fn ros_venv() -> PathBuf {
-    common::venv(
-        "ros-venv",
-        "import rclpy, sensor_msgs.msg, shape_msgs.msg, std_srvs.srv, diagnostic_msgs.msg, \
-         visualization_msgs.msg, geometry_msgs.msg, rcl_interfaces.msg, numpy",
-        &[
-            "ros-rclpy",
-            "ros-sensor-msgs",
-            "ros-std-msgs",
-            "ros-shape-msgs",
-            "ros-rmw-fastrtps-cpp",
-            "ros-std-srvs",
-            "ros-diagnostic-msgs",
-            "ros-visualization-msgs",
-            "ros-geometry-msgs",
-            "numpy",
-        ],
-    )
-}
 
 /// Runs `physskin node --domain-id <domain> <node_args>` and the Python `peer` against it in a
 /// private network namespace; the node is stopped with SIGINT after the peer. Returns the
 /// peer's stdout and the node's log; fails the test, with both, unless both exit 0.
 fn node_with_peer(domain: u16, node_args: &str, peer: &str, log_name: &str) -> (String, String) {
-    let python = ros_venv();
+    let python = common::ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let log_path = root.join("target").join(log_name);
     let script = format!(
@@ -111,7 +90,7 @@ fn in_private_net(script: &str, logs: &[&Path]) -> String {
 /// markers, and calls ~/reset and ~/clear; /cell2 hears nothing of /cell; SIGINT exits 0.
 #[test]
 fn launch_ros_argv_names_rosout_diagnostics_services_and_markers() {
-    let python = ros_venv();
+    let python = common::ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let target = root.join("target");
     // What launch_ros writes for `parameters=[{'material.young': 3e5}]`: the node's full name,
@@ -167,7 +146,7 @@ fn launch_ros_argv_names_rosout_diagnostics_services_and_markers() {
 /// A mesh published once (reliable, transient local) before the node starts is built.
 #[test]
 fn a_mesh_published_before_the_node_starts_is_built() {
-    let python = ros_venv();
+    let python = common::ros_venv();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let log = root.join("target/late-mesh-node.log");
     let script = format!(

@@ -180,3 +180,25 @@ pub fn replay_clouds(
     let messages = read_messages(&std::fs::read(&output).unwrap(), "output").unwrap();
     (summary, messages)
 }
+
+/// target/ros-venv with rclpy (Fast DDS) from pip, for the tests that run a ROS 2 peer.
+#[allow(dead_code)] // only the ROS 2 peer tests run rclpy
+pub fn ros_venv() -> PathBuf {
+    venv(
+        "ros-venv",
+        "import rclpy, sensor_msgs.msg, shape_msgs.msg, std_srvs.srv, diagnostic_msgs.msg, \
+         visualization_msgs.msg, geometry_msgs.msg, rcl_interfaces.msg, numpy",
+        &[
+            "ros-rclpy",
+            "ros-sensor-msgs",
+            "ros-std-msgs",
+            "ros-shape-msgs",
+            "ros-rmw-fastrtps-cpp",
+            "ros-std-srvs",
+            "ros-diagnostic-msgs",
+            "ros-visualization-msgs",
+            "ros-geometry-msgs",
+            "numpy",
+        ],
+    )
+}
