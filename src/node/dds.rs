@@ -117,7 +117,9 @@ pub(super) struct QosTable {
 }
 
 impl QosTable {
-    fn profile(&self, topic: &str, endpoint: Endpoint) -> QosProfile {
+    /// The topic's profile in the table (sensor data, depth 5, for a topic it lacks), after the
+    /// overrides.
+    pub(super) fn profile(&self, topic: &str, endpoint: Endpoint) -> QosProfile {
         let base = self
             .profiles
             .iter()

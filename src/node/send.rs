@@ -7,11 +7,12 @@ use std::time::{Duration, Instant};
 
 use ros2_client::{Node, NodeName, NodeOptions, Publisher};
 
-use super::dds::{context, publisher, qos_of, NodeError};
+use super::dds::{context, publisher, qos_of, NodeError, QosTable};
 use crate::bag::read_recording;
 use crate::msg::{
     from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, TFMessage,
 };
+use crate::runtime::qos_overrides::Endpoint;
 use crate::runtime::{topic_table, InputKind, InputTopics, Topics};
 
 /// How to send.
@@ -55,11 +56,12 @@ impl AnyPublisher {
         kind: &InputKind,
         t: &Topics,
     ) -> Result<Self, NodeError> {
-        let profile = topic_table(t)
-            .into_iter()
-            .find(|info| info.name == topic)
-            .map_or(crate::msg::QosProfile::sensor(5), |info| info.qos);
-        let q = qos_of(profile);
+        // The profile the node's table offers the topic with (what it subscribes with too).
+        let table = QosTable {
+            profiles: topic_table(t),
+            overrides: Default::default(),
+        };
+        let q = qos_of(table.profile(topic, Endpoint::Publisher));
         Ok(match kind {
             InputKind::Cloud => Self::Cloud(publisher(node, topic, q)?),
             InputKind::Mesh => Self::Mesh(publisher(node, topic, q)?),
