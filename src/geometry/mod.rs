@@ -20,7 +20,7 @@ pub use completion::{complete_view, Completed, Completion, CompletionError};
 pub(crate) use contact_samples::{contact_samples, ContactSamples};
 pub(crate) use cubature::stratified_subset;
 pub use cubature::Cubature;
-pub(crate) use downsample::voxel_downsample;
+pub(crate) use downsample::{view_downsample, voxel_downsample};
 pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
 pub use mesh_io::{parse_obj, parse_ply, parse_stl};
 pub(crate) use point_index::PointIndex;

@@ -340,10 +340,13 @@ pub fn complete_view(
     }))
 }
 
-/// The median distance between neighbouring points in the image plane: a scan's pixel pitch.
+/// A scan's pixel pitch: the distance to the nearest neighbour in the image plane, at its 90th
+/// percentile, which is a raster's pitch and a thinned raster's widest (its median is the
+/// narrowest: most rim bins of a VGA scan thinned to the build cap came out empty, side walls
+/// ran through the solid, and the bundled sphere's body held 0.65 of its volume, printed).
 fn image_pitch(image: &[Vector2<f64>]) -> f64 {
     let flat: Vec<Vector3<f64>> = image.iter().map(|q| Vector3::new(q.x, q.y, 0.0)).collect();
-    neighbour_distance(&flat, 1, 0.5).max(1e-12)
+    neighbour_distance(&flat, 1, 0.9).max(1e-12)
 }
 
 /// Fraction of occupied bins whose points, sorted by depth, leave a gap wider than `gap`:
