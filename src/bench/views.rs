@@ -1,7 +1,9 @@
 //! `bench views`: how one camera's view of an object completes from many sides. Fourteen
 //! shapes (the bundled sphere, box, creature and rod; three the network and the completion
 //! were not tuned on at first: a 0.3 m capsule, a turned ellipsoid, a torus; and seven variants
-//! of those kinds, see `variants`) are scanned from six sides at two image sizes; each scan is
+//! of those kinds, see `variants`) and eleven real objects' meshes from public packages
+//! (`benches/meshes`, each scaled to a 0.5 m diagonal) are scanned from six sides at three image
+//! sizes (the VGA scans thinned to the node's build cap, as the node reads them); each scan is
 //! completed and its solid voxelized against the whole mesh's; every scan again with a depth
 //! camera's noise. Geometry only: `bench real` simulates the bundled shapes' scans.
 
@@ -11,10 +13,13 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::geometry::view_downsample;
 use crate::geometry::{
-    box_mesh, bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, Shape, VoxelGrid,
+    box_mesh, bundled, capsule_mesh, complete_view, load_geometry, scan_points, sdf_mesh, Camera,
+    Shape, VoxelGrid,
 };
+use crate::pipeline::DEFAULT_MAX_BUILD_POINTS;
 
 /// The sides the camera looks from: `bench real`'s two, a low one almost square to a long
 /// side, one nearly level, one from above, one from behind.
@@ -26,7 +31,8 @@ pub const VIEW_DIRECTIONS: [[f64; 3]; 6] = [
     [0.3, 0.4, 1.0],
     [-1.0, -0.6, 0.6],
 ];
-const IMAGES: [(usize, usize); 2] = [(160, 120), (240, 180)];
+/// Two small images, and a VGA depth camera's, whose scans are thinned to the build cap first.
+const IMAGES: [(usize, usize); 3] = [(160, 120), (240, 180), (640, 480)];
 /// The volumes are compared at the inside test's default resolution.
 const RESOLUTION: usize = 64;
 /// The target: a completed volume within 30 % of the object's.
@@ -36,11 +42,18 @@ const VOLUME_TOLERANCE: f64 = 0.3;
 /// quarter of it).
 const DEPTH_NOISE_AT_1M: f64 = 0.002;
 
+/// The real objects' meshes (see the folder's README), read when the bench runs.
+const REAL_MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/meshes");
+/// Each real mesh is scaled to this bounding diagonal, m: a graspable object's size.
+const REAL_DIAGONAL_M: f64 = 0.5;
+
 /// One scan.
 #[derive(Clone, Debug, Serialize)]
 pub struct ViewRow {
     /// The shape scanned.
     pub shape: String,
+    /// `primitive` (made here, from the kinds the completion fits) or `real` (a public mesh).
+    pub kind: &'static str,
     /// The side the camera looks from.
     pub direction: [f64; 3],
     /// Image width and height, pixels.
@@ -66,11 +79,15 @@ pub struct ViewsReport {
     /// One row per shape, image size and direction, in that nesting order: the clean scans,
     /// then the same scans with depth noise.
     pub rows: Vec<ViewRow>,
-    /// The clean scans' figures, at the top level of the JSON.
+    /// The primitives' clean scans' figures, at the top level of the JSON.
     #[serde(flatten)]
     pub clean: ViewsSummary,
-    /// The noisy scans' figures.
+    /// The primitives' noisy scans' figures.
     pub noisy: ViewsSummary,
+    /// The real meshes' clean scans' figures.
+    pub real: ViewsSummary,
+    /// The real meshes' noisy scans' figures.
+    pub real_noisy: ViewsSummary,
 }
 
 /// How the completed scans of one kind (clean or noisy) compare with their meshes.
@@ -150,26 +167,77 @@ fn shapes() -> Vec<(&'static str, Shape)> {
     shapes
 }
 
+/// The public meshes in `REAL_MESHES`, by file stem, each centred and scaled to
+/// `REAL_DIAGONAL_M`. Errs when the folder or a mesh cannot be read.
+fn real_meshes() -> Result<Vec<(String, Shape)>> {
+    let unreadable = |reason: String| Error::InvalidParameter {
+        name: "benches/meshes",
+        reason,
+    };
+    let mut paths: Vec<_> = std::fs::read_dir(REAL_MESHES)
+        .map_err(|e| unreadable(format!("{REAL_MESHES}: {e}")))?
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| {
+            matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("stl" | "ply" | "obj")
+            )
+        })
+        .collect();
+    paths.sort();
+    paths
+        .into_iter()
+        .map(|path| {
+            let raw =
+                load_geometry(&path).map_err(|e| unreadable(format!("{}: {e}", path.display())))?;
+            let mesh = Shape::from_raw(raw)?;
+            let (lo, hi) = mesh.bounds();
+            let (centre, scale) = ((lo + hi) * 0.5, REAL_DIAGONAL_M / (hi - lo).norm());
+            let positions = mesh
+                .positions
+                .iter()
+                .map(|p| (p - centre) * scale)
+                .collect();
+            let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
+            Ok((
+                stem.to_string(),
+                Shape::new(positions, None, mesh.triangles.clone())?,
+            ))
+        })
+        .collect()
+}
+
 /// Scans every shape from every side at both image sizes and compares each completed solid
-/// with the mesh's; `progress` gets a line per shape. Errs when a scan fails.
+/// with the mesh's; `progress` gets a line per shape. Errs when a scan fails or a real mesh
+/// cannot be read.
 pub fn run_views_bench(mut progress: impl FnMut(&str)) -> Result<ViewsReport> {
     let mut rows = Vec::new();
     let mut noisy_rows = Vec::new();
     // One seed for the whole run: every run draws the same noise.
     let mut rng = ChaCha8Rng::seed_from_u64(29);
-    for (name, shape) in shapes() {
+    let primitives = shapes()
+        .into_iter()
+        .map(|(n, s)| (n.to_string(), s, "primitive"));
+    let real = real_meshes()?.into_iter().map(|(n, s)| (n, s, "real"));
+    for (name, shape, kind) in primitives.chain(real) {
         let truth = VoxelGrid::from_shape(&shape, RESOLUTION, None);
         for (width, height) in IMAGES {
             for direction in VIEW_DIRECTIONS {
                 let camera = Camera::looking_at(&shape, direction.into(), 1.5, width, height);
-                let points = scan_points(&shape, &camera)?;
+                // Read as the node reads a cloud: at most its build cap of points.
+                let points = view_downsample(
+                    &scan_points(&shape, &camera)?,
+                    &camera.position,
+                    DEFAULT_MAX_BUILD_POINTS,
+                );
                 let noisy = with_depth_noise(&points, &camera.position, &mut rng);
                 for (points, noise, out) in [
                     (points, 0.0, &mut rows),
                     (noisy, DEPTH_NOISE_AT_1M, &mut noisy_rows),
                 ] {
                     let mut row = compare(&points, &camera.position, &shape, &truth);
-                    row.shape = name.to_string();
+                    row.shape = name.clone();
+                    row.kind = kind;
                     row.direction = direction;
                     row.image = [width, height];
                     row.depth_noise_m = noise;
@@ -179,10 +247,22 @@ pub fn run_views_bench(mut progress: impl FnMut(&str)) -> Result<ViewsReport> {
         }
         progress(&format!("{name}: scanned"));
     }
-    let clean = summarize(&rows, 0.0);
-    let noisy = summarize(&noisy_rows, DEPTH_NOISE_AT_1M);
+    let of = |rows: &[ViewRow], kind: &str, noise| {
+        let chosen: Vec<ViewRow> = rows.iter().filter(|r| r.kind == kind).cloned().collect();
+        summarize(&chosen, noise)
+    };
+    let clean = of(&rows, "primitive", 0.0);
+    let noisy = of(&noisy_rows, "primitive", DEPTH_NOISE_AT_1M);
+    let real = of(&rows, "real", 0.0);
+    let real_noisy = of(&noisy_rows, "real", DEPTH_NOISE_AT_1M);
     rows.extend(noisy_rows);
-    Ok(ViewsReport { rows, clean, noisy })
+    Ok(ViewsReport {
+        rows,
+        clean,
+        noisy,
+        real,
+        real_noisy,
+    })
 }
 
 /// `points` seen from `camera`, each moved along its ray by Gaussian depth noise of
@@ -212,6 +292,7 @@ fn compare(
 ) -> ViewRow {
     let mut row = ViewRow {
         shape: String::new(),
+        kind: "primitive",
         direction: [0.0; 3],
         image: [0, 0],
         depth_noise_m: 0.0,

@@ -426,9 +426,14 @@ fn run_bench_views(json: bool) -> crate::Result<()> {
             r.centroid_offset
         );
     }
-    for s in [&r.clean, &r.noisy] {
+    for (kind, s) in [
+        ("primitives", &r.clean),
+        ("primitives", &r.noisy),
+        ("real meshes", &r.real),
+        ("real meshes", &r.real_noisy),
+    ] {
         println!(
-            "depth noise {} m at 1 m: {} of {} completed scans within 30 % of the volume; mean overlap {:.3}; worst volume factor {:.3}",
+            "{kind}, depth noise {} m at 1 m: {} of {} completed scans within 30 % of the volume; mean overlap {:.3}; worst volume factor {:.3}",
             s.depth_noise_m, s.within_30_pct, s.completed, s.mean_overlap, s.worst_volume_factor
         );
     }
