@@ -333,6 +333,8 @@ fn scans_simulate_and_degenerate_files_are_refused_with_their_reason() {
         json["completion"]["method"], "reflected_through_centre",
         "{json}"
     );
+    // Two faces of the box are in view: the box they give decided.
+    assert_eq!(json["completion"]["prior"], "box", "{json}");
     let ratio = json["volume"].as_f64().unwrap() / json["reference_volume"].as_f64().unwrap();
     assert!(
         (ratio - 1.0).abs() <= 0.3,

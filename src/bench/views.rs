@@ -64,6 +64,8 @@ pub struct ViewRow {
     pub points: usize,
     /// `completed`, `two-sided` (not one view: built as it is) or the refusal's reason.
     pub outcome: String,
+    /// The completion's prior that placed the centre (empty unless completed).
+    pub prior: &'static str,
     /// Completed solid's volume over the mesh's, both voxelized alike (0 unless completed).
     pub volume_ratio: f64,
     /// Intersection over union of the two solids.
@@ -298,6 +300,7 @@ fn compare(
         depth_noise_m: 0.0,
         points: points.len(),
         outcome: "completed".into(),
+        prior: "",
         volume_ratio: 0.0,
         overlap: 0.0,
         centroid_offset: 0.0,
@@ -313,6 +316,7 @@ fn compare(
             return row;
         }
     };
+    row.prior = view.report.prior.name();
     let as_shape = |p: &[Vector3<f64>]| Shape::new(p.to_vec(), None, Vec::new());
     let (Ok(solid), Ok(surface)) = (as_shape(&view.solid), as_shape(&view.surface)) else {
         row.outcome = "the completed cloud is not a shape".into();

@@ -409,11 +409,11 @@ fn run_bench_views(json: bool) -> crate::Result<()> {
         crate::cli::print_json(&r);
         return Ok(());
     }
-    println!("| shape | image | camera from | depth noise at 1 m | points | outcome | volume / true | overlap | centroid off / diagonal |");
-    println!("|---|---|---|---:|---:|---|---:|---:|---:|");
+    println!("| shape | image | camera from | depth noise at 1 m | points | outcome | prior | volume / true | overlap | centroid off / diagonal |");
+    println!("|---|---|---|---:|---:|---|---|---:|---:|---:|");
     for r in &r.rows {
         println!(
-            "| {} | {}x{} | {:?} | {} | {} | {} | {:.3} | {:.3} | {:.3} |",
+            "| {} | {}x{} | {:?} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} |",
             r.shape,
             r.image[0],
             r.image[1],
@@ -421,6 +421,7 @@ fn run_bench_views(json: bool) -> crate::Result<()> {
             r.depth_noise_m,
             r.points,
             r.outcome,
+            r.prior,
             r.volume_ratio,
             r.overlap,
             r.centroid_offset

@@ -16,7 +16,7 @@ mod shape;
 mod tetmesh;
 mod voxel;
 
-pub use completion::{complete_view, Completed, Completion, CompletionError};
+pub use completion::{complete_view, Completed, Completion, CompletionError, Prior};
 pub(crate) use contact_samples::{contact_samples, ContactSamples};
 pub(crate) use cubature::stratified_subset;
 pub use cubature::Cubature;

@@ -107,9 +107,10 @@ impl SoftBody {
         let mut body = Self::build_filled(model, &surface, Some(fill), points, options)?;
         let r = &view.report;
         body.decision = format!(
-            "{}; completed one view ({}): observed {:.1} % of the surface, {:.3e} m^3, {:.3} m deep",
+            "{}; completed one view ({}, prior {}): observed {:.1} % of the surface, {:.3e} m^3, {:.3} m deep",
             body.decision,
             r.method,
+            r.prior.name(),
             100.0 * r.observed_fraction,
             body.volume(),
             r.depth

@@ -408,8 +408,9 @@ impl Builder {
         };
         let completion = match completion {
             Some(c) => format!(
-                ", completed one view ({}): observed {:.1} % of the surface, volume {:.3e} m^3",
+                ", completed one view ({}, prior {}): observed {:.1} % of the surface, volume {:.3e} m^3",
                 c.method,
+                c.prior.name(),
                 100.0 * c.observed_fraction,
                 body.volume()
             ),

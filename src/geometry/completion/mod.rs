@@ -88,11 +88,48 @@ pub enum CompletionError {
     },
 }
 
+/// The prior that placed the hidden side's centre (and how it was followed).
+#[derive(Clone, Copy, Debug, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Prior {
+    /// The ellipsoid fitted to what was seen; followed pixel by pixel.
+    Ellipsoid,
+    /// The box two or three faces in view give; followed pixel by pixel.
+    Box,
+    /// A long object's axis, through the circle or ellipse fitted across its middle.
+    LongAxis,
+    /// A long object's axis, as deep as a round rod's would be.
+    Long,
+    /// Another compact object: at least half its breadth deep, a generous fill.
+    Compact,
+}
+
+impl Prior {
+    /// Whether the completion follows the reflection pixel by pixel and is made symmetric about
+    /// its centre: every prior but `Compact`'s.
+    fn symmetric(self) -> bool {
+        self != Prior::Compact
+    }
+
+    /// The name reported, as serialized.
+    pub fn name(self) -> &'static str {
+        match self {
+            Prior::Ellipsoid => "ellipsoid",
+            Prior::Box => "box",
+            Prior::LongAxis => "long_axis",
+            Prior::Long => "long",
+            Prior::Compact => "compact",
+        }
+    }
+}
+
 /// What a completion did, for `shape_ready` and the subspace decision.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Completion {
     /// The completion method's name: `METHOD`.
     pub method: &'static str,
+    /// The prior that decided the hidden side.
+    pub prior: Prior,
     /// Observed points over all points of the completed surface (observed and filled in at the
     /// same density), a long object's reflection left out.
     pub observed_fraction: f64,
@@ -265,7 +302,8 @@ pub fn complete_view(
     // The rim is found on bins of about two pixels: coarser bins would reach far into the
     // patch where faces are foreshortened, and pull the centre towards the camera.
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
-    let (centre, symmetric) = estimated_centre(points, &depths, &image, &view, &rim_bins, spacing);
+    let (centre, prior) = estimated_centre(points, &depths, &image, &view, &rim_bins, spacing);
+    let symmetric = prior.symmetric();
     // The reflection is followed pixel by pixel where the object is long, taken round across
     // its axis, or fitted (an ellipsoid, a box). Another compact object's is not: its bins'
     // mostly deepest reflected depths are kept, a generous fill that makes up for what the rim's
@@ -328,6 +366,7 @@ pub fn complete_view(
     Ok(Some(Completed {
         report: Completion {
             method: METHOD,
+            prior,
             observed_fraction,
             two_sided_fraction: two_sided,
             added_points,
@@ -572,8 +611,7 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 /// ellipsoid describes is centred on it (`silhouette::ellipsoid_centre`), a box with two faces
 /// in view on its box (`cuboid::box_centre`: its points within `BOX_TOLERANCE` point
 /// spacings, `spacing`, of the box's faces); another is at least midway between the nearest
-/// and the deepest point seen (`seen_depths_middle`). Also whether the completion is to be as
-/// symmetric as the prior: a long object's or a fitted one's.
+/// and the deepest point seen (`seen_depths_middle`). Also the prior that decided.
 /// `depths` and `image` are the points' depths and image coordinates in `view`.
 fn estimated_centre(
     points: &[Vector3<f64>],
@@ -582,7 +620,7 @@ fn estimated_centre(
     view: &ViewFrame,
     bins: &ImageBins,
     spacing: f64,
-) -> (Vector3<f64>, bool) {
+) -> (Vector3<f64>, Prior) {
     // Per rim bin its deepest point: where the surface turns away. The nearer points of a bin
     // on a face seen at a grazing angle lie towards the camera and would pull the centre in.
     let rim: Vec<usize> = (0..bins.cells.len())
@@ -616,10 +654,10 @@ fn estimated_centre(
     if long.is_none() && outline.round {
         let axes = outline.axes(view);
         if let Some(centre) = silhouette::ellipsoid_centre(points, axes, &view.forward) {
-            return (centre, true);
+            return (centre, Prior::Ellipsoid);
         }
         if let Some(centre) = cuboid::box_centre(points, BOX_TOLERANCE * spacing) {
-            return (centre, true);
+            return (centre, Prior::Box);
         }
     }
     // The rim bins are two pixels wide.
@@ -642,10 +680,15 @@ fn estimated_centre(
     if let Some(axis) = &long {
         let half_width = strip.outline_width(&outline, pitch) / 2.0;
         if let Some(on_axis) = axis.section(points, &strip, &centre, half_width, &view.forward) {
-            return (on_axis, true);
+            return (on_axis, Prior::LongAxis);
         }
     }
-    (centre, long.is_some())
+    let prior = if long.is_some() {
+        Prior::Long
+    } else {
+        Prior::Compact
+    };
+    (centre, prior)
 }
 
 /// Midway between the nearest and the deepest point seen (at `OUTLINE_QUANTILE` and its
