@@ -25,6 +25,7 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::Serialize;
 
 mod cuboid;
+mod prior;
 mod quadric;
 mod reflection;
 mod rim;
@@ -34,6 +35,7 @@ mod silhouette;
 use super::point_index::neighbour_distance;
 use super::shape::principal_extents;
 use crate::linalg::tangents;
+pub use prior::Prior;
 use reflection::{Carving, Reflection};
 use rim::rim_centroid;
 use section::{elliptic_axis, round_axis};
@@ -86,41 +88,6 @@ pub enum CompletionError {
         /// Its middle principal extent, m.
         width: f64,
     },
-}
-
-/// The prior that placed the hidden side's centre (and how it was followed).
-#[derive(Clone, Copy, Debug, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Prior {
-    /// The ellipsoid fitted to what was seen; followed pixel by pixel.
-    Ellipsoid,
-    /// The box two or three faces in view give; followed pixel by pixel.
-    Box,
-    /// A long object's axis, through the circle or ellipse fitted across its middle.
-    LongAxis,
-    /// A long object's axis, as deep as a round rod's would be.
-    Long,
-    /// Another compact object: at least half its breadth deep, a generous fill.
-    Compact,
-}
-
-impl Prior {
-    /// Whether the completion follows the reflection pixel by pixel and is made symmetric about
-    /// its centre: every prior but `Compact`'s.
-    fn symmetric(self) -> bool {
-        self != Prior::Compact
-    }
-
-    /// The name reported, as serialized.
-    pub fn name(self) -> &'static str {
-        match self {
-            Prior::Ellipsoid => "ellipsoid",
-            Prior::Box => "box",
-            Prior::LongAxis => "long_axis",
-            Prior::Long => "long",
-            Prior::Compact => "compact",
-        }
-    }
 }
 
 /// What a completion did, for `shape_ready` and the subspace decision.
