@@ -273,3 +273,47 @@ fn objects_of_one_cloud_rest_on_each_other() {
         "the top block should rest on the bottom one's top face at 0.2 m, not sink: {lowest_of_top} m"
     );
 }
+
+/// Two instances that split the objects (`instances.shard` 0/2 and 1/2) take one camera's
+/// eight labelled objects four each, by id modulo 2, each object once; their shape ids never
+/// meet, and each build names its shard.
+#[test]
+fn two_shards_take_the_objects_of_one_cloud_once_each() {
+    let cloud = common::scenes::objects_on_a_table(8, 320, 240);
+    let clouds: Vec<(f64, PointCloud2)> =
+        (1..=2).map(|i| (0.1 * i as f64, cloud.clone())).collect();
+    let mut taken: BTreeMap<i64, u32> = BTreeMap::new();
+    for k in 0..2u32 {
+        let mut params = NodeParams::default();
+        params.instances.shard = format!("{k}/2");
+        let out = replay_clouds(&format!("shard-{k}"), &clouds, params);
+        let ready = statuses(&out, "shape_ready");
+        assert_eq!(ready.len(), 4, "four objects each: {ready:?}");
+        for (_, s) in &ready {
+            assert!(
+                s.message.contains(&format!("(shard {k}/2)")),
+                "{}",
+                s.message
+            );
+            assert_eq!((s.shape_id - 1) % 2, k, "ids k + 1 + 2 j: {}", s.shape_id);
+            let label: i64 = s
+                .message
+                .split("instance ")
+                .nth(1)
+                .and_then(|rest| rest.split(|c: char| !c.is_ascii_digit()).next())
+                .and_then(|id| id.parse().ok())
+                .unwrap_or_else(|| panic!("no instance in {}", s.message));
+            assert_eq!(label % 2, i64::from(k), "{}", s.message);
+            assert!(
+                taken.insert(label, s.shape_id).is_none(),
+                "{label} taken twice"
+            );
+        }
+    }
+    assert_eq!(
+        taken.keys().copied().collect::<Vec<_>>(),
+        (1..=8).collect::<Vec<_>>()
+    );
+    let ids: BTreeSet<u32> = taken.values().copied().collect();
+    assert_eq!(ids.len(), 8, "no shape id twice: {taken:?}");
+}

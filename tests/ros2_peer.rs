@@ -462,3 +462,53 @@ fn replay_publish_feeds_a_running_node() {
     );
     assert!(!text.contains("input_rejected"), "{text}");
 }
+
+/// Two instances in one namespace, started as launch_ros starts config/launch/shards.launch.py's
+/// (`-r __node:=skin_k -r __ns:=/cell -p instances.shard:=k/2`, the camera topic remapped),
+/// split rclpy's labelled cloud of eight objects four each: rclpy receives every object's
+/// deformed cloud from exactly one of them, and each names its shard on /diagnostics and in its
+/// builds (tests/peers/shards_peer.py).
+#[test]
+fn two_instances_split_a_labelled_cloud_of_eight_objects() {
+    use physskin::msg::to_cdr;
+    let python = common::ros_venv();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let target = root.join("target");
+    let scan = target.join("shards-scan.cdr");
+    std::fs::write(
+        &scan,
+        to_cdr(&common::scenes::objects_on_a_table(8, 320, 240)),
+    )
+    .unwrap();
+    let logs = [0, 1].map(|k| target.join(format!("shards-{k}.log")));
+    let node = env!("CARGO_BIN_EXE_physskin");
+    let instance = |k: usize| {
+        format!(
+            "{node} node --domain-id 41 --ros-args -r __node:=skin_{k} -r __ns:=/cell \
+               -p instances.shard:={k}/2 -p shm.deformed_service:=physskin/skin_{k}/deformed_points \
+               -p shm.weights_service:=physskin/skin_{k}/weights \
+               -r '~/points:=/camera/points' > {log} 2>&1",
+            log = logs[k].display()
+        )
+    };
+    let script = format!(
+        "{a} & A=$!; {b} & B=$!; \
+         ROS_DOMAIN_ID=41 timeout 200 {python} {peer} {scan}; RC=$?; \
+         kill -INT $A $B; wait $A; RA=$?; wait $B; RB=$?; \
+         echo node exits $RA $RB; exit $(( RC != 0 ? RC : (RA != 0 ? RA : RB) ))",
+        a = instance(0),
+        b = instance(1),
+        python = python.display(),
+        peer = root.join("tests/peers/shards_peer.py").display(),
+        scan = scan.display(),
+    );
+    let stdout = in_private_net(&script, &[&logs[0], &logs[1]]);
+    assert!(stdout.contains("ok: shards"), "{stdout}");
+    assert!(stdout.contains("node exits 0 0"), "{stdout}");
+    for (k, log) in logs.iter().enumerate() {
+        let log = std::fs::read_to_string(log).unwrap();
+        let ready = log.lines().filter(|l| l.contains("shape_ready")).count();
+        assert_eq!(ready, 4, "one build per object of shard {k}:\n{log}");
+        assert!(log.contains(&format!("(shard {k}/2)")), "{log}");
+    }
+}

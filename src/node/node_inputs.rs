@@ -13,8 +13,8 @@ use super::services::{serve as serve_trigger, trigger_server, Control as Kind, T
 use super::shared::Shared;
 use crate::bag::Recorder;
 use crate::msg::{
-    Clock, DiagnosticArray, Interaction, JointState, Mesh, MeshStamped, PointCloud2, Status,
-    TFMessage,
+    Clock, DiagnosticArray, Interaction, JointState, KeyValue, Mesh, MeshStamped, PointCloud2,
+    Status, TFMessage,
 };
 use crate::msg::{QosProfile, TopicInfo};
 use crate::runtime::builder::BuildRequest;
@@ -215,16 +215,29 @@ async fn transforms(sub: &Subscription<TFMessage>, topic: &str, is_static: bool,
     }
 }
 
-/// /diagnostics once a second.
+/// /diagnostics once a second; an instance that takes a shard of the objects names it.
 async fn report_health(publisher: Publisher<DiagnosticArray>, shared: &Shared, node_name: &str) {
+    let shard = shared
+        .params
+        .read()
+        .ok()
+        .and_then(|p| p.shard().ok())
+        .unwrap_or_default();
     loop {
         smol::Timer::after(Duration::from_secs(1)).await;
         let outputs = &shared.outputs;
         let recording = shared.recorder.as_ref().map(|r| r.health());
         let dropped = shared.dropped.load(Ordering::Relaxed);
-        let report = shared
+        let mut report = shared
             .health
             .report(outputs.header(""), node_name, recording, dropped);
+        for status in report.status.iter_mut().filter(|_| shard.is_split()) {
+            status.name = format!("{} (shard {shard})", status.name);
+            status.values.push(KeyValue {
+                key: "shard".into(),
+                value: shard.to_string(),
+            });
+        }
         if let Err(e) = publisher.publish(report) {
             log::warn!("/diagnostics not published: {e}");
         }

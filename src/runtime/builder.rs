@@ -358,12 +358,14 @@ impl Builder {
         let hash = request.content_hash();
         let key = request.key();
         let now = outputs.clock.now_nanos().unwrap_or(0);
+        let shard = params.shard().unwrap_or_default();
         // A running object keeps its id when its geometry changes: it is the same object.
         let id = match self.built.lookup(&key, hash) {
             Some((_, true)) => return BuildOutcome::Unchanged,
             Some((id, false)) => id,
+            // Instances that split the objects number theirs apart (see `Shard`).
             None => {
-                self.next_id += 1;
+                self.next_id = shard.id_after(self.next_id);
                 self.next_id
             }
         };
@@ -427,8 +429,13 @@ impl Builder {
             weights: body.weights().to_vec(),
             handles: body.handles(),
             message: format!(
-                "{} in {key}: {} points{thinned}, {} handles{dropped}{completion}{timings}",
+                "{} in {key}{}: {} points{thinned}, {} handles{dropped}{completion}{timings}",
                 request.source,
+                if shard.is_split() {
+                    format!(" (shard {shard})")
+                } else {
+                    String::new()
+                },
                 body.point_count(),
                 body.handles()
             ),

@@ -6,6 +6,7 @@
 use std::collections::BTreeMap;
 
 use super::builder::BuildRequest;
+use super::cloud_objects::instance_field;
 use super::outputs::{TF, TF_STATIC};
 use super::params::{NodeParams, Topics};
 use crate::msg::{
@@ -60,22 +61,44 @@ pub enum Input {
 }
 
 impl Input {
-    /// A cloud's objects, with the cloud's size limit and instance field from `p`.
+    /// A cloud's objects, with the cloud's size limit and instance field from `p`: those of
+    /// this instance's shard (`instances.shard`).
     pub fn cloud(cloud: &PointCloud2, p: &NodeParams) -> Result<Self, String> {
-        BuildRequest::from_cloud(cloud, p.max_points, &p.instance_field).map(Self::Geometry)
+        let shard = p.shard().unwrap_or_default();
+        // Another instance's frame is not even decoded.
+        let labelled = instance_field(cloud, &p.instance_field).is_some();
+        if !labelled && !shard.owns_frame(&cloud.header.frame_id) {
+            return Ok(Self::Geometry(Vec::new()));
+        }
+        let mut requests = BuildRequest::from_cloud(cloud, p.max_points, &p.instance_field)?;
+        requests.retain(|r| shard.owns(&r.key()));
+        Ok(Self::Geometry(requests))
     }
 
-    /// A mesh in the `mesh_frame` parameter's frame.
+    /// A mesh in the `mesh_frame` parameter's frame (none when another shard's).
     pub fn mesh(mesh: &Mesh, p: &NodeParams) -> Result<Self, String> {
-        BuildRequest::from_mesh(mesh, &p.mesh_frame, 0, p.max_points)
-            .map(|r| Self::Geometry(vec![r]))
+        Self::shard_of_mesh(p, &p.mesh_frame, || {
+            BuildRequest::from_mesh(mesh, &p.mesh_frame, 0, p.max_points)
+        })
     }
 
-    /// A mesh in its header's frame, at its stamp.
+    /// A mesh in its header's frame, at its stamp (none when another shard's).
     pub fn mesh_stamped(m: &MeshStamped, p: &NodeParams) -> Result<Self, String> {
         let stamp = m.header.stamp.nanos();
-        BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, p.max_points)
-            .map(|r| Self::Geometry(vec![r]))
+        Self::shard_of_mesh(p, &m.header.frame_id, || {
+            BuildRequest::from_mesh(&m.mesh, &m.header.frame_id, stamp, p.max_points)
+        })
+    }
+
+    fn shard_of_mesh(
+        p: &NodeParams,
+        frame: &str,
+        request: impl FnOnce() -> Result<BuildRequest, String>,
+    ) -> Result<Self, String> {
+        if !p.shard().unwrap_or_default().owns_frame(frame) {
+            return Ok(Self::Geometry(Vec::new()));
+        }
+        request().map(|r| Self::Geometry(vec![r]))
     }
 }
 

@@ -16,6 +16,7 @@ pub(crate) mod param_file;
 pub(crate) mod params;
 pub(crate) mod qos_overrides;
 pub(crate) mod refiner;
+pub(crate) mod shard;
 pub(crate) mod stage;
 pub(crate) mod stepper;
 pub(crate) mod tf;
@@ -31,8 +32,8 @@ pub(crate) use names::{NameError, NameResolver};
 pub(crate) use outputs::{topic_table, Outputs};
 pub(crate) use param_file::ParamLoader;
 pub use params::{
-    InferenceParams, MarkerParams, MaterialParams, NodeParams, PublishParams, RecordParams,
-    ShmParams, SimulationParams, TfParams, Topics,
+    InferenceParams, InstanceParams, MarkerParams, MaterialParams, NodeParams, PublishParams,
+    RecordParams, ShmParams, SimulationParams, TfParams, Topics,
 };
 pub(crate) use stage::{Stage, StageOptions};
 pub use tf::{TfBuffer, TfError};

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
 use super::names::{NameError, NameResolver};
+use super::shard::Shard;
 pub use super::tracking_params::TrackingParams;
 use crate::physics::{SimParams, Solver};
 use crate::pipeline::{BodyOptions, Support};
@@ -285,6 +286,16 @@ impl Default for MarkerParams {
     }
 }
 
+/// Objects split among instances (see [`Shard`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InstanceParams {
+    /// `"k/N"`: this instance takes the labelled objects whose id is k modulo N, and the
+    /// objects of the frames whose name hashes to k modulo N; N instances take every object
+    /// once. Read-only after start. Default "" (every object).
+    pub shard: String,
+}
+
 /// Every node parameter. Names in ROS are the dotted paths (`material.young`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -330,6 +341,8 @@ pub struct NodeParams {
     pub shm: ShmParams,
     /// Streams of clouds: later frames of a running object correct it.
     pub tracking: TrackingParams,
+    /// Objects split among instances.
+    pub instances: InstanceParams,
     /// Scene file (config/scenes/*.yaml): its objects are built and simulated, and its robots
     /// follow their joint-state topics. Read-only after start. Default "" (none).
     pub scene: String,
@@ -356,13 +369,15 @@ impl Default for NodeParams {
             record: RecordParams::default(),
             shm: ShmParams::default(),
             tracking: TrackingParams::default(),
+            instances: InstanceParams::default(),
             scene: String::new(),
         }
     }
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-pub(crate) const READ_ONLY: [&str; 11] = [
+pub(crate) const READ_ONLY: [&str; 12] = [
+    "instances.",
     "rate_hz",
     "publish.rate_hz",
     "fixed_frame",
@@ -461,6 +476,14 @@ impl NodeParams {
                 )
             },
         )?;
+        let shard = self.shard()?;
+        ensure(
+            shard.index_is_first() || self.scene.is_empty(),
+            "instances.shard",
+            || {
+                format!("{shard} with a scene: a scene's objects are simulated by shard 0 alone, give the scene to that instance")
+            },
+        )?;
         ensure(!self.instance_field.is_empty(), "instance_field", || {
             "empty: name the field that holds instance ids".into()
         })?;
@@ -493,6 +516,15 @@ impl NodeParams {
         self.tracking.validate()?;
         self.solver()?;
         self.sim_params().validate()
+    }
+
+    /// This instance's share of the objects (`instances.shard`); an `Error::InvalidParameter`
+    /// when it is not k/N.
+    pub(crate) fn shard(&self) -> crate::Result<Shard> {
+        Shard::parse(&self.instances.shard).map_err(|reason| crate::Error::InvalidParameter {
+            name: "instances.shard",
+            reason,
+        })
     }
 
     /// The solver named by `simulation.solver`; an `Error::InvalidParameter` for another name.
@@ -577,5 +609,23 @@ mod shipped_file {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/physskin.yaml");
         let params = NodeParams::from_yaml_file(&path, "/physskin").unwrap();
         assert_eq!(params, NodeParams::default());
+    }
+
+    /// A shard that is not k/N, or another shard than 0 with a scene, is refused by name.
+    #[test]
+    fn a_bad_shard_is_refused_naming_it() {
+        let p = NodeParams::default();
+        let e = p.with("instances.shard", Value::from("2/2")).unwrap_err();
+        assert!(
+            e.to_string().contains("instances.shard") && e.to_string().contains("2/2"),
+            "{e}"
+        );
+        let mut scened = p.clone();
+        scened.scene = "config/scenes/press.yaml".into();
+        let e = scened
+            .with("instances.shard", Value::from("1/2"))
+            .unwrap_err();
+        assert!(e.to_string().contains("shard 0"), "{e}");
+        assert!(scened.with("instances.shard", Value::from("0/2")).is_ok());
     }
 }

@@ -107,3 +107,51 @@ pub fn noisy_view(object: &Shape, seed: u64) -> PointCloud2 {
     cloud.fields.retain(|f| f.name != "instance");
     cloud
 }
+
+/// `count` objects in two rows on a table (background, 0), instance ids 1 to `count`: balls of
+/// 0.08 m and cubes of 0.07 m by turns, 0.16 m apart, seen by one camera as `table_scene`'s.
+pub fn objects_on_a_table(count: u16, width: usize, height: usize) -> PointCloud2 {
+    let objects: Vec<Shape> = (0..count)
+        .map(|i| {
+            let at = Vector3::new(
+                0.16 * f64::from(i / 2) - 0.08 * f64::from(count / 2),
+                0.16 * f64::from(i % 2) - 0.08,
+                0.04,
+            );
+            if i % 2 == 0 {
+                moved(sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.04, 0.05, 20), at)
+            } else {
+                moved(
+                    box_mesh(Vector3::new(0.07, 0.07, 0.07)),
+                    at - Vector3::new(0.0, 0.0, 0.005),
+                )
+            }
+        })
+        .collect();
+    let table = moved(
+        box_mesh(Vector3::new(2.0, 1.0, 0.02)),
+        Vector3::new(0.0, 0.0, -0.01),
+    );
+    let refs: Vec<&Shape> = objects.iter().collect();
+    let aim = merged(&refs).unwrap();
+    let camera = Camera::looking_at(&aim, Vector3::new(0.2, -1.0, 0.9), 1.3, width, height);
+    let mut seen: Vec<SeenObject> = objects
+        .iter()
+        .zip(1u16..)
+        .map(|(shape, instance)| SeenObject {
+            shape,
+            instance,
+            rgb: [40 * (instance as u8 % 6), 200, 60],
+        })
+        .collect();
+    seen.push(SeenObject {
+        shape: &table,
+        instance: 0,
+        rgb: [120, 100, 80],
+    });
+    let header = Header {
+        stamp: Time::default(),
+        frame_id: OPTICAL_FRAME.into(),
+    };
+    camera_cloud(&seen, &camera, header).unwrap()
+}
