@@ -390,15 +390,27 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
     let out = succeeded(physskin().args(["bench", "views", "--json"]));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let rows = report["rows"].as_array().expect("rows");
-    // Fourteen shapes, six sides, two image sizes; clean, then with depth noise.
-    assert_eq!(rows.len(), 336);
+    // Fourteen shapes and eleven real meshes, six sides, three image sizes; clean, then with
+    // depth noise.
+    assert_eq!(rows.len(), 900);
+    let noisy = |r: &serde_json::Value| r["depth_noise_m"].as_f64().unwrap() > 0.0;
+    assert_eq!(rows.iter().filter(|r| noisy(r)).count(), 450);
+    let real: Vec<_> = rows.iter().filter(|r| r["kind"] == "real").collect();
+    assert_eq!(real.len(), 396);
+    let real_completed = real.iter().filter(|r| r["outcome"] == "completed").count();
+    let summed = report["real"]["completed"].as_u64().unwrap()
+        + report["real_noisy"]["completed"].as_u64().unwrap();
+    assert_eq!(summed as usize, real_completed);
+    // Every completed row names the prior that placed its centre.
+    let priors = ["ellipsoid", "box", "long_axis", "long", "compact"];
+    for row in rows.iter().filter(|r| r["outcome"] == "completed") {
+        assert!(priors.contains(&row["prior"].as_str().unwrap()), "{row}");
+    }
     let completed: Vec<_> = rows
         .iter()
-        .filter(|r| r["outcome"] == "completed")
+        .filter(|r| r["outcome"] == "completed" && r["kind"] == "primitive")
         .collect();
-    let noisy = |r: &serde_json::Value| r["depth_noise_m"].as_f64().unwrap() > 0.0;
     let completed_noisy = completed.iter().filter(|r| noisy(r)).count();
-    assert_eq!(rows.iter().filter(|r| noisy(r)).count(), 168);
     assert_eq!(
         report["completed"].as_u64(),
         Some((completed.len() - completed_noisy) as u64)
@@ -443,6 +455,36 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
             real_sides += 1;
         }
     }
-    // Four shapes, two sides, two image sizes, clean and noisy.
-    assert_eq!(real_sides, 32);
+    // Four shapes, two sides, three image sizes, clean and noisy.
+    assert_eq!(real_sides, 48);
+}
+
+/// `bench fem --quick`: every hanging equilibrium settles, sags along gravity, and the meshes
+/// of the plate and the rod converge as linear tetrahedra at nu 0.45 do, from the stiff side:
+/// finer meshes sag more and swing slower.
+#[test]
+fn fem_convergence_bench_settles_and_converges_from_the_stiff_side() {
+    let out = succeeded(physskin().args(["bench", "fem", "--quick", "--json"]));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let rows = report["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 9, "three shapes at three resolutions");
+    for row in rows {
+        assert_eq!(row["settled"], true, "{row}");
+        assert!(row["sag_m"].as_f64().unwrap() > 0.0, "{row}");
+    }
+    for shape in ["plate", "rod"] {
+        let of: Vec<_> = rows.iter().filter(|r| r["shape"] == shape).collect();
+        for pair in of.windows(2) {
+            let (coarse, fine) = (pair[0], pair[1]);
+            assert!(
+                fine["sag_m"].as_f64() > coarse["sag_m"].as_f64(),
+                "{coarse} {fine}"
+            );
+            assert!(
+                fine["rayleigh_hz"].as_f64() < coarse["rayleigh_hz"].as_f64(),
+                "{fine}"
+            );
+        }
+        assert_eq!(of.last().unwrap()["sag_off_finest_pct"], 0.0);
+    }
 }

@@ -130,11 +130,23 @@ enum BenchCommand {
     /// A soft object's stream from one depth camera (poked, squeezed, dropped, the view
     /// blocked), against the FEM: rebuilt per frame, built once, and tracked.
     Track(crate::cli::track::TrackArgs),
-    /// One camera's view of seven shapes from six sides, completed: volume and overlap
-    /// against the whole mesh's solid (geometry only).
+    /// One camera's view of fourteen shapes and eleven real objects' meshes from six sides,
+    /// completed: volume and overlap against the whole mesh's solid (geometry only).
     Views {
         #[arg(long)]
         json: bool,
+    },
+    /// How far `bench sim`'s FEM reference is from converged: each shape's hanging equilibrium
+    /// at several resolutions (sag, largest displacement, Rayleigh's lowest frequency).
+    Fem {
+        #[arg(long)]
+        json: bool,
+        /// Small meshes (16, 24, 32 cells) only: fits in a test.
+        #[arg(long)]
+        quick: bool,
+        /// Only these shapes (plate, rod, creature); all when absent.
+        #[arg(long, value_delimiter = ',')]
+        shapes: Vec<String>,
     },
     /// The same soft block in MuJoCo (flexcomp: full, trilinear and quadratic dofs) and in
     /// physskin, dropped and poked, each against our FEM: step time next to error.
@@ -294,6 +306,11 @@ pub fn main() -> ExitCode {
             BenchCommand::Contact { json } => run_bench_contact(json),
             BenchCommand::Real { json } => run_bench_real(json),
             BenchCommand::Views { json } => run_bench_views(json),
+            BenchCommand::Fem {
+                json,
+                quick,
+                shapes,
+            } => run_bench_fem(json, quick, &shapes),
             BenchCommand::Track(args) => crate::cli::track::run(args),
             BenchCommand::Peer {
                 json,
@@ -400,6 +417,34 @@ fn run_bench_real(json: bool) -> crate::Result<()> {
         "worst: volume off by {:.1} %, error {:.2}x the whole mesh's, step {:.3} ms",
         r.worst_volume_error_pct, r.worst_error_ratio, r.worst_step_ms
     );
+    Ok(())
+}
+
+fn run_bench_fem(json: bool, quick: bool, shapes: &[String]) -> crate::Result<()> {
+    let r = crate::bench::run_fem_convergence(shapes, quick, |line| eprintln!("{line}"))?;
+    if json {
+        crate::cli::print_json(&r);
+        return Ok(());
+    }
+    println!("| shape | cells across | bench's | vertices | sag, m | vs finest | largest, m | Rayleigh, Hz | vs finest | steps | solve, s |");
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &r.rows {
+        println!(
+            "| {} | {} | {} | {} | {:.6} | {:+.2} % | {:.6} | {:.4} | {:+.2} % | {}{} | {:.1} |",
+            r.shape,
+            r.resolution,
+            if r.bench { "yes" } else { "" },
+            r.vertices,
+            r.sag_m,
+            r.sag_off_finest_pct,
+            r.max_displacement_m,
+            r.rayleigh_hz,
+            r.rayleigh_off_finest_pct,
+            r.steps,
+            if r.settled { "" } else { " (not settled)" },
+            r.solve_s
+        );
+    }
     Ok(())
 }
 

@@ -1,0 +1,185 @@
+//! `bench fem`: how far the full-space FEM reference of `bench sim` is from converged. Each bench
+//! shape hangs from its pinned end (the hanging scenario's pins, material and gravity) at
+//! several voxel resolutions, the bench's among them; each equilibrium is solved statically and
+//! compared with the finest's: the sag (mass-weighted mean displacement along gravity), the
+//! largest displacement, and Rayleigh's estimate of the lowest frequency from the sag.
+//!
+//! Rayleigh's quotient with the static deflection u under the gravity load f = M g as the trial
+//! shape gives the fundamental frequency from above, ω² ≈ uᵀKu / uᵀMu = gᵀMu / uᵀMu (K u = f at
+//! equilibrium, for small deflections); it needs no eigen-solve of the 100,000-unknown
+//! stiffness, and it moves with the mesh as the lowest mode does.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::sim::{pinned_vertices, prepare_shape, scenario_params, BenchShape};
+use crate::error::{Error, Result};
+use crate::geometry::{bundled, TetMesh, VoxelGrid};
+use crate::physics::FemSim;
+
+/// Implicit Euler steps this long, s, damp the swing out in a few steps (ω h >= 8 for every
+/// mode of the bench shapes, the slowest the creature's at 0.65 Hz): the step sequence settles
+/// on the static equilibrium, which no step size moves.
+const STATIC_DT: f64 = 2.0;
+/// Steps at most; the solve stops earlier when a step moves no vertex more than `SETTLED`.
+const MAX_STATIC_STEPS: usize = 40;
+/// A step that moves no vertex more than this fraction of the diagonal has settled.
+const SETTLED: f64 = 1e-6;
+
+/// One shape at one resolution.
+#[derive(Clone, Debug, Serialize)]
+pub struct FemConvergenceRow {
+    /// The bench shape.
+    pub shape: String,
+    /// Voxel cells across the longest side.
+    pub resolution: usize,
+    /// Whether `bench sim` uses this resolution.
+    pub bench: bool,
+    /// FEM vertices and tetrahedra.
+    pub vertices: usize,
+    pub tets: usize,
+    /// Mass-weighted mean displacement along gravity at equilibrium, m.
+    pub sag_m: f64,
+    /// Largest vertex displacement at equilibrium, m.
+    pub max_displacement_m: f64,
+    /// Rayleigh's estimate of the lowest frequency from the sag, Hz.
+    pub rayleigh_hz: f64,
+    /// `sag_m` off the finest resolution's, %.
+    pub sag_off_finest_pct: f64,
+    /// `rayleigh_hz` off the finest resolution's, %.
+    pub rayleigh_off_finest_pct: f64,
+    /// Static steps taken, and whether the last moved less than `SETTLED`.
+    pub steps: usize,
+    pub settled: bool,
+    /// Wall-clock time of the static solve, s.
+    pub solve_s: f64,
+}
+
+/// What `bench fem` reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct FemConvergenceReport {
+    pub rows: Vec<FemConvergenceRow>,
+}
+
+/// The resolutions studied per shape, coarse to fine, and the bench's: `bench sim`'s (plate 72,
+/// rod 64, the creature's smallest with 30,000 vertices) and around it; `quick`: small ones.
+fn resolutions(name: &str, quick: bool) -> (Vec<usize>, usize) {
+    let bench = match (name, quick) {
+        (_, true) => return (vec![16, 24, 32], 24),
+        ("plate", _) => 72,
+        ("rod", _) => 64,
+        _ => creature_resolution(),
+    };
+    let around = [0.5, 0.75, 1.0, 1.25].map(|f| (bench as f64 * f).round() as usize);
+    (around.to_vec(), bench)
+}
+
+/// `bench sim`'s creature resolution: the smallest (from 16, by 4) whose mesh has 30,000
+/// vertices.
+fn creature_resolution() -> usize {
+    let fine = VoxelGrid::from_shape(&bundled("creature").expect("bundled"), 128, None);
+    (16..=128)
+        .step_by(4)
+        .find(|&r| TetMesh::from_grid(&fine.resample(r)).vertices.len() >= 30_000)
+        .unwrap_or(128)
+}
+
+/// Runs the study on `shapes` (all three when empty); `progress` gets a line per solve.
+pub fn run_fem_convergence(
+    shapes: &[String],
+    quick: bool,
+    mut progress: impl FnMut(&str),
+) -> Result<FemConvergenceReport> {
+    let youngs = [("plate", 2e7), ("rod", 5e6), ("creature", 2e6)];
+    let mut rows = Vec::new();
+    for (name, young) in youngs {
+        if !shapes.is_empty() && !shapes.iter().any(|s| s == name) {
+            continue;
+        }
+        let (list, bench) = resolutions(name, quick);
+        let mut of_shape = Vec::new();
+        for resolution in list {
+            let shape = prepare_shape(bundled(name).expect("bundled"), young, resolution, 0, 0)?;
+            let row = hanging_equilibrium(name, &shape, resolution, resolution == bench)?;
+            progress(&format!(
+                "{name} at {resolution}: {} vertices, sag {:.6} m, max {:.6} m, Rayleigh {:.4} Hz, {} steps ({:.1} s)",
+                row.vertices, row.sag_m, row.max_displacement_m, row.rayleigh_hz, row.steps, row.solve_s
+            ));
+            of_shape.push(row);
+        }
+        let finest = of_shape.last().cloned().expect("at least one resolution");
+        for row in &mut of_shape {
+            row.sag_off_finest_pct = 100.0 * (row.sag_m / finest.sag_m - 1.0);
+            row.rayleigh_off_finest_pct = 100.0 * (row.rayleigh_hz / finest.rayleigh_hz - 1.0);
+        }
+        rows.extend(of_shape);
+    }
+    if rows.is_empty() {
+        return Err(Error::InvalidParameter {
+            name: "shape",
+            reason: "no bench shape chosen (plate, rod, creature)".into(),
+        });
+    }
+    Ok(FemConvergenceReport { rows })
+}
+
+/// The static equilibrium of `shape` hanging from its pinned end, and its figures.
+fn hanging_equilibrium(
+    name: &str,
+    shape: &BenchShape,
+    resolution: usize,
+    bench: bool,
+) -> Result<FemConvergenceRow> {
+    let mut params = scenario_params(shape);
+    params.dt = STATIC_DT;
+    params.damping = 1.0 / STATIC_DT;
+    let gravity = params.gravity;
+    let mut fem = FemSim::new(shape.mesh.clone(), params)?;
+    fem.pin_vertices(&pinned_vertices(&shape.mesh));
+    let started = Instant::now();
+    let (mut steps, mut settled) = (0, false);
+    while steps < MAX_STATIC_STEPS && !settled {
+        let before = fem.positions().to_vec();
+        fem.step()?;
+        steps += 1;
+        let moved = before
+            .chunks(3)
+            .zip(fem.positions().chunks(3))
+            .map(|(a, b)| {
+                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+            })
+            .fold(0.0, f64::max);
+        settled = moved < SETTLED * shape.diagonal;
+    }
+    let masses = fem.vertex_masses();
+    let (mut mass, mut sag, mut work, mut inertia, mut largest) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
+    let down = gravity.normalize();
+    for ((m, x), v) in masses
+        .iter()
+        .zip(fem.positions().chunks(3))
+        .zip(&shape.mesh.vertices)
+    {
+        let u = nalgebra::Vector3::new(x[0] - v.x, x[1] - v.y, x[2] - v.z);
+        mass += m;
+        sag += m * u.dot(&down);
+        work += m * u.dot(&gravity);
+        inertia += m * u.norm_squared();
+        largest = largest.max(u.norm());
+    }
+    Ok(FemConvergenceRow {
+        shape: name.into(),
+        resolution,
+        bench,
+        vertices: shape.mesh.vertices.len(),
+        tets: shape.mesh.tets.len(),
+        sag_m: sag / mass,
+        max_displacement_m: largest,
+        rayleigh_hz: (work / inertia).sqrt() / std::f64::consts::TAU,
+        sag_off_finest_pct: 0.0,
+        rayleigh_off_finest_pct: 0.0,
+        steps,
+        settled,
+        solve_s: started.elapsed().as_secs_f64(),
+    })
+}
