@@ -13,6 +13,7 @@ mod real_to_sim;
 mod replay;
 mod scene;
 pub(crate) mod sim;
+mod simulate;
 mod soak;
 mod soft_contact;
 mod stats;
@@ -32,9 +33,8 @@ pub use real_bench::run_real_bench;
 pub use real_to_sim::{simulate_input, InputSimOptions, InputSimSummary};
 pub use replay::run_replay_bench;
 pub use scene::{run_scene, run_scene_bench, SceneRun, SceneRunOptions, WORKCELL};
-pub use sim::{
-    run_sim_bench, sim_plot, simulate, SimBenchOptions, SimBenchReport, SimulateOptions,
-};
+pub use sim::{run_sim_bench, sim_plot, SimBenchOptions, SimBenchReport};
+pub use simulate::{simulate, SimulateOptions};
 pub use soak::{run_soak, SoakOptions};
 pub use stress::{run_stress, stress_cases};
 pub use track::{run_track_bench, track_plot, TrackBenchOptions};
