@@ -64,10 +64,12 @@ fn quick_sim_bench_reports_every_row_with_speed_next_to_error() {
         for key in ["vertices", "handles", "cubature"] {
             assert!(row[key].as_u64().is_some_and(|v| v > 0), "{key} in {row}");
         }
-        for key in ["step_ms", "fem_step_ms", "error_pct"] {
+        for key in ["step_ms", "fem_step_ms", "error_pct", "static_error_pct"] {
             let v = row[key].as_f64().unwrap_or(f64::NAN);
             assert!(v.is_finite() && v >= 0.0, "{key} in {row}");
         }
+        let ratio = row["frequency_ratio"].as_f64().unwrap_or(f64::NAN);
+        assert!(ratio > 0.3 && ratio < 3.0, "{row}");
         // The reduced model tracks the reference: a few percent of the diagonal at most.
         assert!(row["error_pct"].as_f64().unwrap() < 15.0, "{row}");
     }
@@ -91,6 +93,15 @@ fn quick_sim_bench_reports_every_row_with_speed_next_to_error() {
             newton["error_pct"].as_f64().unwrap(),
         );
         assert!(e_fast <= 1.5 * e_newton + 1e-3, "{fast} vs {newton}");
+        // An equilibrium is the solvers' common answer: both reach the same static error.
+        let (s_fast, s_newton) = (
+            fast["static_error_pct"].as_f64().unwrap(),
+            newton["static_error_pct"].as_f64().unwrap(),
+        );
+        assert!(
+            (s_fast - s_newton).abs() <= 0.02 * s_newton + 1e-3,
+            "{fast} vs {newton}"
+        );
     }
     assert!(report["lift_100k_ms"]
         .as_f64()

@@ -2,30 +2,17 @@
 //! shape hangs from its pinned end (the hanging scenario's pins, material and gravity) at
 //! several voxel resolutions, the bench's among them; each equilibrium is solved statically and
 //! compared with the finest's: the sag (mass-weighted mean displacement along gravity), the
-//! largest displacement, and Rayleigh's estimate of the lowest frequency from the sag.
-//!
-//! Rayleigh's quotient with the static deflection u under the gravity load f = M g as the trial
-//! shape gives the fundamental frequency from above, ω² ≈ uᵀKu / uᵀMu = gᵀMu / uᵀMu (K u = f at
-//! equilibrium, for small deflections); it needs no eigen-solve of the 100,000-unknown
-//! stiffness, and it moves with the mesh as the lowest mode does.
+//! largest displacement, and Rayleigh's estimate of the lowest frequency from the sag (see
+//! `statics`).
 
 use std::time::Instant;
 
 use serde::Serialize;
 
-use super::sim::{pinned_vertices, prepare_shape, scenario_params, BenchShape};
+use super::sim::{prepare_shape, scenario_params, BenchShape};
+use super::statics::{fem_hanging, rayleigh_hz, sag_and_largest};
 use crate::error::{Error, Result};
 use crate::geometry::{bundled, TetMesh, VoxelGrid};
-use crate::physics::FemSim;
-
-/// Implicit Euler steps this long, s, damp the swing out in a few steps (ω h >= 8 for every
-/// mode of the bench shapes, the slowest the creature's at 0.65 Hz): the step sequence settles
-/// on the static equilibrium, which no step size moves.
-const STATIC_DT: f64 = 2.0;
-/// Steps at most; the solve stops earlier when a step moves no vertex more than `SETTLED`.
-const MAX_STATIC_STEPS: usize = 40;
-/// A step that moves no vertex more than this fraction of the diagonal has settled.
-const SETTLED: f64 = 1e-6;
 
 /// One shape at one resolution.
 #[derive(Clone, Debug, Serialize)]
@@ -49,7 +36,7 @@ pub struct FemConvergenceRow {
     pub sag_off_finest_pct: f64,
     /// `rayleigh_hz` off the finest resolution's, %.
     pub rayleigh_off_finest_pct: f64,
-    /// Static steps taken, and whether the last moved less than `SETTLED`.
+    /// Static steps taken, and whether the last settled (see `statics`).
     pub steps: usize,
     pub settled: bool,
     /// Wall-clock time of the static solve, s.
@@ -131,55 +118,24 @@ fn hanging_equilibrium(
     resolution: usize,
     bench: bool,
 ) -> Result<FemConvergenceRow> {
-    let mut params = scenario_params(shape);
-    params.dt = STATIC_DT;
-    params.damping = 1.0 / STATIC_DT;
-    let gravity = params.gravity;
-    let mut fem = FemSim::new(shape.mesh.clone(), params)?;
-    fem.pin_vertices(&pinned_vertices(&shape.mesh));
+    let params = scenario_params(shape);
     let started = Instant::now();
-    let (mut steps, mut settled) = (0, false);
-    while steps < MAX_STATIC_STEPS && !settled {
-        let before = fem.positions().to_vec();
-        fem.step()?;
-        steps += 1;
-        let moved = before
-            .chunks(3)
-            .zip(fem.positions().chunks(3))
-            .map(|(a, b)| {
-                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-            })
-            .fold(0.0, f64::max);
-        settled = moved < SETTLED * shape.diagonal;
-    }
-    let masses = fem.vertex_masses();
-    let (mut mass, mut sag, mut work, mut inertia, mut largest) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
-    let down = gravity.normalize();
-    for ((m, x), v) in masses
-        .iter()
-        .zip(fem.positions().chunks(3))
-        .zip(&shape.mesh.vertices)
-    {
-        let u = nalgebra::Vector3::new(x[0] - v.x, x[1] - v.y, x[2] - v.z);
-        mass += m;
-        sag += m * u.dot(&down);
-        work += m * u.dot(&gravity);
-        inertia += m * u.norm_squared();
-        largest = largest.max(u.norm());
-    }
+    let equilibrium = fem_hanging(shape, &params)?;
+    let solve_s = started.elapsed().as_secs_f64();
+    let (sag_m, max_displacement_m) = sag_and_largest(shape, &params, &equilibrium.positions);
     Ok(FemConvergenceRow {
         shape: name.into(),
         resolution,
         bench,
         vertices: shape.mesh.vertices.len(),
         tets: shape.mesh.tets.len(),
-        sag_m: sag / mass,
-        max_displacement_m: largest,
-        rayleigh_hz: (work / inertia).sqrt() / std::f64::consts::TAU,
+        sag_m,
+        max_displacement_m,
+        rayleigh_hz: rayleigh_hz(shape, &params, &equilibrium.positions),
         sag_off_finest_pct: 0.0,
         rayleigh_off_finest_pct: 0.0,
-        steps,
-        settled,
-        solve_s: started.elapsed().as_secs_f64(),
+        steps: equilibrium.steps,
+        settled: equilibrium.settled,
+        solve_s,
     })
 }

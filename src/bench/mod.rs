@@ -16,6 +16,7 @@ pub(crate) mod sim;
 mod simulate;
 mod soak;
 mod soft_contact;
+mod statics;
 mod stats;
 mod stress;
 mod track;

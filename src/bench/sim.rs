@@ -9,6 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+use super::statics::{fem_hanging, reduced_against};
 use super::stats::{median, quantile};
 use crate::error::{Error, Result};
 use crate::geometry::{
@@ -117,6 +118,12 @@ pub struct SimRow {
     /// RMS distance of the lifted FEM vertices to the FEM reference over the whole trajectory,
     /// in % of the bounding-box diagonal.
     pub error_pct: f64,
+    /// RMS distance of the lifted vertices of the reduced body's hanging equilibrium to the
+    /// FEM's (both solved statically), % of the diagonal; NaN where not measured.
+    pub static_error_pct: f64,
+    /// Rayleigh's lowest frequency of the reduced body's hanging equilibrium over the FEM's
+    /// (see `statics`); NaN where not measured.
+    pub frequency_ratio: f64,
     /// Solver iterations per step, mean over the run.
     pub mean_iterations: f64,
     /// Steps where the solver hit its iteration limit.
@@ -230,6 +237,13 @@ pub fn run_sim_bench(
             shape.mesh.tets.len(),
             shape.eigen().iterations
         ));
+        let started = Instant::now();
+        let equilibrium = fem_hanging(&shape, &scenario_params(&shape))?;
+        progress(&format!(
+            "{name}: FEM hanging equilibrium in {} static steps ({:.0} s)",
+            equilibrium.steps,
+            started.elapsed().as_secs_f64()
+        ));
         for &scenario in &scenarios {
             let params = scenario_params(&shape);
             let started = Instant::now();
@@ -254,6 +268,8 @@ pub fn run_sim_bench(
                     for &solver in &solvers {
                         let (row, _) =
                             run_reduced(&shape, scenario, &params, &subspace, solver, &reference)?;
+                        let (static_error_pct, frequency_ratio) =
+                            reduced_against(&shape, &params, &subspace, solver, &equilibrium)?;
                         let row = SimRow {
                             shape: name.into(),
                             vertices: shape.mesh.vertices.len(),
@@ -264,11 +280,13 @@ pub fn run_sim_bench(
                             solver: solver.name().into(),
                             fem_step_ms,
                             speedup: fem_step_ms / row.step_ms,
+                            static_error_pct,
+                            frequency_ratio,
                             ..row
                         };
                         progress(&format!(
-                            "  m={m:<2} cubature={:<5} {:<12} step {:>8.3} ms  error {:.3}%",
-                            row.cubature, row.solver, row.step_ms, row.error_pct
+                            "  m={m:<2} cubature={:<5} {:<12} step {:>8.3} ms  error {:.3}%  static {:.3}%  frequency {:.3}x",
+                            row.cubature, row.solver, row.step_ms, row.error_pct, static_error_pct, frequency_ratio
                         ));
                         rows.push(row);
                     }
@@ -553,6 +571,8 @@ pub(crate) fn run_reduced(
         fem_step_ms: 0.0,
         speedup: 0.0,
         error_pct: (squared / samples).sqrt() / shape.diagonal * 100.0,
+        static_error_pct: f64::NAN,
+        frequency_ratio: f64::NAN,
         mean_iterations: iterations as f64 / reference.len() as f64,
         unconverged_steps,
         fallback_steps,

@@ -697,7 +697,7 @@ fn run_bench_sim(
 
 fn print_table(report: &SimBenchReport) {
     println!(
-        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>9} {:>9} {:>10} {:>8} {:>8} {:>6} {:>6} {:>6}",
+        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>9} {:>9} {:>10} {:>8} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6}",
         "shape",
         "verts",
         "scenario",
@@ -712,13 +712,15 @@ fn print_table(report: &SimBenchReport) {
         "fem_ms",
         "speedup",
         "err_%",
+        "static_%",
+        "freq",
         "iters",
         "unconv",
         "fallbk"
     );
     for r in &report.rows {
         println!(
-            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>6.1} {:>6} {:>6}",
+            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>8.3} {:>6.3} {:>6.1} {:>6} {:>6}",
             r.shape,
             r.vertices,
             r.scenario,
@@ -733,6 +735,8 @@ fn print_table(report: &SimBenchReport) {
             r.fem_step_ms,
             r.speedup,
             r.error_pct,
+            r.static_error_pct,
+            r.frequency_ratio,
             r.mean_iterations,
             r.unconverged_steps,
             r.fallback_steps
