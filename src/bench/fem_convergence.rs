@@ -26,6 +26,9 @@ pub struct FemConvergenceRow {
     /// FEM vertices and tetrahedra.
     pub vertices: usize,
     pub tets: usize,
+    /// The tetrahedral mesh's volume over the shape's: the voxel mesh keeps every cell the
+    /// surface cuts, so a thin shape comes out thicker, and stiffer, than it is.
+    pub volume_ratio: f64,
     /// Mass-weighted mean displacement along gravity at equilibrium, m.
     pub sag_m: f64,
     /// Largest vertex displacement at equilibrium, m.
@@ -129,6 +132,7 @@ fn hanging_equilibrium(
         bench,
         vertices: shape.mesh.vertices.len(),
         tets: shape.mesh.tets.len(),
+        volume_ratio: shape.mesh.volume() / shape.source.closed_volume().unwrap_or(f64::NAN),
         sag_m,
         max_displacement_m,
         rayleigh_hz: rayleigh_hz(shape, &params, &equilibrium.positions),

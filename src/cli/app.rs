@@ -426,15 +426,16 @@ fn run_bench_fem(json: bool, quick: bool, shapes: &[String]) -> crate::Result<()
         crate::cli::print_json(&r);
         return Ok(());
     }
-    println!("| shape | cells across | bench's | vertices | sag, m | vs finest | largest, m | Rayleigh, Hz | vs finest | steps | solve, s |");
-    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| shape | cells across | bench's | vertices | volume / shape's | sag, m | vs finest | largest, m | Rayleigh, Hz | vs finest | steps | solve, s |");
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &r.rows {
         println!(
-            "| {} | {} | {} | {} | {:.6} | {:+.2} % | {:.6} | {:.4} | {:+.2} % | {}{} | {:.1} |",
+            "| {} | {} | {} | {} | {:.3} | {:.6} | {:+.2} % | {:.6} | {:.4} | {:+.2} % | {}{} | {:.1} |",
             r.shape,
             r.resolution,
             if r.bench { "yes" } else { "" },
             r.vertices,
+            r.volume_ratio,
             r.sag_m,
             r.sag_off_finest_pct,
             r.max_displacement_m,
