@@ -24,6 +24,9 @@
 #   sim-targets        bench sim, rod and plate, 16 handles, 1024 points (about 5 minutes)
 #   sim-creature       bench sim, creature, 16 handles, 1024 points (about 40 minutes, mostly FEM)
 #   sim                the full `bench sim` (about 70 minutes; docs/benchmarks.md quotes it)
+#   fem                bench fem                              (the FEM reference's convergence, 35 minutes)
+#   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
+#   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
 # `readme` stands for every file README.md quotes, the slow creature last: one run of
 # `benches/report.sh readme` (about an hour) puts the README's figures at one commit.
 # Usage: benches/report.sh [NAME...]   (default: all but the three sim runs)
@@ -77,6 +80,14 @@ for name in "${names[@]}"; do
             benches/record.sh sim-creature $bin bench sim --shape creature --handles 16 \
                 --cubature 1024 --json --plot /tmp/sim-creature.svg ;;
         sim) benches/record.sh sim $bin bench sim --json --plot benches/results/sim.svg ;;
+        fem) benches/record.sh fem $bin bench fem --json ;;
+        sim-statics)
+            benches/record.sh sim-statics $bin bench sim --shape plate,rod --scenario hanging \
+                --handles 4,16 --cubature 256,1024 --solver quasi-newton --json \
+                --plot /tmp/sim-statics.svg ;;
+        sim-statics-quick)
+            benches/record.sh sim-statics-quick $bin bench sim --quick --scenario hanging \
+                --solver quasi-newton --json --plot /tmp/sim-statics-quick.svg ;;
         *) echo "unknown result: $name" >&2; exit 2 ;;
     esac
     echo "$name: $(( $(date +%s) - started )) s" >&2

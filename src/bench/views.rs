@@ -14,10 +14,9 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::geometry::view_downsample;
 use crate::geometry::{
-    box_mesh, bundled, capsule_mesh, complete_view, load_geometry, scan_points, sdf_mesh, Camera,
-    Shape, VoxelGrid,
+    box_mesh, bundled, capsule_mesh, complete_view, load_geometry, scan_points, sdf_mesh,
+    view_downsample, Camera, Shape, VoxelGrid,
 };
 use crate::pipeline::DEFAULT_MAX_BUILD_POINTS;
 
