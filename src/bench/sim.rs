@@ -1,23 +1,16 @@
-//! `bench sim`: the reduced simulator against the full-space FEM reference over the same steps,
-//! for several shapes, scenarios, handle counts, cubature sizes and solvers.
+//! `bench sim`'s pieces: its shapes, scenarios, options and rows, and the FEM and the reduced
+//! body run over the same steps (the sweep that runs them all is `sweep.rs`).
 
 use std::sync::Arc;
-use std::time::Instant;
 
 use nalgebra::Vector3;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::statics::{fem_hanging, reduced_against};
 use super::stats::{median, quantile};
 use crate::error::{Error, Result};
-use crate::geometry::{
-    bundled, sample_surface, stratified_subset, Cubature, Shape, SurfaceSampling, TetMesh,
-    VoxelGrid,
-};
+use crate::geometry::{stratified_subset, Shape, TetMesh, VoxelGrid};
 use crate::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
-use crate::skinning::{EigenmodeField, EigenmodeOptions, SkinningField};
+use crate::skinning::{EigenmodeField, EigenmodeOptions};
 
 /// What to run.
 #[derive(Clone, Debug, Default)]
@@ -40,11 +33,11 @@ pub struct SimBenchOptions {
 }
 
 /// The bench's bundled shapes.
-const SHAPES: [&str; 3] = ["plate", "rod", "creature"];
+pub(super) const SHAPES: [&str; 3] = ["plate", "rod", "creature"];
 
 impl SimBenchOptions {
     /// `all` cut to `chosen` when something was chosen.
-    fn pick<T: Clone + PartialEq>(all: &[T], chosen: &[T]) -> Vec<T> {
+    pub(super) fn pick<T: Clone + PartialEq>(all: &[T], chosen: &[T]) -> Vec<T> {
         if chosen.is_empty() {
             all.to_vec()
         } else {
@@ -52,7 +45,7 @@ impl SimBenchOptions {
         }
     }
 
-    fn check(&self) -> Result<()> {
+    pub(super) fn check(&self) -> Result<()> {
         for name in &self.shapes {
             if !SHAPES.contains(&name.as_str()) {
                 return Err(Error::InvalidParameter {
@@ -184,124 +177,6 @@ impl Scenario {
             Scenario::Poke => "poke",
         }
     }
-}
-
-/// Runs the bench; `progress` receives a line per finished piece of work.
-pub fn run_sim_bench(
-    options: &SimBenchOptions,
-    mut progress: impl FnMut(&str),
-) -> Result<SimBenchReport> {
-    options.check()?;
-    let quick = options.quick;
-    let handle_counts = SimBenchOptions::pick(
-        if quick { &[4, 16] } else { &[4, 8, 16, 32] },
-        &options.handles,
-    );
-    let cubatures = SimBenchOptions::pick(&[256, 1024], &options.cubatures);
-    let solvers = SimBenchOptions::pick(&[Solver::Newton, Solver::QuasiNewton], &options.solvers);
-    let default_scenarios: &[Scenario] = if quick {
-        &[Scenario::Hanging, Scenario::Drop]
-    } else {
-        &Scenario::ALL
-    };
-    let scenarios: Vec<Scenario> = if options.scenarios.is_empty() {
-        default_scenarios.to_vec()
-    } else {
-        options
-            .scenarios
-            .iter()
-            .map(|n| Scenario::named(n))
-            .collect::<Result<_>>()?
-    };
-    let steps = if quick { 20 } else { 60 };
-    let max_modes = *handle_counts
-        .iter()
-        .max()
-        .expect("at least one handle count");
-    let resolutions = if quick { [24, 32, 0] } else { [72, 64, 0] };
-    let youngs = [2e7, 5e6, 2e6];
-    let shapes = (0..SHAPES.len())
-        .map(|i| (SHAPES[i], youngs[i], resolutions[i]))
-        .filter(|(name, _, _)| {
-            options.shapes.is_empty() || options.shapes.iter().any(|s| s == name)
-        });
-    let min_big_vertices = if quick { 2_000 } else { 30_000 };
-    let mut rows = Vec::new();
-    let mut lift_field = None;
-    for (name, young, resolution) in shapes {
-        let source = bundled(name).expect("a bundled shape");
-        let shape = prepare_shape(source, young, resolution, min_big_vertices, max_modes)?;
-        progress(&format!(
-            "{name}: {} FEM vertices, {} tets, eigenmodes in {} iterations",
-            shape.mesh.vertices.len(),
-            shape.mesh.tets.len(),
-            shape.eigen().iterations
-        ));
-        let started = Instant::now();
-        let equilibrium = fem_hanging(&shape, &scenario_params(&shape))?;
-        progress(&format!(
-            "{name}: FEM hanging equilibrium in {} static steps ({:.0} s)",
-            equilibrium.steps,
-            started.elapsed().as_secs_f64()
-        ));
-        for &scenario in &scenarios {
-            let params = scenario_params(&shape);
-            let started = Instant::now();
-            let (reference, fem_times) = run_fem(&shape, scenario, &params, steps)?;
-            let fem_step_ms = median(&fem_times) * 1e3;
-            progress(&format!(
-                "{name}/{}: FEM {steps} steps, median {fem_step_ms:.1} ms ({:.0} s)",
-                scenario.name(),
-                started.elapsed().as_secs_f64()
-            ));
-            for &m in &handle_counts {
-                let field: Arc<dyn SkinningField> = Arc::new(shape.eigen().truncated(m));
-                for &cubature_size in &cubatures {
-                    let cubature =
-                        Cubature::stratified(&shape.grid, cubature_size, shape.mesh.volume());
-                    let subspace = Arc::new(Subspace::build(
-                        field.clone(),
-                        shape.eigen_normalization(),
-                        &cubature,
-                        params.density,
-                    ));
-                    for &solver in &solvers {
-                        let (row, _) =
-                            run_reduced(&shape, scenario, &params, &subspace, solver, &reference)?;
-                        let (static_error_pct, frequency_ratio) =
-                            reduced_against(&shape, &params, &subspace, solver, &equilibrium)?;
-                        let row = SimRow {
-                            shape: name.into(),
-                            vertices: shape.mesh.vertices.len(),
-                            scenario: scenario.name().into(),
-                            field: field.kind().into(),
-                            handles: m,
-                            cubature: cubature.len(),
-                            solver: solver.name().into(),
-                            fem_step_ms,
-                            speedup: fem_step_ms / row.step_ms,
-                            static_error_pct,
-                            frequency_ratio,
-                            ..row
-                        };
-                        progress(&format!(
-                            "  m={m:<2} cubature={:<5} {:<12} step {:>8.3} ms  error {:.3}%  static {:.3}%  frequency {:.3}x",
-                            row.cubature, row.solver, row.step_ms, row.error_pct, static_error_pct, frequency_ratio
-                        ));
-                        rows.push(row);
-                    }
-                }
-            }
-        }
-        if name == "creature" && max_modes >= 16 {
-            lift_field = Some((shape.eigen().truncated(16), shape));
-        }
-    }
-    let lift_100k_ms = match lift_field {
-        Some((field, shape)) => Some(time_lift(&field, &shape)?),
-        None => None,
-    };
-    Ok(SimBenchReport { rows, lift_100k_ms })
 }
 
 impl BenchShape {
@@ -590,34 +465,6 @@ fn contact_points(mesh: &TetMesh, count: usize) -> (Vec<Vector3<f64>>, Vec<f64>)
         .collect();
     let (chosen, areas) = stratified_subset(&points, &mesh.boundary_areas, mesh.grid().cell, count);
     (chosen.iter().map(|&i| points[i]).collect(), areas)
-}
-
-/// Median time to lift 100k surface points of `shape` with `field`.
-fn time_lift(field: &EigenmodeField, shape: &BenchShape) -> Result<f64> {
-    let source = &shape.source;
-    let grid = VoxelGrid::from_shape(source, 64, None);
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let samples = sample_surface(
-        source,
-        &grid,
-        &SurfaceSampling {
-            count: 100_000,
-            ..Default::default()
-        },
-        &mut rng,
-    );
-    let lifter = Lifter::new(field, field.normalization(), &samples.points);
-    let z = nalgebra::DMatrix::from_fn(3, 4 * field.handle_count(), |d, a| {
-        0.01 * ((d + 3 * a) as f64).sin()
-    });
-    let mut out = vec![0.0f32; 3 * lifter.len()];
-    let mut times = Vec::new();
-    for _ in 0..50 {
-        let started = Instant::now();
-        lifter.lift(&z, &mut out);
-        times.push(started.elapsed().as_secs_f64());
-    }
-    Ok(median(&times) * 1e3)
 }
 
 /// Step time against error, one colour per solver.
