@@ -2127,6 +2127,10 @@ impl HasQoSPolicy for Writer {
 // causes earlier fragmentation (safe), never datagram overflow.
 const DATA_SUBMESSAGE_OVERHEAD: usize = 48;
 
+// physskin: a service reply up to this many bytes goes out as one DATA (see
+// `fragmentation_needed`): a UDP datagram's payload, less RTPS headers.
+const UNFRAGMENTED_REPLY_LIMIT: usize = 64_000;
+
 // Serialized overhead of one DATAFRAG submessage excluding its payload:
 // submessage header (4) + extraFlags (2) + octetsToInlineQos (2) + readerId (4)
 // + writerId (4) + writerSN (8) + fragmentStartingNum (4) +
@@ -2198,8 +2202,14 @@ impl<'a> FragmentationIter<'a> {
       target_reader_opt.map_or(EntityId::UNKNOWN, |p| p.remote_reader_guid.entity_id);
 
     let data_size = cache_change.data_value.payload_size();
+    // physskin: a service reply (it carries a related sample identity) goes out whole up to
+    // a UDP datagram's size, as Fast DDS sends its own: Fast DDS takes the related sample
+    // identity from a DATA's inline QoS but not from a DATA_FRAG's, and an rclpy client never
+    // completed a fragmented reply (a `list_parameters` reply over the 1452-byte budget).
+    let whole_reply = cache_change.write_options.related_sample_identity().is_some()
+      && data_size <= UNFRAGMENTED_REPLY_LIMIT;
     let fragmentation_needed =
-      data_size > writer.max_unfragmented_serialized_payload(target_reader_opt);
+      data_size > writer.max_unfragmented_serialized_payload(target_reader_opt) && !whole_reply;
 
     let state = if fragmentation_needed {
       let fragmented = match cursor {
