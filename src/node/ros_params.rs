@@ -7,12 +7,6 @@ use serde_json::Value;
 use crate::runtime::params::{ParamError, READ_ONLY};
 use crate::runtime::NodeParams;
 
-/// Parameters set only by file or `-p`, not declared to the ROS parameter services: a
-/// `list_parameters` reply over about 1,400 bytes is split into DATA_FRAGs by RustDDS on a
-/// host with a network interface (MTU 1500), and rclpy with Fast DDS never received it
-/// (`tests/ros2_peer.rs`' parameter checks timed out once `instances.shard` was declared).
-const UNDECLARED: &str = "instances.";
-
 /// NodeParams through the ROS parameter services.
 pub(super) trait RosParams: Sized {
     /// `with` for a value arriving from `ros2 param set`; read-only parameters are refused.
@@ -44,7 +38,6 @@ impl RosParams for NodeParams {
     fn to_ros(&self) -> Vec<(String, ParameterValue)> {
         self.flattened()
             .into_iter()
-            .filter(|(name, _)| !name.starts_with(UNDECLARED))
             .map(|(name, value)| (name, to_ros(&value)))
             .collect()
     }
