@@ -29,25 +29,10 @@ pub fn voxel_downsample(points: &[Vector3<f64>], max: usize) -> Vec<Vector3<f64>
         extent.x * extent.z,
     ];
     sides.sort_by(f64::total_cmp);
-    let mut cell = (sides[2].max(1e-12) / max as f64)
+    let cell = (sides[2].max(1e-12) / max as f64)
         .sqrt()
         .max(extent.max() * 1e-6);
-    let keys = |cell: f64| -> Vec<[i64; 3]> {
-        points
-            .iter()
-            .map(|p| {
-                let q = (p - lo) / cell;
-                [q.x as i64, q.y as i64, q.z as i64]
-            })
-            .collect()
-    };
-    loop {
-        let picked = one_per_cell(points, &keys(cell));
-        if picked.len() <= max {
-            return picked.into_iter().map(|i| points[i]).collect();
-        }
-        cell *= 1.1 * (picked.len() as f64 / max as f64).sqrt().max(1.0);
-    }
+    thinned_on_grid(points, points, &lo, cell, &Vector3::repeat(1.0), max)
 }
 
 /// At most `max` of `points`, seen from `viewpoint`: the one nearest each occupied cell's
@@ -89,15 +74,30 @@ pub fn view_downsample(
         .iter()
         .fold((image[0], image[0]), |(lo, hi), q| (lo.inf(q), hi.sup(q)));
     // One point per pixel of an image of `max` pixels, widened until the count fits.
-    let mut cell = ((hi.x - lo.x) * (hi.y - lo.y) / max as f64)
+    let cell = ((hi.x - lo.x) * (hi.y - lo.y) / max as f64)
         .sqrt()
         .max(1e-9);
+    let shape = Vector3::new(1.0, 1.0, DEPTH_CELLS);
+    thinned_on_grid(points, &image, &lo, cell, &shape, max)
+}
+
+/// At most `max` of `points`, one per occupied cell of a grid over their `coords` (from `lo`),
+/// cells `cell` wide times `shape` per axis, starting at `cell` and widened until the count
+/// fits; see `one_per_cell`.
+fn thinned_on_grid(
+    points: &[Vector3<f64>],
+    coords: &[Vector3<f64>],
+    lo: &Vector3<f64>,
+    mut cell: f64,
+    shape: &Vector3<f64>,
+    max: usize,
+) -> Vec<Vector3<f64>> {
     loop {
-        let keys: Vec<[i64; 3]> = image
+        let keys: Vec<[i64; 3]> = coords
             .iter()
             .map(|q| {
-                let c = (q - lo) / cell;
-                [c.x as i64, c.y as i64, (c.z / DEPTH_CELLS) as i64]
+                let c = ((q - lo) / cell).component_div(shape);
+                [c.x as i64, c.y as i64, c.z as i64]
             })
             .collect();
         let picked = one_per_cell(points, &keys);
