@@ -9,10 +9,13 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::sim::{prepare_shape, scenario_params, BenchShape};
+use super::sim::{
+    bench_min_vertices, bench_resolutions, prepare_shape, scenario_params, smallest_resolution,
+    BenchShape, SHAPES, YOUNGS,
+};
 use super::statics::{fem_hanging, rayleigh_hz, sag_and_largest};
 use crate::error::{Error, Result};
-use crate::geometry::{bundled, TetMesh, VoxelGrid};
+use crate::geometry::{bundled, VoxelGrid};
 
 /// One shape at one resolution.
 #[derive(Clone, Debug, Serialize)]
@@ -52,27 +55,21 @@ pub struct FemConvergenceReport {
     pub rows: Vec<FemConvergenceRow>,
 }
 
-/// The resolutions studied per shape, coarse to fine, and the bench's: `bench sim`'s (plate 72,
-/// rod 64, the creature's smallest with 30,000 vertices) and around it; `quick`: small ones.
-fn resolutions(name: &str, quick: bool) -> (Vec<usize>, usize) {
-    let bench = match (name, quick) {
-        (_, true) => return (vec![16, 24, 32], 24),
-        ("plate", _) => 72,
-        ("rod", _) => 64,
-        _ => creature_resolution(),
+/// The resolutions studied for `SHAPES[i]`, coarse to fine, and the bench's: `bench sim`'s
+/// (the creature's the smallest with its vertex count) and around it; `quick`: small ones.
+fn resolutions(i: usize, quick: bool) -> (Vec<usize>, usize) {
+    if quick {
+        return (vec![16, 24, 32], 24);
+    }
+    let bench = match bench_resolutions(false)[i] {
+        0 => {
+            let fine = VoxelGrid::from_shape(&bundled(SHAPES[i]).expect("bundled"), 128, None);
+            smallest_resolution(&fine, bench_min_vertices(false))
+        }
+        r => r,
     };
     let around = [0.5, 0.75, 1.0, 1.25].map(|f| (bench as f64 * f).round() as usize);
     (around.to_vec(), bench)
-}
-
-/// `bench sim`'s creature resolution: the smallest (from 16, by 4) whose mesh has 30,000
-/// vertices.
-fn creature_resolution() -> usize {
-    let fine = VoxelGrid::from_shape(&bundled("creature").expect("bundled"), 128, None);
-    (16..=128)
-        .step_by(4)
-        .find(|&r| TetMesh::from_grid(&fine.resample(r)).vertices.len() >= 30_000)
-        .unwrap_or(128)
 }
 
 /// Runs the study on `shapes` (all three when empty); `progress` gets a line per solve.
@@ -81,13 +78,12 @@ pub fn run_fem_convergence(
     quick: bool,
     mut progress: impl FnMut(&str),
 ) -> Result<FemConvergenceReport> {
-    let youngs = [("plate", 2e7), ("rod", 5e6), ("creature", 2e6)];
     let mut rows = Vec::new();
-    for (name, young) in youngs {
+    for (i, (name, young)) in SHAPES.into_iter().zip(YOUNGS).enumerate() {
         if !shapes.is_empty() && !shapes.iter().any(|s| s == name) {
             continue;
         }
-        let (list, bench) = resolutions(name, quick);
+        let (list, bench) = resolutions(i, quick);
         let mut of_shape = Vec::new();
         for resolution in list {
             let shape = prepare_shape(bundled(name).expect("bundled"), young, resolution, 0, 0)?;

@@ -34,6 +34,27 @@ pub struct SimBenchOptions {
 
 /// The bench's bundled shapes.
 pub(super) const SHAPES: [&str; 3] = ["plate", "rod", "creature"];
+/// Each of `SHAPES`' Young's modulus, Pa.
+pub(super) const YOUNGS: [f64; 3] = [2e7, 5e6, 2e6];
+
+/// `SHAPES`' FEM resolutions (cells across the longest side; 0: the smallest whose mesh has
+/// `bench_min_vertices` vertices), quick or full.
+pub(super) fn bench_resolutions(quick: bool) -> [usize; 3] {
+    if quick {
+        [24, 32, 0]
+    } else {
+        [72, 64, 0]
+    }
+}
+
+/// The vertices a resolution of 0 asks for, quick or full.
+pub(super) fn bench_min_vertices(quick: bool) -> usize {
+    if quick {
+        2_000
+    } else {
+        30_000
+    }
+}
 
 impl SimBenchOptions {
     /// `all` cut to `chosen` when something was chosen.
@@ -202,21 +223,20 @@ pub(crate) fn prepare_shape(
     modes: usize,
 ) -> Result<BenchShape> {
     let fine = VoxelGrid::from_shape(&shape, 128, None);
-    // Resolution 0: the smallest that gives the mesh at least `min_vertices` vertices.
-    let grid = if resolution > 0 {
-        fine.resample(resolution)
-    } else {
-        let mut r = 16;
-        loop {
-            let grid = fine.resample(r);
-            let vertices = TetMesh::from_grid(&grid).vertices.len();
-            if vertices >= min_vertices || r >= 128 {
-                break grid;
-            }
-            r += 4;
-        }
+    let grid = match resolution {
+        0 => fine.resample(smallest_resolution(&fine, min_vertices)),
+        r => fine.resample(r),
     };
     shape_on_grid(shape, grid, young, modes)
+}
+
+/// The smallest resolution (from 16, by 4, at most 128) at which `fine`, resampled, gives a
+/// mesh of at least `min_vertices` vertices.
+pub(super) fn smallest_resolution(fine: &VoxelGrid, min_vertices: usize) -> usize {
+    (16..128)
+        .step_by(4)
+        .find(|&r| TetMesh::from_grid(&fine.resample(r)).vertices.len() >= min_vertices)
+        .unwrap_or(128)
 }
 
 /// The tetrahedral mesh of `grid` (a voxelization of `shape`) and, with `modes` > 0, its

@@ -8,8 +8,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::sim::{
-    prepare_shape, run_fem, run_reduced, scenario_params, BenchShape, Scenario, SimBenchOptions,
-    SimBenchReport, SimRow, SHAPES,
+    bench_min_vertices, bench_resolutions, prepare_shape, run_fem, run_reduced, scenario_params,
+    BenchShape, Scenario, SimBenchOptions, SimBenchReport, SimRow, SHAPES, YOUNGS,
 };
 use super::statics::{fem_hanging, reduced_against};
 use super::stats::median;
@@ -50,14 +50,13 @@ pub fn run_sim_bench(
         .iter()
         .max()
         .expect("at least one handle count");
-    let resolutions = if quick { [24, 32, 0] } else { [72, 64, 0] };
-    let youngs = [2e7, 5e6, 2e6];
+    let resolutions = bench_resolutions(quick);
     let shapes = (0..SHAPES.len())
-        .map(|i| (SHAPES[i], youngs[i], resolutions[i]))
+        .map(|i| (SHAPES[i], YOUNGS[i], resolutions[i]))
         .filter(|(name, _, _)| {
             options.shapes.is_empty() || options.shapes.iter().any(|s| s == name)
         });
-    let min_big_vertices = if quick { 2_000 } else { 30_000 };
+    let min_big_vertices = bench_min_vertices(quick);
     let mut rows = Vec::new();
     let mut lift_field = None;
     for (name, young, resolution) in shapes {
