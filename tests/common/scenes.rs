@@ -27,13 +27,9 @@ pub fn table_scene(width: usize, height: usize) -> PointCloud2 {
         box_mesh(Vector3::new(0.15, 0.15, 0.15)),
         Vector3::new(0.15, 0.0, 0.075),
     );
-    let table = moved(
-        box_mesh(Vector3::new(1.0, 1.0, 0.02)),
-        Vector3::new(0.0, 0.0, -0.01),
-    );
     let aim = merged(&[&ball, &block]).unwrap();
     let camera = Camera::looking_at(&aim, Vector3::new(0.3, -1.0, 0.7), 1.5, width, height);
-    let objects = [
+    let objects = vec![
         SeenObject {
             shape: &ball,
             instance: 1,
@@ -44,17 +40,25 @@ pub fn table_scene(width: usize, height: usize) -> PointCloud2 {
             instance: 2,
             rgb: [30, 30, 220],
         },
-        SeenObject {
-            shape: &table,
-            instance: 0,
-            rgb: [120, 100, 80],
-        },
     ];
+    on_a_table(objects, Vector3::new(1.0, 1.0, 0.02), &camera)
+}
+
+/// `objects` standing on a table of `size` (its top at z = 0; background, instance 0), as
+/// `camera` sees them, in the optical frame.
+fn on_a_table(objects: Vec<SeenObject>, size: Vector3<f64>, camera: &Camera) -> PointCloud2 {
+    let table = moved(box_mesh(size), Vector3::new(0.0, 0.0, -size.z / 2.0));
+    let background = SeenObject {
+        shape: &table,
+        instance: 0,
+        rgb: [120, 100, 80],
+    };
+    let objects: Vec<SeenObject> = objects.into_iter().chain([background]).collect();
     let header = Header {
         stamp: Time::default(),
         frame_id: OPTICAL_FRAME.into(),
     };
-    camera_cloud(&objects, &camera, header).unwrap()
+    camera_cloud(&objects, camera, header).unwrap()
 }
 
 /// The frame of the streams' clouds (a camera's, its origin where the camera is).
@@ -128,14 +132,10 @@ pub fn objects_on_a_table(count: u16, width: usize, height: usize) -> PointCloud
             }
         })
         .collect();
-    let table = moved(
-        box_mesh(Vector3::new(2.0, 1.0, 0.02)),
-        Vector3::new(0.0, 0.0, -0.01),
-    );
     let refs: Vec<&Shape> = objects.iter().collect();
     let aim = merged(&refs).unwrap();
     let camera = Camera::looking_at(&aim, Vector3::new(0.2, -1.0, 0.9), 1.3, width, height);
-    let mut seen: Vec<SeenObject> = objects
+    let seen: Vec<SeenObject> = objects
         .iter()
         .zip(1u16..)
         .map(|(shape, instance)| SeenObject {
@@ -144,14 +144,5 @@ pub fn objects_on_a_table(count: u16, width: usize, height: usize) -> PointCloud
             rgb: [40 * (instance as u8 % 6), 200, 60],
         })
         .collect();
-    seen.push(SeenObject {
-        shape: &table,
-        instance: 0,
-        rgb: [120, 100, 80],
-    });
-    let header = Header {
-        stamp: Time::default(),
-        frame_id: OPTICAL_FRAME.into(),
-    };
-    camera_cloud(&seen, &camera, header).unwrap()
+    on_a_table(seen, Vector3::new(2.0, 1.0, 0.02), &camera)
 }
