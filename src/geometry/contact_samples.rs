@@ -165,7 +165,6 @@ fn centroidal(fine: &ContactSamples, count: usize, cell: f64) -> ContactSamples 
         areas: vec![0.0; seeds.len()],
     };
     for (p, a) in fine.points.iter().zip(&fine.areas) {
-        // A seed is its own nearest, so no cell is empty.
         let area = a.max(f64::MIN_POSITIVE);
         let Some(&s) = index.nearest(p, 1, None).first() else {
             continue;
@@ -173,10 +172,14 @@ fn centroidal(fine: &ContactSamples, count: usize, cell: f64) -> ContactSamples 
         out.points[s] += p * area;
         out.areas[s] += area;
     }
-    for (p, a) in out.points.iter_mut().zip(&out.areas) {
-        *p /= *a;
-    }
-    out
+    // A seed is its own nearest unless another seed stands at the same spot (a cloud's
+    // duplicate points: the edges of a box sampled face by face): that one gathers nothing,
+    // and dividing by its zero area would put a NaN among the contact points.
+    let (points, areas) = (out.points.iter().zip(&out.areas))
+        .filter(|(_, a)| **a > 0.0)
+        .map(|(p, a)| (p / *a, *a))
+        .unzip();
+    ContactSamples { points, areas }
 }
 
 #[cfg(test)]
@@ -240,5 +243,20 @@ mod tests {
         let dense = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 40);
         let samples = contact_samples(&dense, &grid, 500, &mut rng);
         assert_eq!(samples.points.len(), 500);
+    }
+
+    #[test]
+    fn a_cloud_with_duplicate_points_gives_finite_samples() {
+        // Every point twice, as a box's edges are when its faces are sampled one by one.
+        let cube = box_mesh(Vector3::repeat(0.2));
+        let grid = VoxelGrid::from_shape(&cube, 32, None);
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        let once = sample_surface(&cube, &grid, &SurfaceSampling::default(), &mut rng).points;
+        let twice: Vec<_> = once.iter().flat_map(|p| [*p, *p]).collect();
+        let cloud = Shape::new(twice, None, Vec::new()).unwrap();
+        let samples = contact_samples(&cloud, &grid, 500, &mut rng);
+        assert!(samples.points.len() > 100, "{}", samples.points.len());
+        assert!(samples.points.iter().all(|p| p.iter().all(|x| x.is_finite())));
+        assert!(samples.areas.iter().all(|a| *a > 0.0));
     }
 }
