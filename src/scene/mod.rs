@@ -6,6 +6,7 @@ mod budget;
 mod file;
 mod reference;
 mod robot;
+mod urdf_geometry;
 mod world;
 
 use std::path::PathBuf;
@@ -13,6 +14,8 @@ use std::path::PathBuf;
 pub use file::SceneFile;
 pub(crate) use file::{ObjectKind, DEFAULT_ROLLING_FRICTION};
 pub(crate) use reference::{reference_errors, ObjectError, Recorder};
+pub(crate) use robot::Robot;
+pub(crate) use urdf_geometry::MeshLookup;
 pub use world::{FieldCache, ObjectReport, Scene, SceneOptions};
 
 /// What is wrong with a scene or a robot description.

@@ -2,16 +2,17 @@
 //! link's collision geometry as parry3d shapes that push soft objects.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
-use parry3d::math::{Pose, Rotation, Vector};
 use parry3d::shape::SharedShape;
 
+use super::urdf_geometry::{collision_shape, pose_of, to_parry, visual_box, MeshLookup};
 use super::SceneError;
 use crate::physics::Obstacle;
 
 /// A robot: links, the joints between them, and the joints' current positions.
+#[derive(Clone)]
 pub struct Robot {
     name: String,
     base: Isometry3<f64>,
@@ -22,12 +23,14 @@ pub struct Robot {
     link_index: HashMap<String, usize>,
 }
 
+#[derive(Clone)]
 struct Link {
     name: String,
     /// Collision shapes and their poses in the link frame.
     shapes: Vec<(SharedShape, Isometry3<f64>)>,
 }
 
+#[derive(Clone)]
 struct Joint {
     name: String,
     motion: JointMotion,
@@ -48,7 +51,8 @@ enum JointMotion {
 }
 
 impl Robot {
-    /// Reads a URDF file; meshes are looked up beside it. `base` places the root link.
+    /// Reads a URDF file; meshes are looked up beside it, then in the ROS package paths. A
+    /// collision shape that cannot be made is an error.
     pub fn from_urdf(path: &Path, base: Isometry3<f64>) -> Result<Self, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             path: path.into(),
@@ -61,24 +65,54 @@ impl Robot {
         })
     }
 
-    /// Parses URDF text; `dir` resolves mesh file names.
+    /// Parses URDF text; `dir` resolves mesh file names. A collision shape that cannot be
+    /// made is an error.
     pub fn from_urdf_text(text: &str, dir: &Path, base: Isometry3<f64>) -> Result<Self, String> {
+        let (robot, _) = Self::parse(text, &MeshLookup::beside(dir), base, false)?;
+        Ok(robot)
+    }
+
+    /// A robot as `robot_description` carries it, its root link at the origin. A collision
+    /// mesh that cannot be found or read does not refuse the robot: the link collides as the
+    /// box around its visual geometry (or not at all without one), and the returned notes say
+    /// so, one per link.
+    pub fn from_description(
+        text: &str,
+        meshes: &MeshLookup,
+    ) -> Result<(Self, Vec<String>), String> {
+        Self::parse(text, meshes, Isometry3::identity(), true)
+    }
+
+    /// The robot of URDF `text`; with `lenient`, links whose collision shapes cannot be made
+    /// stand in with their visual box (and a note says so).
+    fn parse(
+        text: &str,
+        meshes: &MeshLookup,
+        base: Isometry3<f64>,
+        lenient: bool,
+    ) -> Result<(Self, Vec<String>), String> {
         let urdf = urdf_rs::read_from_string(text).map_err(|e| e.to_string())?;
         let mut link_index = HashMap::new();
         let mut links = Vec::new();
+        let mut notes = Vec::new();
         for link in &urdf.links {
             if link_index.insert(link.name.clone(), links.len()).is_some() {
                 return Err(format!("link `{}` is defined twice", link.name));
             }
-            let shapes = link
-                .collision
-                .iter()
-                .map(|c| {
-                    let shape = collision_shape(&c.geometry, dir)
-                        .map_err(|e| format!("link `{}`: {e}", link.name))?;
-                    Ok((shape, pose_of(&c.origin)))
-                })
-                .collect::<Result<_, String>>()?;
+            let shapes = match link_shapes(link, meshes) {
+                Ok(shapes) => shapes,
+                Err(e) if lenient => {
+                    let stand_in = visual_box(link, meshes);
+                    let how = if stand_in.is_some() {
+                        "it collides as the box around its visual geometry"
+                    } else {
+                        "it has no visual geometry to stand in and does not collide"
+                    };
+                    notes.push(format!("link `{}`: {e}; {how}", link.name));
+                    stand_in.into_iter().collect()
+                }
+                Err(e) => return Err(format!("link `{}`: {e}", link.name)),
+            };
             links.push(Link {
                 name: link.name.clone(),
                 shapes,
@@ -155,19 +189,31 @@ impl Robot {
             .into_iter()
             .map(|i| slots[i].take().expect("each joint once"))
             .collect();
-        Ok(Self {
+        let robot = Self {
             name: urdf.name,
             base,
             links,
             joints,
             root,
             link_index,
-        })
+        };
+        Ok((robot, notes))
     }
 
     /// The index of the link named `name`; None when the robot has none such.
     pub fn link(&self, name: &str) -> Option<usize> {
         self.link_index.get(name).copied()
+    }
+
+    /// The robot's name, as its URDF gives it.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// (links, collision shapes).
+    pub fn size(&self) -> (usize, usize) {
+        let shapes = self.links.iter().map(|l| l.shapes.len()).sum();
+        (self.links.len(), shapes)
     }
 
     /// Whether the robot has a joint named `name` (fixed joints included).
@@ -211,9 +257,22 @@ impl Robot {
 
     /// World pose of every link (indexed like `link`), from the current joint positions.
     pub fn link_poses(&self) -> Vec<Isometry3<f64>> {
+        self.link_poses_with(|_| None)
+    }
+
+    /// World pose of every link: where `placed` puts it (by link name; a pose from /tf), else
+    /// its parent's pose moved by the joint between them (the root: the robot's base).
+    pub fn link_poses_with(
+        &self,
+        placed: impl Fn(&str) -> Option<Isometry3<f64>>,
+    ) -> Vec<Isometry3<f64>> {
         let mut poses = vec![Isometry3::identity(); self.links.len()];
-        poses[self.root] = self.base;
+        poses[self.root] = placed(&self.links[self.root].name).unwrap_or(self.base);
         for j in &self.joints {
+            if let Some(pose) = placed(&self.links[j.child].name) {
+                poses[j.child] = pose;
+                continue;
+            }
             let motion = match j.motion {
                 JointMotion::Fixed => Isometry3::identity(),
                 JointMotion::Revolute => Isometry3::from_parts(
@@ -247,101 +306,15 @@ impl Robot {
     }
 }
 
-/// A URDF pose (xyz, then roll-pitch-yaw about fixed x, y, z).
-fn pose_of(p: &urdf_rs::Pose) -> Isometry3<f64> {
-    let [r, pitch, y] = p.rpy.0;
-    Isometry3::from_parts(
-        Translation3::from(Vector3::from(p.xyz.0)),
-        UnitQuaternion::from_euler_angles(r, pitch, y),
-    )
-}
-
-pub(crate) fn to_parry(pose: &Isometry3<f64>) -> Pose {
-    let t = pose.translation.vector;
-    let q = pose.rotation.quaternion();
-    Pose::from_parts(
-        Vector::new(t.x as f32, t.y as f32, t.z as f32),
-        Rotation::from_xyzw(q.i as f32, q.j as f32, q.k as f32, q.w as f32).normalize(),
-    )
-}
-
-/// A URDF geometry as a parry3d shape in the geometry's own frame (URDF cylinders and capsules
-/// run along z; parry's cylinder runs along y, so it is turned). Meshes collide as their convex
-/// hull: parry's inside test on a triangle mesh needs a closed, consistently wound surface,
-/// which robot meshes often are not.
-fn collision_shape(geometry: &urdf_rs::Geometry, dir: &Path) -> Result<SharedShape, String> {
-    use urdf_rs::Geometry as G;
-    let positive = |what: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(v as f32)
-        } else {
-            Err(format!("{what} must be positive, got {v}"))
-        }
-    };
-    Ok(match geometry {
-        G::Box { size } => {
-            let [x, y, z] = size.0;
-            SharedShape::cuboid(
-                positive("box size", x)? / 2.0,
-                positive("box size", y)? / 2.0,
-                positive("box size", z)? / 2.0,
-            )
-        }
-        G::Sphere { radius } => SharedShape::ball(positive("sphere radius", *radius)?),
-        G::Capsule { radius, length } => SharedShape::capsule_z(
-            positive("capsule length", *length)? / 2.0,
-            positive("capsule radius", *radius)?,
-        ),
-        G::Cylinder { radius, length } => {
-            let cylinder = SharedShape::cylinder(
-                positive("cylinder length", *length)? / 2.0,
-                positive("cylinder radius", *radius)?,
-            );
-            let y_to_z = Isometry3::rotation(Vector3::x() * std::f64::consts::FRAC_PI_2);
-            SharedShape::compound(vec![(to_parry(&y_to_z), cylinder)])
-        }
-        G::Mesh { filename, scale } => {
-            let path = mesh_path(filename, dir)?;
-            let raw = crate::geometry::load_geometry(&path)
-                .map_err(|e| format!("mesh {}: {e}", path.display()))?;
-            let s = scale.as_ref().map(|s| s.0).unwrap_or([1.0; 3]);
-            let points: Vec<Vector> = raw
-                .positions
-                .iter()
-                .map(|p| {
-                    Vector::new(
-                        (p[0] * s[0]) as f32,
-                        (p[1] * s[1]) as f32,
-                        (p[2] * s[2]) as f32,
-                    )
-                })
-                .collect();
-            SharedShape::convex_hull(&points)
-                .ok_or_else(|| format!("mesh {}: no convex hull (flat?)", path.display()))?
-        }
-    })
-}
-
-/// A mesh file name as URDF writes it: a path relative to the URDF, `file://` or
-/// `package://pkg/rest` (looked up beside the URDF and one directory up, as a package's
-/// `urdf/` and `meshes/` usually sit).
-fn mesh_path(filename: &str, dir: &Path) -> Result<PathBuf, String> {
-    if let Some(path) = filename.strip_prefix("file://") {
-        return Ok(PathBuf::from(path));
-    }
-    let Some(rest) = filename.strip_prefix("package://") else {
-        return Ok(dir.join(filename));
-    };
-    let inner = rest.split_once('/').map(|(_, r)| r).unwrap_or(rest);
-    [dir.join(inner), dir.join("..").join(inner)]
-        .into_iter()
-        .find(|p| p.exists())
-        .ok_or_else(|| {
-            format!(
-                "mesh `{filename}` not found beside {} (no ROS package path here)",
-                dir.display()
-            )
-        })
+/// A link's collision shapes with their poses in the link frame.
+fn link_shapes(
+    link: &urdf_rs::Link,
+    meshes: &MeshLookup,
+) -> Result<Vec<(SharedShape, Isometry3<f64>)>, String> {
+    link.collision
+        .iter()
+        .map(|c| Ok((collision_shape(&c.geometry, meshes)?, pose_of(&c.origin))))
+        .collect()
 }
 
 #[cfg(test)]
