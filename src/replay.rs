@@ -9,10 +9,10 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use crate::bag::{read_recording, BagError, BagMessage, RecordOptions, RecordSummary, Recorder};
-use crate::msg::{JointState, QosProfile, Status, TFMessage, Time, TopicInfo};
+use crate::msg::{Status, TFMessage, Time};
 use crate::runtime::{
-    topic_table, BuildOutcome, BuildRequest, Builder, Input, InputKind, InputTopics, NameResolver,
-    NodeClock, NodeParams, Outputs, Stage, StageOptions, TfBuffer, Topics,
+    topic_table, BuildOutcome, BuildRequest, Builder, Input, InputTopics, NameResolver, NodeClock,
+    NodeParams, Outputs, Stage, StageOptions, TfBuffer, Topics,
 };
 use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::skinning::NeuralModel;
@@ -151,7 +151,11 @@ pub fn replay(
     } else {
         Some(SceneFile::load(std::path::Path::new(&params.scene))?)
     };
-    let input_topics = InputTopics::new(topics, scene_file.as_ref());
+    let robot = params
+        .robot
+        .resolved(&options.names)
+        .map_err(|e| crate::Error::Geometry(e.to_string()))?;
+    let input_topics = InputTopics::new(topics, &robot, scene_file.as_ref());
     let recording = read_recording(bytes, source)?;
     let inputs: Vec<BagMessage> = (recording.messages.into_iter())
         .filter(|m| input_topics.kind(&m.topic).is_some())
@@ -242,11 +246,8 @@ fn replay_outputs(
             for topic in topic_table(topics) {
                 recorder.declare(topic)?;
             }
-            for (topic, kind) in input_topics.all() {
-                if let InputKind::Joints(_) = kind {
-                    let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
-                    recorder.declare(info)?;
-                }
+            for info in input_topics.robot_topic_table() {
+                recorder.declare(info)?;
             }
             let recorder = Arc::new(recorder);
             outputs.sinks.push(Box::new(recorder.clone()));
@@ -365,6 +366,10 @@ impl<'a> Run<'a> {
             }
             Ok(Input::Transforms(..)) => transforms.feed(&self.tf, log_time, false, outputs),
             Ok(Input::Joints(robots, state)) => self.stage.set_joints(robots, state, outputs),
+            Ok(Input::Robot(robot, notes)) => {
+                transforms.feed(&self.tf, log_time, false, outputs);
+                self.stage.set_robot((**robot).clone(), notes, outputs)
+            }
             Err(problem) => {
                 summary.rejected += 1;
                 outputs.report(Status::ERROR, 0, "input_rejected", problem.clone());

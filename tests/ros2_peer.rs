@@ -512,3 +512,24 @@ fn two_instances_split_a_labelled_cloud_of_eight_objects() {
         assert!(log.contains(&format!("(shard {k}/2)")), "{log}");
     }
 }
+
+/// The robot the ROS way: rclpy publishes the gripper's URDF on robot_description (transient
+/// local) and its joints on /joint_states; the gripper closes on a soft block that arrived as a
+/// cloud, lifts it 0.2 m, and holds it (tests/peers/gripper_peer.py).
+#[test]
+fn rclpy_robot_description_gripper_lifts_a_cloud_block() {
+    let (stdout, log) = node_with_peer(
+        42,
+        "--ros-args -p fixed_frame:=world -p simulation.support:=floor",
+        "gripper_peer.py",
+        "ros2-gripper-node.log",
+    );
+    assert!(
+        stdout.contains("ok: robot_description gripper lifted the block"),
+        "{stdout}"
+    );
+    assert!(
+        log.contains("robot `gripper` from robot_description: 4 links, 3 collision shapes"),
+        "{log}"
+    );
+}

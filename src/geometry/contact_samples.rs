@@ -256,7 +256,10 @@ mod tests {
         let cloud = Shape::new(twice, None, Vec::new()).unwrap();
         let samples = contact_samples(&cloud, &grid, 500, &mut rng);
         assert!(samples.points.len() > 100, "{}", samples.points.len());
-        assert!(samples.points.iter().all(|p| p.iter().all(|x| x.is_finite())));
+        assert!(samples
+            .points
+            .iter()
+            .all(|p| p.iter().all(|x| x.is_finite())));
         assert!(samples.areas.iter().all(|a| *a > 0.0));
     }
 }

@@ -294,6 +294,28 @@ ros_message!(
     }
 );
 
+/// std_msgs/msg/String: one string, as `robot_description` carries a URDF. (Named apart from
+/// Rust's `String`, which `ros_message!` would have to shadow.)
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StringMessage {
+    /// The text.
+    pub data: String,
+}
+
+impl RosType for StringMessage {
+    fn ros_type() -> String {
+        "std_msgs/String".into()
+    }
+}
+
+impl RosMessage for StringMessage {
+    const PACKAGE: &'static str = "std_msgs";
+    const NAME: &'static str = "String";
+    fn fields() -> Vec<(&'static str, String)> {
+        vec![("data", String::ros_type())]
+    }
+}
+
 ros_message!(
     /// physskin/msg/Interaction: a force, pin or release (see the constants below).
     Interaction = "physskin" {

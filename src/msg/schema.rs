@@ -4,7 +4,7 @@
 use super::messages::{
     Clock, ColorRGBA, CompressedImage, Duration, Header, JointState, Marker, MarkerArray, Mesh,
     MeshFile, MeshTriangle, Point, PointCloud2, PointField, Pose, Quaternion, RosMessage,
-    TFMessage, Time, Transform, TransformStamped, UVCoordinate, Vector3,
+    StringMessage, TFMessage, Time, Transform, TransformStamped, UVCoordinate, Vector3,
 };
 
 /// The fields of a known message type ("pkg/Name", as in .msg files) and its own text.
@@ -28,6 +28,7 @@ fn definition(ros_type: &str) -> Option<String> {
         ),
         "sensor_msgs/PointCloud2" => generated(PointCloud2::fields()),
         "sensor_msgs/JointState" => generated(JointState::fields()),
+        "std_msgs/String" => generated(StringMessage::fields()),
         "shape_msgs/MeshTriangle" => generated(MeshTriangle::fields()),
         "shape_msgs/Mesh" => generated(Mesh::fields()),
         "geometry_msgs/Quaternion" => generated(Quaternion::fields()),
@@ -125,6 +126,7 @@ mod tests {
             schema_text::<Status>(),
             schema_text::<Clock>(),
             schema_text::<JointState>(),
+            schema_text::<StringMessage>(),
         ] {
             assert!(text.contains("\n") && !text.contains("MSG: physskin/msg/Interaction"));
         }

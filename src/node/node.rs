@@ -23,6 +23,7 @@ use crate::runtime::params::{NodeParams, Topics};
 use crate::runtime::qos_overrides::QosOverrides;
 use crate::runtime::stepper::{StepperCommand, StepperStats};
 use crate::runtime::tf::TfBuffer;
+use crate::runtime::InputTopics;
 use crate::scene::{FieldCache, Scene, SceneFile, SceneOptions};
 use crate::shm::{ShmOptions, ShmPublisher};
 use crate::skinning::NeuralModel;
@@ -90,8 +91,17 @@ pub fn run(
     let context = context(config.domain_id, config.loopback_only)?;
     let params = Arc::new(RwLock::new(p.clone()));
     let mut node = create_node(&context, &config, &params)?;
+    let scene_file = if p.scene.is_empty() {
+        None
+    } else {
+        Some(SceneFile::load(std::path::Path::new(&p.scene))?)
+    };
+    let robot = p.robot.resolved(&config.names)?;
+    let input_topics = InputTopics::new(&topics, &robot, scene_file.as_ref());
+    let mut profiles = topic_table(&topics);
+    profiles.extend(input_topics.robot_topic_table());
     let qos = QosTable {
-        profiles: topic_table(&topics),
+        profiles,
         overrides: config.qos.clone(),
     };
     let clock = if p.use_sim_time {
@@ -119,16 +129,11 @@ pub fn run(
     for warning in &config.warnings {
         outputs.report(Status::WARN, 0, "node_warning", warning.clone());
     }
-    let scene_file = if p.scene.is_empty() {
-        None
-    } else {
-        Some(SceneFile::load(std::path::Path::new(&p.scene))?)
-    };
     let inputs = super::node_inputs::Inputs::create(
         &mut node,
         &topics,
         &qos,
-        scene_file.as_ref(),
+        &input_topics,
         recorder.as_deref(),
     )?;
     let shared = Shared {

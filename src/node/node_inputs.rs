@@ -14,17 +14,16 @@ use super::shared::Shared;
 use crate::bag::Recorder;
 use crate::msg::{
     Clock, DiagnosticArray, Interaction, JointState, KeyValue, Mesh, MeshStamped, PointCloud2,
-    Status, TFMessage,
+    Status, StringMessage, TFMessage,
 };
-use crate::msg::{QosProfile, TopicInfo};
 use crate::runtime::builder::BuildRequest;
+use crate::runtime::inputs::JointReaders;
 use crate::runtime::names::NameResolver;
 use crate::runtime::outputs::{TF, TF_STATIC};
 use crate::runtime::params::Topics;
 use crate::runtime::qos_overrides::Endpoint;
 use crate::runtime::stepper::StepperCommand;
 use crate::runtime::{Input, InputKind, InputTopics};
-use crate::scene::SceneFile;
 
 /// The node's subscriptions.
 pub struct Inputs {
@@ -36,19 +35,22 @@ pub struct Inputs {
     clock: Subscription<Clock>,
     tf: Subscription<TFMessage>,
     tf_static: Subscription<TFMessage>,
-    /// Per joint-state topic: the scene robots on it, the topic, its subscription.
-    joints: Vec<(Vec<String>, String, Subscription<JointState>)>,
+    /// Per joint-state topic: the robots on it, the topic, its subscription.
+    joints: Vec<(JointReaders, String, Subscription<JointState>)>,
+    /// The robot's URDF (`robot.description_topic`), and the topic.
+    description: Option<(String, Subscription<StringMessage>)>,
 }
 
 impl Inputs {
     /// Subscribes to the input topics (with their QoS and overrides), /clock, /tf,
-    /// /tf_static and the scene robots' joint-state topics, declaring those to the recorder. An
-    /// error when a name is refused or DDS cannot create a subscription.
+    /// /tf_static, `robot_description` and the robots' joint-state topics, declaring the last
+    /// two to the recorder. An error when a name is refused or DDS cannot create a
+    /// subscription.
     pub fn create(
         node: &mut Node,
         t: &Topics,
         qos: &QosTable,
-        scene: Option<&SceneFile>,
+        input_topics: &InputTopics,
         recorder: Option<&Recorder>,
     ) -> Result<Self, NodeError> {
         let q = |topic: &str| qos.of(topic, Endpoint::Subscription);
@@ -62,22 +64,28 @@ impl Inputs {
             tf: subscription(node, TF, q(TF))?,
             tf_static: subscription(node, TF_STATIC, q(TF_STATIC))?,
             joints: Vec::new(),
+            description: None,
         };
-        // One subscription per joint-state topic, for every robot on it.
-        let input_topics = InputTopics::new(t, scene);
-        let joint_topics = input_topics.all().filter_map(|(topic, kind)| match kind {
-            InputKind::Joints(robots) => Some((topic, robots.clone())),
-            _ => None,
-        });
-        for (topic, robots) in joint_topics {
+        for info in input_topics.robot_topic_table() {
             if let Some(recorder) = recorder {
-                let info = TopicInfo::of::<JointState>(topic, QosProfile::sensor(5));
                 if let Err(e) = recorder.declare(info) {
                     log::error!("recording: {e}");
                 }
             }
-            let sub = subscription::<JointState>(node, topic, q(topic))?;
-            inputs.joints.push((robots, topic.to_string(), sub));
+        }
+        // One subscription per joint-state topic, for every robot on it.
+        for (topic, kind) in input_topics.all() {
+            match kind {
+                InputKind::Joints(robots) => {
+                    let sub = subscription::<JointState>(node, topic, q(topic))?;
+                    inputs.joints.push((robots.clone(), topic.to_string(), sub));
+                }
+                InputKind::RobotDescription => {
+                    let sub = subscription::<StringMessage>(node, topic, q(topic))?;
+                    inputs.description = Some((topic.to_string(), sub));
+                }
+                _ => {}
+            }
         }
         Ok(inputs)
     }
@@ -121,6 +129,9 @@ pub async fn serve(
                 shared.health.builds_queued.fetch_add(1, Ordering::Relaxed);
                 let _ = build_tx.send(request);
             }
+        }
+        Ok(Input::Robot(robot, notes)) => {
+            let _ = step_tx.send(StepperCommand::Robot(robot, notes));
         }
         Ok(_) => {}
         Err(problem) => outputs.report(Status::ERROR, 0, "input_rejected", problem),
@@ -173,6 +184,17 @@ pub async fn serve(
             async {}
         })
     }));
+    let description = inputs.description.iter().map(|(topic, sub)| {
+        sub.async_stream().for_each(move |m| {
+            if let Ok((urdf, _)) = m {
+                shared.record_input(topic, None, &urdf);
+                // Parsed here (meshes read, hulls made), not on the stepping thread.
+                submit(Input::robot(&urdf));
+            }
+            async {}
+        })
+    });
+    let description = futures::future::join_all(description);
     let reset = serve_trigger(control.reset, Kind::Reset, step_tx.clone());
     let clear = serve_trigger(control.clear, Kind::Clear, step_tx.clone());
     let health = report_health(diagnostics, shared, node_name);
@@ -185,6 +207,7 @@ pub async fn serve(
         tf,
         tf_static,
         joints,
+        description,
         reset,
         clear,
         health

@@ -10,10 +10,12 @@ use ros2_client::{Node, NodeName, NodeOptions, Publisher};
 use super::dds::{context, publisher, qos_of, NodeError, QosTable};
 use crate::bag::read_recording;
 use crate::msg::{
-    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, TFMessage,
+    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, StringMessage,
+    TFMessage,
 };
+use crate::runtime::params::RobotParams;
 use crate::runtime::qos_overrides::Endpoint;
-use crate::runtime::{topic_table, InputKind, InputTopics, Topics};
+use crate::runtime::{topic_table, InputKind, InputTopics, NameResolver, Topics};
 
 /// How to send.
 #[derive(Clone, Debug)]
@@ -47,6 +49,7 @@ enum AnyPublisher {
     Interaction(Publisher<Interaction>),
     Transforms(Publisher<TFMessage>),
     Joints(Publisher<JointState>),
+    Description(Publisher<StringMessage>),
 }
 
 impl AnyPublisher {
@@ -54,13 +57,8 @@ impl AnyPublisher {
         node: &mut Node,
         topic: &str,
         kind: &InputKind,
-        t: &Topics,
+        table: &QosTable,
     ) -> Result<Self, NodeError> {
-        // The profile the node's table offers the topic with (what it subscribes with too).
-        let table = QosTable {
-            profiles: topic_table(t),
-            overrides: Default::default(),
-        };
         let q = qos_of(table.profile(topic, Endpoint::Publisher));
         Ok(match kind {
             InputKind::Cloud => Self::Cloud(publisher(node, topic, q)?),
@@ -69,6 +67,7 @@ impl AnyPublisher {
             InputKind::Interaction => Self::Interaction(publisher(node, topic, q)?),
             InputKind::Transforms { .. } => Self::Transforms(publisher(node, topic, q)?),
             InputKind::Joints(_) => Self::Joints(publisher(node, topic, q)?),
+            InputKind::RobotDescription => Self::Description(publisher(node, topic, q)?),
         })
     }
 
@@ -80,6 +79,7 @@ impl AnyPublisher {
             Self::Interaction(p) => p.get_subscription_count(node),
             Self::Transforms(p) => p.get_subscription_count(node),
             Self::Joints(p) => p.get_subscription_count(node),
+            Self::Description(p) => p.get_subscription_count(node),
         }
     }
 
@@ -96,6 +96,7 @@ impl AnyPublisher {
             Self::Interaction(p) => out(p, bytes),
             Self::Transforms(p) => out(p, bytes),
             Self::Joints(p) => out(p, bytes),
+            Self::Description(p) => out(p, bytes),
         }
     }
 }
@@ -107,17 +108,27 @@ pub fn send_recording(
     options: &SendOptions,
 ) -> crate::Result<SendSummary> {
     let recording = read_recording(bytes, source)?;
-    let inputs = InputTopics::new(&options.topics, None);
+    let robot = RobotParams::default()
+        .resolved(&NameResolver::default())
+        .map_err(|e| NodeError::Name(e.to_string()))?;
+    let inputs = InputTopics::new(&options.topics, &robot, None);
     let dds = |e: String| NodeError::Dds(e);
     let context = context(options.domain_id, false)?;
     let name = NodeName::new("/", "physskin_send").map_err(|e| dds(format!("{e:?}")))?;
     let mut node = context
         .new_node(name, NodeOptions::new().enable_rosout(false))
         .map_err(|e| dds(format!("{e:?}")))?;
+    // The profiles the node's table offers the topics with (what it subscribes with too).
+    let mut profiles = topic_table(&options.topics);
+    profiles.extend(inputs.robot_topic_table());
+    let table = QosTable {
+        profiles,
+        overrides: Default::default(),
+    };
     let mut publishers = BTreeMap::new();
     for m in &recording.messages {
         if let (Some(kind), false) = (inputs.kind(&m.topic), publishers.contains_key(&m.topic)) {
-            let p = AnyPublisher::create(&mut node, &m.topic, kind, &options.topics)?;
+            let p = AnyPublisher::create(&mut node, &m.topic, kind, &table)?;
             publishers.insert(m.topic.clone(), p);
         }
     }

@@ -8,11 +8,12 @@ use std::collections::BTreeMap;
 use super::builder::BuildRequest;
 use super::cloud_objects::instance_field;
 use super::outputs::{TF, TF_STATIC};
-use super::params::{NodeParams, Topics};
+use super::params::{NodeParams, RobotParams, Topics};
 use crate::msg::{
-    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, RosMessage, TFMessage,
+    from_cdr, Interaction, JointState, Mesh, MeshStamped, PointCloud2, QosProfile, RosMessage,
+    StringMessage, TFMessage, TopicInfo,
 };
-use crate::scene::SceneFile;
+use crate::scene::{MeshLookup, Robot, SceneFile};
 
 /// What a topic carries.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,8 +31,19 @@ pub enum InputKind {
         /// From /tf_static.
         is_static: bool,
     },
-    /// sensor_msgs/JointState for the scene robots named.
-    Joints(Vec<String>),
+    /// sensor_msgs/JointState for the robots that read it.
+    Joints(JointReaders),
+    /// std_msgs/String: the URDF of the robot from the graph.
+    RobotDescription,
+}
+
+/// The robots a joint-state topic moves.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JointReaders {
+    /// The scene robots on it, by name.
+    pub scene_robots: Vec<String>,
+    /// The robot from `robot_description` reads it too.
+    pub described: bool,
 }
 
 impl InputKind {
@@ -44,6 +56,7 @@ impl InputKind {
             Self::Interaction => Interaction::type_name(),
             Self::Transforms { .. } => TFMessage::type_name(),
             Self::Joints(_) => JointState::type_name(),
+            Self::RobotDescription => StringMessage::type_name(),
         }
     }
 }
@@ -56,8 +69,11 @@ pub enum Input {
     Transforms(TFMessage, bool),
     /// A push, hold or release.
     Interaction(Interaction),
-    /// A joint state for the scene robots on its topic.
-    Joints(Vec<String>, JointState),
+    /// A joint state for the robots that read its topic.
+    Joints(JointReaders, JointState),
+    /// A robot from `robot_description`, with notes on links that stand in with their visual
+    /// box.
+    Robot(Box<Robot>, Vec<String>),
 }
 
 impl Input {
@@ -90,6 +106,15 @@ impl Input {
         })
     }
 
+    /// The robot a `robot_description` URDF describes (its meshes from the ROS package
+    /// paths); an error naming what is wrong with the URDF.
+    pub fn robot(description: &StringMessage) -> Result<Self, String> {
+        let (robot, notes) =
+            Robot::from_description(&description.data, &MeshLookup::from_environment())
+                .map_err(|e| format!("robot_description: {e}"))?;
+        Ok(Self::Robot(Box::new(robot), notes))
+    }
+
     fn shard_of_mesh(
         p: &NodeParams,
         frame: &str,
@@ -109,17 +134,21 @@ pub struct InputTopics {
 }
 
 impl InputTopics {
-    /// The input topics of `topics` (resolved), /tf, /tf_static, and the joint-state topic of
-    /// each robot of `scene` (a JointState may carry the joints of several robots).
-    pub fn new(topics: &Topics, scene: Option<&SceneFile>) -> Self {
+    /// The input topics of `topics` and `robot` (resolved), /tf, /tf_static, and the
+    /// joint-state topic of each robot of `scene` (a JointState may carry the joints of
+    /// several robots).
+    pub fn new(topics: &Topics, robot: &RobotParams, scene: Option<&SceneFile>) -> Self {
         let mut by_name = BTreeMap::new();
         for r in scene.iter().flat_map(|f| &f.robots) {
-            let entry = by_name
-                .entry(r.joint_states.clone())
-                .or_insert_with(|| InputKind::Joints(Vec::new()));
-            if let InputKind::Joints(robots) = entry {
-                robots.push(r.name.clone());
+            if let Some(readers) = joint_readers(&mut by_name, &r.joint_states) {
+                readers.scene_robots.push(r.name.clone());
             }
+        }
+        if !robot.description_topic.is_empty() {
+            if let Some(readers) = joint_readers(&mut by_name, &robot.joint_states_topic) {
+                readers.described = true;
+            }
+            by_name.insert(robot.description_topic.clone(), InputKind::RobotDescription);
         }
         by_name.insert(TF.into(), InputKind::Transforms { is_static: false });
         by_name.insert(TF_STATIC.into(), InputKind::Transforms { is_static: true });
@@ -128,6 +157,24 @@ impl InputTopics {
         by_name.insert(topics.mesh_stamped.clone(), InputKind::MeshStamped);
         by_name.insert(topics.interaction.clone(), InputKind::Interaction);
         Self { by_name }
+    }
+
+    /// The robot's and the joint states' topics as they are offered and recorded:
+    /// `robot_description` reliable and transient local (robot_state_publisher publishes it
+    /// once), joint states as sensor data.
+    pub fn robot_topic_table(&self) -> Vec<TopicInfo> {
+        self.all()
+            .filter_map(|(topic, kind)| match kind {
+                InputKind::RobotDescription => Some(TopicInfo::of::<StringMessage>(
+                    topic,
+                    QosProfile::reliable(1, true),
+                )),
+                InputKind::Joints(_) => {
+                    Some(TopicInfo::of::<JointState>(topic, QosProfile::sensor(5)))
+                }
+                _ => None,
+            })
+            .collect()
     }
 
     /// What `topic` carries; None: not an input.
@@ -171,9 +218,25 @@ impl InputTopics {
             InputKind::Transforms { is_static } => {
                 Ok(Input::Transforms(from_cdr(bytes).map_err(bad)?, *is_static))
             }
-            InputKind::Joints(robots) => {
-                Ok(Input::Joints(robots.clone(), from_cdr(bytes).map_err(bad)?))
-            }
+            InputKind::Joints(readers) => Ok(Input::Joints(
+                readers.clone(),
+                from_cdr(bytes).map_err(bad)?,
+            )),
+            InputKind::RobotDescription => Input::robot(&from_cdr(bytes).map_err(bad)?),
         }
+    }
+}
+
+/// The robots that read joint-state `topic`, a new entry when none did yet.
+fn joint_readers<'a>(
+    by_name: &'a mut BTreeMap<String, InputKind>,
+    topic: &str,
+) -> Option<&'a mut JointReaders> {
+    match by_name
+        .entry(topic.to_string())
+        .or_insert_with(|| InputKind::Joints(JointReaders::default()))
+    {
+        InputKind::Joints(readers) => Some(readers),
+        _ => None,
     }
 }

@@ -16,6 +16,7 @@ pub(crate) mod param_file;
 pub(crate) mod params;
 pub(crate) mod qos_overrides;
 pub(crate) mod refiner;
+pub(crate) mod robot_on_stage;
 pub(crate) mod shard;
 pub(crate) mod stage;
 pub(crate) mod stepper;

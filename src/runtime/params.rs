@@ -127,6 +127,9 @@ pub struct SimulationParams {
     pub cubature: usize,
     /// newton or quasi_newton. Default quasi_newton.
     pub solver: String,
+    /// Coulomb friction of every contact (the floor, robot links, other objects): what lets a
+    /// gripper hold an object. Default 0.5, as in scene files.
+    pub friction: f64,
 }
 
 impl Default for SimulationParams {
@@ -137,6 +140,7 @@ impl Default for SimulationParams {
             support: Support::PinBottom,
             cubature: 256,
             solver: "quasi_newton".into(),
+            friction: 0.5,
         }
     }
 }
@@ -286,6 +290,46 @@ impl Default for MarkerParams {
     }
 }
 
+/// The robot the ROS graph describes, as robot_state_publisher publishes it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotParams {
+    /// std_msgs/String topic (transient local) carrying the robot's URDF; its links' collision
+    /// shapes push and hold every object in `fixed_frame`, and a new URDF replaces the robot.
+    /// "": no robot from the graph. Read-only after start. Default "robot_description".
+    pub description_topic: String,
+    /// sensor_msgs/JointState topic of its joints. Read-only after start. Default
+    /// "joint_states".
+    pub joint_states_topic: String,
+    /// A link whose pose /tf gives in `fixed_frame` is placed there, not by the joints. Its
+    /// root link stands where /tf puts it, or at the fixed frame's origin. Default true.
+    pub links_from_tf: bool,
+}
+
+impl Default for RobotParams {
+    fn default() -> Self {
+        Self {
+            description_topic: "robot_description".into(),
+            joint_states_topic: "joint_states".into(),
+            links_from_tf: true,
+        }
+    }
+}
+
+impl RobotParams {
+    /// The topic names resolved for the node of `names` ("" stays "": no robot).
+    pub fn resolved(&self, names: &NameResolver) -> Result<Self, NameError> {
+        if self.description_topic.is_empty() {
+            return Ok(self.clone());
+        }
+        Ok(Self {
+            description_topic: names.resolve(&self.description_topic)?,
+            joint_states_topic: names.resolve(&self.joint_states_topic)?,
+            links_from_tf: self.links_from_tf,
+        })
+    }
+}
+
 /// Objects split among instances (see [`Shard`]).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -343,6 +387,8 @@ pub struct NodeParams {
     pub tracking: TrackingParams,
     /// Objects split among instances.
     pub instances: InstanceParams,
+    /// The robot from `robot_description`.
+    pub robot: RobotParams,
     /// Scene file (config/scenes/*.yaml): its objects are built and simulated, and its robots
     /// follow their joint-state topics. Read-only after start. Default "" (none).
     pub scene: String,
@@ -370,14 +416,17 @@ impl Default for NodeParams {
             shm: ShmParams::default(),
             tracking: TrackingParams::default(),
             instances: InstanceParams::default(),
+            robot: RobotParams::default(),
             scene: String::new(),
         }
     }
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-pub(crate) const READ_ONLY: [&str; 12] = [
+pub(crate) const READ_ONLY: [&str; 14] = [
     "instances.",
+    "robot.description_topic",
+    "robot.joint_states_topic",
     "rate_hz",
     "publish.rate_hz",
     "fixed_frame",
@@ -513,6 +562,16 @@ impl NodeParams {
             },
         )?;
         ensure(self.floor_z.is_finite(), "floor_z", || "not finite".into())?;
+        ensure(
+            self.simulation.friction >= 0.0 && self.simulation.friction.is_finite(),
+            "simulation.friction",
+            || {
+                format!(
+                    "{} is not 0 or a positive coefficient",
+                    self.simulation.friction
+                )
+            },
+        )?;
         self.tracking.validate()?;
         self.solver()?;
         self.sim_params().validate()
@@ -548,6 +607,7 @@ impl NodeParams {
             dt: 1.0 / self.rate_hz,
             gravity: Vector3::from(self.simulation.gravity),
             damping: self.simulation.damping,
+            friction: self.simulation.friction,
             ..SimParams::default()
         }
     }

@@ -8,14 +8,16 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use super::builder::{BuiltRegistry, ObjectKey, ReadyBody, RefinedField};
+use super::inputs::JointReaders;
 use super::outputs::{DeformedCloud, Outputs};
 use super::params::NodeParams;
+use super::robot_on_stage::RobotOnStage;
 use super::tf::TfBuffer;
 use super::tracking::{Observation, TrackingWindow, Verdict};
 use crate::msg::{Interaction, JointState, Status};
 use crate::physics::Obstacle;
 use crate::pipeline::{contact_hulls, SoftBody};
-use crate::scene::Scene;
+use crate::scene::{Robot, Scene};
 
 /// How a stage treats its objects beyond stepping them.
 #[derive(Clone, Default)]
@@ -32,6 +34,8 @@ pub struct StageOptions {
     pub cloud_every: u64,
     /// Forgotten when objects go, so that their geometry builds again when it comes back.
     pub registry: Option<BuiltRegistry>,
+    /// The robot from `robot_description` places the links /tf knows by /tf.
+    pub robot_links_from_tf: bool,
 }
 
 impl StageOptions {
@@ -49,6 +53,7 @@ impl StageOptions {
             marker_every: ticks_per(p.rate_hz, p.markers.rate_hz),
             cloud_every: ticks_per(p.rate_hz, p.publish.rate_hz),
             registry,
+            robot_links_from_tf: p.robot.links_from_tf,
         }
     }
 }
@@ -72,6 +77,8 @@ pub struct Stage {
     last_seen: Vec<i64>,
     on_the_beat: bool,
     scene: Option<SceneOnStage>,
+    /// The robot from `robot_description`: its links collide with the fixed frame's objects.
+    robot: Option<RobotOnStage>,
     options: StageOptions,
     ticks: u64,
     /// The bodies' contact hulls at the last tick, by shape id: what the others collided with.
@@ -135,7 +142,8 @@ impl Stage {
         if self.on_the_beat {
             self.publish_pending(outputs);
         }
-        let colliders = self.touch_each_other();
+        let mut colliders = self.touch_each_other();
+        self.add_robot_links(&mut colliders);
         let alone = self.one_to_step();
         let (bodies, scene) = (&mut self.bodies, &mut self.scene);
         if alone {
@@ -227,6 +235,24 @@ impl Stage {
         colliders
     }
 
+    /// The described robot's links, where they are now, among the colliders of every body in
+    /// the fixed frame (their contact points enabled: a pinned body has none until something
+    /// can touch it).
+    fn add_robot_links(&mut self, colliders: &mut [Vec<Obstacle>]) {
+        let Some(robot) = &self.robot else {
+            return;
+        };
+        let tf = self.options.tf.as_ref().and_then(|t| t.read().ok());
+        let links = robot.colliders(tf.as_deref());
+        let fixed = &self.options.fixed_frame;
+        for (b, c) in self.bodies.iter_mut().zip(colliders) {
+            if b.output_frame == *fixed {
+                b.body.enable_contacts();
+                c.extend(links.iter().cloned());
+            }
+        }
+    }
+
     /// (objects, awake objects), scene objects included.
     pub fn counts(&self) -> (usize, usize) {
         let scene: Vec<bool> = self
@@ -288,11 +314,20 @@ impl Stage {
         self.scene = Some(s);
     }
 
-    /// Robots' joints move (a JointState from their topic).
-    pub fn set_joints(&mut self, robots: &[String], state: &JointState, outputs: &Outputs) {
-        let Some(s) = &mut self.scene else {
+    /// Robots' joints move (a JointState from their topic): the scene robots it names and the
+    /// described robot when it reads the topic.
+    pub fn set_joints(&mut self, readers: &JointReaders, state: &JointState, outputs: &Outputs) {
+        if let (true, Some(robot)) = (readers.described, &mut self.robot) {
+            robot.set_joints(state, outputs);
+        }
+        let Some(s) = self
+            .scene
+            .as_mut()
+            .filter(|_| !readers.scene_robots.is_empty())
+        else {
             return;
         };
+        let robots = &readers.scene_robots;
         if let Err(problem) = s
             .scene
             .set_joint_positions(robots, &state.name, &state.position)
@@ -301,6 +336,13 @@ impl Stage {
                 outputs.report(Status::WARN, 0, "joint_state_ignored", problem);
             }
         }
+    }
+
+    /// A robot from `robot_description` joins the stage, replacing the one before; `notes`
+    /// name links that stand in with their visual box.
+    pub fn set_robot(&mut self, robot: Robot, notes: &[String], outputs: &Outputs) {
+        let (frame, from_tf) = (&self.options.fixed_frame, self.options.robot_links_from_tf);
+        self.robot = RobotOnStage::new(robot, notes, frame, from_tf, outputs);
     }
 
     /// The bodies built from inputs, in the order they joined (a scene's are not among them).

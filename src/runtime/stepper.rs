@@ -34,11 +34,14 @@ pub enum StepperCommand {
     },
     /// A joint state for the robots on its topic.
     Joints {
-        /// The names of the robots on the state's topic.
-        robots: Vec<String>,
+        /// The robots on the state's topic.
+        robots: super::inputs::JointReaders,
         /// The joint state.
         state: JointState,
     },
+    /// A robot from `robot_description` replaces the one before, with notes on the links that
+    /// stand in with their visual box.
+    Robot(Box<crate::scene::Robot>, Vec<String>),
     /// Geometry arrived for this object (it is still wanted).
     Seen(super::builder::ObjectKey),
     /// Every object back to rest; the answer says what was done.
@@ -135,6 +138,7 @@ fn serve(stage: &mut Stage, command: StepperCommand, outputs: &SharedOutputs, st
             frame,
         } => stage.set_scene(*scene, first_id, frame, outputs),
         StepperCommand::Joints { robots, state } => stage.set_joints(&robots, &state, outputs),
+        StepperCommand::Robot(robot, notes) => stage.set_robot(*robot, &notes, outputs),
         StepperCommand::Seen(frame) => stage.seen(&frame, outputs),
         StepperCommand::Reset(answer) => {
             let _ = answer.send(stage.reset(outputs));
