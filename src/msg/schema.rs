@@ -1,10 +1,11 @@
 //! `ros2msg` schemas for MCAP channels: the message's definition, then every type it uses
-//! (transitively), each after a line of 80 `=` and `MSG: pkg/msg/Name`, as rosbag2 writes them.
+//! (transitively), each after a line of 80 `=` and `MSG: pkg/Name` (the name as the field writes it), as rosbag2 writes them.
 
 use super::messages::{
-    Clock, ColorRGBA, CompressedImage, Duration, Header, JointState, Marker, MarkerArray, Mesh,
-    MeshFile, MeshTriangle, Point, PointCloud2, PointField, Pose, Quaternion, RosMessage,
-    StringMessage, TFMessage, Time, Transform, TransformStamped, UVCoordinate, Vector3,
+    Clock, ColorRGBA, CompressedImage, DiagnosticArray, DiagnosticStatus, Duration, Header,
+    JointState, KeyValue, Marker, MarkerArray, Mesh, MeshFile, MeshTriangle, Point, PointCloud2,
+    PointField, Pose, Quaternion, RosMessage, StringMessage, TFMessage, Time, Transform,
+    TransformStamped, UVCoordinate, Vector3,
 };
 
 /// The fields of a known message type ("pkg/Name", as in .msg files) and its own text.
@@ -29,6 +30,13 @@ fn definition(ros_type: &str) -> Option<String> {
         "sensor_msgs/PointCloud2" => generated(PointCloud2::fields()),
         "sensor_msgs/JointState" => generated(JointState::fields()),
         "std_msgs/String" => generated(StringMessage::fields()),
+        "diagnostic_msgs/KeyValue" => generated(KeyValue::fields()),
+        // `byte` as the .msg file writes it (one unsigned byte, as uint8).
+        "diagnostic_msgs/DiagnosticStatus" => format!(
+            "byte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\n{}",
+            generated(DiagnosticStatus::fields()).replacen("uint8 level", "byte level", 1)
+        ),
+        "diagnostic_msgs/DiagnosticArray" => generated(DiagnosticArray::fields()),
         "shape_msgs/MeshTriangle" => generated(MeshTriangle::fields()),
         "shape_msgs/Mesh" => generated(Mesh::fields()),
         "geometry_msgs/Quaternion" => generated(Quaternion::fields()),
@@ -83,12 +91,13 @@ pub fn schema_text<M: RosMessage>() -> String {
             continue;
         }
         let body = definition(&ty).unwrap_or_else(|| panic!("no definition for {ty}"));
-        let (package, name) = ty.split_once('/').expect("pkg/Name");
         if !text.ends_with('\n') {
             text.push('\n');
         }
         text.push_str(&"=".repeat(80));
-        text.push_str(&format!("\nMSG: {package}/msg/{name}\n"));
+        // The name as the field writes it, as rosbag2 does: Foxglove's parser finds a field's
+        // type by that exact name ("std_msgs/Header", not "std_msgs/msg/Header").
+        text.push_str(&format!("\nMSG: {ty}\n"));
         text.push_str(&body);
         queue.extend(references(&body));
         done.push(ty);
@@ -106,9 +115,9 @@ mod tests {
         let text = schema_text::<PointCloud2>();
         assert!(text.starts_with("std_msgs/Header header\nuint32 height\n"));
         for dep in [
-            "MSG: std_msgs/msg/Header\n",
-            "MSG: builtin_interfaces/msg/Time\n",
-            "MSG: sensor_msgs/msg/PointField\n",
+            "MSG: std_msgs/Header\n",
+            "MSG: builtin_interfaces/Time\n",
+            "MSG: sensor_msgs/PointField\n",
         ] {
             assert_eq!(text.matches(dep).count(), 1, "{dep} in\n{text}");
         }
@@ -127,8 +136,9 @@ mod tests {
             schema_text::<Clock>(),
             schema_text::<JointState>(),
             schema_text::<StringMessage>(),
+            schema_text::<DiagnosticArray>(),
         ] {
-            assert!(text.contains("\n") && !text.contains("MSG: physskin/msg/Interaction"));
+            assert!(text.contains("\n") && !text.contains("MSG: physskin/Interaction"));
         }
     }
 }
