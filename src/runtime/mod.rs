@@ -17,6 +17,7 @@ pub(crate) mod params;
 pub(crate) mod qos_overrides;
 pub(crate) mod refiner;
 pub(crate) mod robot_on_stage;
+pub(crate) mod scene_on_stage;
 pub(crate) mod shard;
 pub(crate) mod stage;
 pub(crate) mod stepper;

@@ -141,6 +141,44 @@ impl Outputs {
         }
     }
 
+    /// Publishes a step, with a warning if it did not converge and a note if its budget was
+    /// extended or its pin springs stiffened.
+    pub fn publish_step_reported(
+        &self,
+        id: u32,
+        frame: &str,
+        body: &SoftBody,
+        surface: Option<(&mut MarkerSurface, &str)>,
+        cloud: DeformedCloud,
+        tracked: Option<&crate::pipeline::FrameFit>,
+    ) {
+        let Some(report) = body.last_step() else {
+            return;
+        };
+        if !report.converged {
+            let message = format!(
+                "step did not converge ({} iterations, decrement {:e})",
+                report.iterations, report.decrement
+            );
+            self.report(Status::WARN, id, "step_unconverged", message);
+        }
+        if report.budget_extensions > 0 {
+            let message = format!(
+                "step took {} iterations: its budget was given again {} times while it still descended",
+                report.iterations, report.budget_extensions
+            );
+            self.report(Status::INFO, id, "step_budget_extended", message);
+        }
+        if report.pin_stiffenings > 0 {
+            let message = format!(
+                "a force past what the pin springs hold: made {}x stiffer for this step",
+                report.pin_spring_boost()
+            );
+            self.report(Status::INFO, id, "pin_springs_stiffened", message);
+        }
+        self.publish_step(id, self.header(frame), body, surface, cloud, tracked);
+    }
+
     /// The deformed points and the state of a body after a step, and its surface marker when
     /// `surface` is given (under one header, so a viewer can match them).
     pub fn publish_step(

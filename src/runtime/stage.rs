@@ -12,6 +12,7 @@ use super::inputs::JointReaders;
 use super::outputs::{DeformedCloud, Outputs};
 use super::params::NodeParams;
 use super::robot_on_stage::RobotOnStage;
+use super::scene_on_stage::SceneOnStage;
 use super::tf::TfBuffer;
 use super::tracking::{Observation, TrackingWindow, Verdict};
 use crate::msg::{Interaction, JointState, Status};
@@ -87,33 +88,6 @@ pub struct Stage {
     tracking: TrackingWindow,
 }
 
-/// A scene's objects and robots, stepped with the other bodies.
-struct SceneOnStage {
-    scene: Scene,
-    first_id: u32,
-    frame: String,
-    /// Its last step is computed but not yet published.
-    unpublished: bool,
-    /// Joint-state problems already reported (each once, not at the topic's rate).
-    reported: std::collections::HashSet<String>,
-}
-
-impl SceneOnStage {
-    /// (shape id, name, body) of each deformable object.
-    fn bodies(&self) -> impl Iterator<Item = (u32, &str, &SoftBody)> {
-        let first = self.first_id;
-        self.scene
-            .bodies_named()
-            .enumerate()
-            .map(move |(i, (name, body))| (first + i as u32, name, body))
-    }
-
-    /// Shape ids: `first_id` plus the object's place among the scene's deformable objects.
-    fn id_of(&self, index: usize) -> u32 {
-        self.first_id + index as u32
-    }
-}
-
 impl Stage {
     /// A stage that publishes on the beat: each tick first publishes the steps computed in the
     /// previous one, then computes the next. Publication then happens at the tick, whatever a
@@ -148,11 +122,17 @@ impl Stage {
         let (bodies, scene) = (&mut self.bodies, &mut self.scene);
         if alone {
             bodies.iter_mut().zip(colliders).for_each(step_body);
-            step_scene(scene);
+            if let Some(s) = scene {
+                s.step()
+            };
         } else {
             rayon::join(
                 || bodies.par_iter_mut().zip(colliders).for_each(step_body),
-                || step_scene(scene),
+                || {
+                    if let Some(s) = scene {
+                        s.step()
+                    }
+                },
             );
         }
         self.ticks += 1;
@@ -178,11 +158,17 @@ impl Stage {
         let (bodies, scene) = (&mut self.bodies, &mut self.scene);
         if alone {
             bodies.iter_mut().for_each(|b| b.body.prepare());
-            prepare_scene(scene);
+            if let Some(s) = scene {
+                s.prepare()
+            };
         } else {
             rayon::join(
                 || bodies.par_iter_mut().for_each(|b| b.body.prepare()),
-                || prepare_scene(scene),
+                || {
+                    if let Some(s) = scene {
+                        s.prepare()
+                    }
+                },
             );
         }
     }
@@ -275,43 +261,14 @@ impl Stage {
             }
         }
         if let Some(s) = &mut self.scene {
-            if std::mem::take(&mut s.unpublished) {
-                // A sleeping object is published once, as it falls asleep.
-                let cloud = if cloud_due {
-                    DeformedCloud::XyzOnly
-                } else {
-                    DeformedCloud::Skip
-                };
-                for (id, _, body) in s.bodies() {
-                    if !body.is_sleeping() || body.fell_asleep() {
-                        publish_step_of(id, &s.frame, body, None, cloud, None, outputs);
-                    }
-                }
-            }
+            s.publish_pending(cloud_due, outputs);
         }
     }
 
     /// A scene joins (or replaces the scene on) the stage: its objects are announced with
     /// their weights and what was decided for each.
     pub fn set_scene(&mut self, scene: Scene, first_id: u32, frame: String, outputs: &Outputs) {
-        let s = SceneOnStage {
-            scene,
-            first_id,
-            frame,
-            unpublished: false,
-            reported: Default::default(),
-        };
-        for (id, name, body) in s.bodies() {
-            let rest = rest_points(body);
-            outputs.publish_weights(id, &s.frame, &rest, body.weights(), body.handles());
-            outputs.report(
-                Status::INFO,
-                id,
-                "shape_ready",
-                format!("scene object `{name}`: {}", body.decision()),
-            );
-        }
-        self.scene = Some(s);
+        self.scene = Some(SceneOnStage::new(scene, first_id, frame, outputs));
     }
 
     /// Robots' joints move (a JointState from their topic): the scene robots it names and the
@@ -320,21 +277,8 @@ impl Stage {
         if let (true, Some(robot)) = (readers.described, &mut self.robot) {
             robot.set_joints(state, outputs);
         }
-        let Some(s) = self
-            .scene
-            .as_mut()
-            .filter(|_| !readers.scene_robots.is_empty())
-        else {
-            return;
-        };
-        let robots = &readers.scene_robots;
-        if let Err(problem) = s
-            .scene
-            .set_joint_positions(robots, &state.name, &state.position)
-        {
-            if s.reported.insert(problem.clone()) {
-                outputs.report(Status::WARN, 0, "joint_state_ignored", problem);
-            }
+        if let Some(s) = self.scene.as_mut() {
+            s.set_joints(&readers.scene_robots, state, outputs);
         }
     }
 
@@ -573,15 +517,7 @@ impl Stage {
                 return outputs.report(Status::WARN, i.shape_id, "interaction_ignored", problem)
             }
         };
-        let scene_bodies = self.scene.iter_mut().flat_map(|s| {
-            let count = s.scene.bodies_named().count();
-            let ids: Vec<u32> = (0..count).map(|n| s.id_of(n)).collect();
-            let frame = &s.frame;
-            s.scene
-                .bodies_named_mut()
-                .zip(ids)
-                .map(move |((_, body), id)| (id, frame.as_str(), body))
-        });
+        let scene_bodies = self.scene.iter_mut().flat_map(|s| s.bodies_mut());
         let bodies = self
             .bodies
             .iter_mut()
@@ -647,11 +583,6 @@ impl Stage {
     }
 }
 
-/// A body's points before any step: its weights are published against them.
-fn rest_points(body: &SoftBody) -> Vec<f32> {
-    body.deformed().to_vec()
-}
-
 /// Publishes a body's last step, with its surface marker and deformed cloud when they are due.
 fn publish_last_step(b: &mut ReadyBody, outputs: &Outputs, markers_due: bool, cloud_due: bool) {
     let surface = b.surface.as_mut().filter(|_| markers_due);
@@ -662,74 +593,13 @@ fn publish_last_step(b: &mut ReadyBody, outputs: &Outputs, markers_due: bool, cl
         DeformedCloud::Skip
     };
     let tracked = b.tracking.last.as_ref();
-    publish_step_of(
-        b.id,
-        &b.output_frame,
-        &b.body,
-        surface,
-        cloud,
-        tracked,
-        outputs,
-    );
-}
-
-/// Publishes a step, with a warning if it did not converge and a note if its budget was
-/// extended or its pin springs stiffened.
-fn publish_step_of(
-    id: u32,
-    frame: &str,
-    body: &SoftBody,
-    surface: Option<(&mut super::markers::MarkerSurface, &str)>,
-    cloud: DeformedCloud,
-    tracked: Option<&crate::pipeline::FrameFit>,
-    outputs: &Outputs,
-) {
-    let Some(report) = body.last_step() else {
-        return;
-    };
-    if !report.converged {
-        let message = format!(
-            "step did not converge ({} iterations, decrement {:e})",
-            report.iterations, report.decrement
-        );
-        outputs.report(Status::WARN, id, "step_unconverged", message);
-    }
-    if report.budget_extensions > 0 {
-        let message = format!(
-            "step took {} iterations: its budget was given again {} times while it still descended",
-            report.iterations, report.budget_extensions
-        );
-        outputs.report(Status::INFO, id, "step_budget_extended", message);
-    }
-    if report.pin_stiffenings > 0 {
-        let message = format!(
-            "a force past what the pin springs hold: made {}x stiffer for this step",
-            report.pin_spring_boost()
-        );
-        outputs.report(Status::INFO, id, "pin_springs_stiffened", message);
-    }
-    outputs.publish_step(id, outputs.header(frame), body, surface, cloud, tracked);
+    outputs.publish_step_reported(b.id, &b.output_frame, &b.body, surface, cloud, tracked);
 }
 
 /// Steps one body against the others' contact hulls (`Stage::tick`).
 fn step_body((b, colliders): (&mut ReadyBody, Vec<Obstacle>)) {
     b.body.set_colliders(colliders);
     b.body.step();
-}
-
-/// Steps the scene, if there is one, and marks its step unpublished.
-fn step_scene(scene: &mut Option<SceneOnStage>) {
-    if let Some(s) = scene {
-        s.scene.step();
-        s.unpublished = true;
-    }
-}
-
-/// Does what the scene's next step would begin with, if there is a scene.
-fn prepare_scene(scene: &mut Option<SceneOnStage>) {
-    if let Some(s) = scene {
-        s.scene.prepare();
-    }
 }
 
 /// Where an interaction acts, in the simulation's frame.
