@@ -197,7 +197,10 @@ fn the_poked_ball_of_bench_track_is_tracked_within_one_percent() {
     // With friction (simulation.friction, default 0.5) physics alone follows the poke within
     // about 1.1 %; the frames still cut that by at least a quarter.
     let open = open["seen_error_pct"].as_f64().unwrap();
-    assert!(error <= 0.75 * open, "tracked {error} % against {open} % uncorrected");
+    assert!(
+        error <= 0.75 * open,
+        "tracked {error} % against {open} % uncorrected"
+    );
 }
 
 /// bags/stream.mcap (`bench track`'s poked ball, written by `--write-stream`: clouds in the

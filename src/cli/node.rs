@@ -34,6 +34,10 @@ pub struct NodeArgs {
     /// their joint-state topics.
     #[arg(long)]
     scene: Option<PathBuf>,
+    /// Serve the Foxglove live view on ADDR:PORT (default 127.0.0.1:8765; overrides
+    /// `foxglove.address`): Foxglove connects to ws://ADDR:PORT.
+    #[arg(long, num_args = 0..=1, default_missing_value = "127.0.0.1:8765", value_name = "ADDR:PORT")]
+    foxglove: Option<String>,
     /// Model weights (default: the bundled model).
     #[arg(long)]
     model: Option<PathBuf>,
@@ -96,6 +100,9 @@ pub fn run(args: NodeArgs, ros: RosArgs) -> crate::Result<()> {
     }
     if let Some(path) = &args.scene {
         config.params.scene = path.display().to_string();
+    }
+    if let Some(address) = &args.foxglove {
+        config.params.foxglove.address = address.clone();
     }
     let model = match &args.model {
         Some(path) => Arc::new(NeuralModel::load(path)?),

@@ -4,6 +4,7 @@
 
 mod args;
 mod dds;
+mod foxglove;
 mod logger;
 mod node;
 mod node_inputs;

@@ -8,6 +8,7 @@ use ros2_client::{Context, Node, NodeName, NodeOptions, ParameterValue};
 
 use super::args::LogLevel;
 use super::dds::{context, publisher, reliable_qos, NodeError, QosTable};
+use super::foxglove::{ClientInput, LiveView};
 use super::logger::{attach_rosout, detach_rosout, install_logger};
 use super::publishers::Publishers;
 use super::ros_params::RosParams;
@@ -125,6 +126,12 @@ pub fn run(
         outputs.sinks.push(Box::new(shm));
     }
     outputs.sinks.push(Box::new(publishers));
+    // Validated with the other parameters at start.
+    let live =
+        (p.foxglove.socket_address().ok().flatten()).map(|_| Arc::new(LiveView::new(&topics)));
+    if let Some(live) = &live {
+        outputs.sinks.push(Box::new(live.clone()));
+    }
     let outputs = Arc::new(outputs);
     for warning in &config.warnings {
         outputs.report(Status::WARN, 0, "node_warning", warning.clone());
@@ -143,8 +150,10 @@ pub fn run(
         health: Arc::new(Health::default()),
         recorder,
         dropped,
+        live,
     };
     let threads = Threads::start(&shared, &model, scene_file, &p)?;
+    start_live_view(&shared, &config, &topics, &threads.step_tx)?;
     let control = super::node_inputs::Control::create(&mut node, &config.names)?;
     let diagnostics = publisher(&mut node, "/diagnostics", reliable_qos(10, false))?;
     outputs.report(
@@ -175,6 +184,10 @@ pub fn run(
         }
     };
     smol::block_on(executor.run(smol::future::race(served, stopped)));
+    // First: its clients' listener holds a sender of the stepper's commands.
+    if let Some(live) = &shared.live {
+        live.stop();
+    }
     let stats = threads.join();
     finish(&shared, &stats);
     detach_rosout();
@@ -268,6 +281,39 @@ fn start_shm(p: &NodeParams) -> Option<ShmPublisher> {
             log::error!("no iceoryx2 hand-off: {e}");
         })
         .ok()
+}
+
+/// Starts the Foxglove server when `foxglove.address` names one, and says where it listens
+/// (a warning when that is reachable from other machines).
+fn start_live_view(
+    shared: &Shared,
+    config: &NodeConfig,
+    topics: &Topics,
+    step_tx: &std::sync::mpsc::Sender<StepperCommand>,
+) -> Result<(), NodeError> {
+    let address = config.params.foxglove.socket_address().ok().flatten();
+    let (Some(live), Some(address)) = (&shared.live, address) else {
+        return Ok(());
+    };
+    let input = ClientInput {
+        interaction_topic: topics.interaction.clone(),
+        step_tx: std::sync::Mutex::new(step_tx.clone()),
+        outputs: shared.outputs.clone(),
+    };
+    let name = config.fully_qualified_name();
+    let port = live.start(address, &name, input, shared.params.clone())?;
+    let line = format!("Foxglove live view on ws://{}:{port}", address.ip());
+    if address.ip().is_loopback() {
+        shared
+            .outputs
+            .report(Status::INFO, 0, "foxglove_started", line);
+    } else {
+        let line = format!("{line}, reachable from other machines (foxglove.address)");
+        shared
+            .outputs
+            .report(Status::WARN, 0, "foxglove_started", line);
+    }
+    Ok(())
 }
 
 fn started_line(config: &NodeConfig, t: &Topics) -> String {

@@ -261,6 +261,7 @@ async fn report_health(publisher: Publisher<DiagnosticArray>, shared: &Shared, n
                 value: shard.to_string(),
             });
         }
+        shared.relay("/diagnostics", &report);
         if let Err(e) = publisher.publish(report) {
             log::warn!("/diagnostics not published: {e}");
         }

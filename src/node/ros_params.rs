@@ -4,7 +4,7 @@
 use ros2_client::ParameterValue;
 use serde_json::Value;
 
-use crate::runtime::params::{ParamError, READ_ONLY};
+use crate::runtime::params::ParamError;
 use crate::runtime::NodeParams;
 
 /// NodeParams through the ROS parameter services.
@@ -23,16 +23,7 @@ impl RosParams for NodeParams {
             // ROS sets every declared parameter once at start; that is not a change.
             return Ok(self.clone());
         }
-        if READ_ONLY
-            .iter()
-            .any(|r| name == *r || (r.ends_with('.') && name.starts_with(r)))
-        {
-            return Err(ParamError::Invalid {
-                name: name.into(),
-                reason: "read-only while the node runs: set it in the parameter file".into(),
-            });
-        }
-        self.with(name, from_ros(value))
+        self.with_while_running(name, from_ros(value))
     }
 
     fn to_ros(&self) -> Vec<(String, ParameterValue)> {

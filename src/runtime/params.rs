@@ -330,6 +330,32 @@ impl RobotParams {
     }
 }
 
+/// The Foxglove WebSocket live view.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FoxgloveParams {
+    /// ADDR:PORT the Foxglove WebSocket server listens on (`physskin node --foxglove` gives
+    /// 127.0.0.1:8765); an address other than loopback is reachable from other machines.
+    /// Read-only after start. Default "" (no server).
+    pub address: String,
+}
+
+impl FoxgloveParams {
+    /// The address to listen on; None when off, an error naming a value that is not IP:PORT.
+    pub fn socket_address(&self) -> crate::Result<Option<std::net::SocketAddr>> {
+        if self.address.is_empty() {
+            return Ok(None);
+        }
+        self.address
+            .parse()
+            .map(Some)
+            .map_err(|e| crate::Error::InvalidParameter {
+                name: "foxglove.address",
+                reason: format!("`{}` is not IP:PORT ({e})", self.address),
+            })
+    }
+}
+
 /// Objects split among instances (see [`Shard`]).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -389,6 +415,8 @@ pub struct NodeParams {
     pub instances: InstanceParams,
     /// The robot from `robot_description`.
     pub robot: RobotParams,
+    /// The Foxglove live view.
+    pub foxglove: FoxgloveParams,
     /// Scene file (config/scenes/*.yaml): its objects are built and simulated, and its robots
     /// follow their joint-state topics. Read-only after start. Default "" (none).
     pub scene: String,
@@ -417,14 +445,16 @@ impl Default for NodeParams {
             tracking: TrackingParams::default(),
             instances: InstanceParams::default(),
             robot: RobotParams::default(),
+            foxglove: FoxgloveParams::default(),
             scene: String::new(),
         }
     }
 }
 
 /// Parameters that only take effect at start; `ros2 param set` on them is refused.
-pub(crate) const READ_ONLY: [&str; 14] = [
+pub(crate) const READ_ONLY: [&str; 15] = [
     "instances.",
+    "foxglove.",
     "robot.description_topic",
     "robot.joint_states_topic",
     "rate_hz",
@@ -462,6 +492,21 @@ impl NodeParams {
         let params: Self = serde_json::from_value(json).map_err(|e| invalid(e.to_string()))?;
         params.validate().map_err(|e| invalid(e.to_string()))?;
         Ok(params)
+    }
+
+    /// [`NodeParams::with`] while the node runs (`ros2 param set`, a Foxglove client): the
+    /// parameters that only take effect at start are refused.
+    pub fn with_while_running(&self, name: &str, value: Value) -> Result<Self, ParamError> {
+        if READ_ONLY
+            .iter()
+            .any(|r| name == *r || (r.ends_with('.') && name.starts_with(r)))
+        {
+            return Err(ParamError::Invalid {
+                name: name.into(),
+                reason: "read-only while the node runs: set it in the parameter file".into(),
+            });
+        }
+        self.with(name, value)
     }
 
     /// Checks every parameter's range, the solver's name and the simulation parameters
@@ -573,6 +618,7 @@ impl NodeParams {
             },
         )?;
         self.tracking.validate()?;
+        self.foxglove.socket_address()?;
         self.solver()?;
         self.sim_params().validate()
     }

@@ -4,6 +4,7 @@
 
 use std::collections::HashSet;
 
+use super::markers::MarkerSurface;
 use super::outputs::{DeformedCloud, Outputs};
 use crate::msg::{JointState, Status};
 use crate::pipeline::SoftBody;
@@ -18,19 +19,36 @@ pub(crate) struct SceneOnStage {
     unpublished: bool,
     /// Joint-state problems already reported (each once, not at the topic's rate).
     reported: HashSet<String>,
+    /// Each object's surface for its markers (empty when markers are off).
+    surfaces: Vec<MarkerSurface>,
 }
 
 impl SceneOnStage {
-    /// `scene` with shape ids from `first_id`, published in `frame`; its objects are
-    /// announced with their weights and what was decided for each.
-    pub fn new(scene: Scene, first_id: u32, frame: String, outputs: &Outputs) -> Self {
-        let s = Self {
+    /// `scene` with shape ids from `first_id`, published in `frame` (with surface markers when
+    /// `markers`); its objects are announced with their weights and what was decided for each.
+    pub fn new(
+        scene: Scene,
+        first_id: u32,
+        frame: String,
+        markers: bool,
+        outputs: &Outputs,
+    ) -> Self {
+        let mut s = Self {
             scene,
             first_id,
             frame,
             unpublished: false,
             reported: HashSet::new(),
+            surfaces: Vec::new(),
         };
+        if markers {
+            // The boundary of each object's solid, as for a cloud: a scene's shapes may be
+            // primitives or meshes of many triangles.
+            s.surfaces = s
+                .bodies()
+                .map(|(_, _, b)| MarkerSurface::of(b, &[]))
+                .collect();
+        }
         for (id, name, body) in s.bodies() {
             // Before any step the deformed points are the rest points the weights belong to.
             let rest = body.deformed().to_vec();
@@ -85,8 +103,9 @@ impl SceneOnStage {
         }
     }
 
-    /// Publishes the last step if it was not yet; a sleeping object only as it falls asleep.
-    pub fn publish_pending(&mut self, cloud_due: bool, outputs: &Outputs) {
+    /// Publishes the last step if it was not yet, with the surface markers when they are due; a
+    /// sleeping object only as it falls asleep.
+    pub fn publish_pending(&mut self, cloud_due: bool, markers_due: bool, outputs: &Outputs) {
         if !std::mem::take(&mut self.unpublished) {
             return;
         }
@@ -95,9 +114,13 @@ impl SceneOnStage {
         } else {
             DeformedCloud::Skip
         };
-        for (id, _, body) in self.bodies() {
+        let first = self.first_id;
+        let mut surfaces = self.surfaces.iter_mut().filter(|_| markers_due);
+        for (i, (name, body)) in self.scene.bodies_named().enumerate() {
+            let surface = surfaces.next().map(|s| (s, name));
             if !body.is_sleeping() || body.fell_asleep() {
-                outputs.publish_step_reported(id, &self.frame, body, None, cloud, None);
+                let id = first + i as u32;
+                outputs.publish_step_reported(id, &self.frame, body, surface, cloud, None);
             }
         }
     }

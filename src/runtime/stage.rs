@@ -261,14 +261,15 @@ impl Stage {
             }
         }
         if let Some(s) = &mut self.scene {
-            s.publish_pending(cloud_due, outputs);
+            s.publish_pending(cloud_due, markers_due, outputs);
         }
     }
 
     /// A scene joins (or replaces the scene on) the stage: its objects are announced with
     /// their weights and what was decided for each.
     pub fn set_scene(&mut self, scene: Scene, first_id: u32, frame: String, outputs: &Outputs) {
-        self.scene = Some(SceneOnStage::new(scene, first_id, frame, outputs));
+        let markers = self.options.marker_every > 0;
+        self.scene = Some(SceneOnStage::new(scene, first_id, frame, markers, outputs));
     }
 
     /// Robots' joints move (a JointState from their topic): the scene robots it names and the
