@@ -72,20 +72,27 @@ fn the_official_client_sees_the_node_and_pushes_an_object() {
     let npm = npm_packages();
     let dir = common::root().join("target/foxglove");
     std::fs::create_dir_all(&dir).unwrap();
-    let (out, schema, bag, log) = (
+    let (out, schema, bag, log, dds) = (
         dir.join("client.json"),
         dir.join("interaction.msg"),
         dir.join("node.mcap"),
         dir.join("node.log"),
+        dir.join("dds.json"),
     );
     let _ = std::fs::remove_file(&bag);
     std::fs::write(&schema, schema_text::<Interaction>()).unwrap();
+    // rclpy takes the same clouds over DDS meanwhile, for the added latency.
     let script = format!(
         "{node} node --domain-id 43 --scene {scene} --foxglove 127.0.0.1:18765 --record {bag} \
          > {log} 2>&1 & NODE=$!; sleep 1; \
+         ROS_DOMAIN_ID=43 {python} {peer} /physskin/deformed_points 8 {dds} & PEER=$!; \
          NODE_PATH={modules} timeout 90 node {client} ws://127.0.0.1:18765 {out} {schema} \
-         /physskin; RC=$?; kill -INT $NODE; wait $NODE; NODE_RC=$?; \
-         echo node exit $NODE_RC; exit $(( RC != 0 ? RC : NODE_RC ))",
+         /physskin; RC=$?; wait $PEER; PEER_RC=$?; kill -INT $NODE; wait $NODE; NODE_RC=$?; \
+         echo node exit $NODE_RC, rclpy exit $PEER_RC; \
+         exit $(( RC != 0 ? RC : (PEER_RC != 0 ? PEER_RC : NODE_RC) ))",
+        python = common::ros_venv().display(),
+        peer = common::root().join("tests/peers/arrival_peer.py").display(),
+        dds = dds.display(),
         node = env!("CARGO_BIN_EXE_physskin"),
         scene = common::root().join("config/scenes/grasp.yaml").display(),
         bag = bag.display(),
@@ -174,6 +181,8 @@ fn the_official_client_sees_the_node_and_pushes_an_object() {
         clouds.len()
     );
 
+    report_added_latency(clouds, &dds);
+
     // The push moved the block along +y.
     let pushed: u128 = seen["pushedAtNs"].as_str().unwrap().parse().unwrap();
     let y = |c: &serde_json::Value| c["centroid"][1].as_f64().unwrap();
@@ -188,5 +197,40 @@ fn the_official_client_sees_the_node_and_pushes_an_object() {
         after - before > 0.005,
         "the block moved {} m along y",
         after - before
+    );
+}
+
+/// Prints how much later each cloud reached the Foxglove client than rclpy's DDS subscriber
+/// (the same stamps, both on this machine's wall clock). Reported, not asserted.
+fn report_added_latency(clouds: &[serde_json::Value], dds: &Path) {
+    let dds: serde_json::Value = serde_json::from_slice(&std::fs::read(dds).unwrap()).unwrap();
+    let by_stamp: std::collections::HashMap<u64, i64> = dds["stamp_ns"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(dds["arrived_ns"].as_array().unwrap())
+        .map(|(s, a)| (s.as_u64().unwrap(), a.as_i64().unwrap()))
+        .collect();
+    let mut added: Vec<f64> = clouds
+        .iter()
+        .filter_map(|c| {
+            let stamp: u64 = c["stampNs"].as_str()?.parse().ok()?;
+            let foxglove: i64 = c["arrivedNs"].as_str()?.parse().ok()?;
+            Some((foxglove - by_stamp.get(&stamp)?) as f64 / 1e6)
+        })
+        .collect();
+    assert!(
+        added.len() > 50,
+        "{} clouds reached both clients",
+        added.len()
+    );
+    added.sort_by(f64::total_cmp);
+    let q = |f: f64| added[((f * added.len() as f64) as usize).min(added.len() - 1)];
+    println!(
+        "Foxglove after DDS (rclpy), ms over {} clouds: median {:.3}, p99 {:.3}, min {:.3}",
+        added.len(),
+        q(0.5),
+        q(0.99),
+        added[0]
     );
 }

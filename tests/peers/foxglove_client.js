@@ -16,7 +16,9 @@ const deformedTopic = `${nodeName}/deformed_points`;
 const markersTopic = `${nodeName}/markers`;
 const interactionTopic = `${nodeName}/interaction`;
 
-const nowNs = () => BigInt(Date.now()) * 1000000n;
+// The wall clock (which the node stamps with) to the microsecond.
+const { performance } = require("perf_hooks");
+const nowNs = () => BigInt(Math.round((performance.timeOrigin + performance.now()) * 1000)) * 1000n;
 const stampNs = (h) => BigInt(h.stamp.sec) * 1000000000n + BigInt(h.stamp.nanosec);
 
 function cloudSummary(msg) {
