@@ -140,11 +140,12 @@ fn replay_grasp_with(
     physskin::bag::read_messages(&std::fs::read(&output).unwrap(), "output").unwrap()
 }
 
-/// The block on the floor of `world`, every contact with friction 0.5 (the default).
+/// The block on the floor of `world`, every contact with friction 0.5 (a grip holds by it).
 fn on_the_floor() -> NodeParams {
     let mut p = NodeParams::default();
     p.fixed_frame = "world".into();
     p.simulation.support = physskin::Support::Floor;
+    p.simulation.friction = 0.5;
     p
 }
 

@@ -520,7 +520,7 @@ fn two_instances_split_a_labelled_cloud_of_eight_objects() {
 fn rclpy_robot_description_gripper_lifts_a_cloud_block() {
     let (stdout, log) = node_with_peer(
         42,
-        "--ros-args -p fixed_frame:=world -p simulation.support:=floor",
+        "--ros-args -p fixed_frame:=world -p simulation.support:=floor -p simulation.friction:=0.5",
         "gripper_peer.py",
         "ros2-gripper-node.log",
     );

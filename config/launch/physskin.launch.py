@@ -40,6 +40,9 @@ def generate_launch_description():
                     # frame are transformed by tf2 at their stamp; gravity is world -z.
                     "fixed_frame": "world",
                     "simulation.support": "floor",
+                    # Friction on the floor and the robot's links (robot_description): a
+                    # gripper holds what it closes on.
+                    "simulation.friction": 0.5,
                     "floor_z": 0.0,
                     "object_timeout_s": 2.0,
                     "markers.rate_hz": 15.0,
