@@ -13,6 +13,7 @@
 #   sim-solver-quick   bench sim --quick, 16 handles, 1024 cubature points
 #   latency            benches/latency.sh                     (node latency and jitter)
 #   latency-refine-off benches/latency.sh, --refine off       (the same, no refinement thread)
+#   latency-shards     benches/latency.sh, --shards           (the same beside a second instance)
 #   replay             bench replay                           (replay speed, recording's cost)
 #   transport          bench transport, private namespace     (iceoryx2 against DDS)
 #   scene              bench scene                            (only what a scene needs)
@@ -55,6 +56,7 @@ for name in "${names[@]}"; do
                 --plot target/bench/sim-solver.svg ;;
         latency) bash benches/latency.sh ;;
         latency-refine-off) bash benches/latency.sh latency-refine-off --refine off ;;
+        latency-shards) bash benches/latency.sh latency-shards --shards ;;
         replay) benches/record.sh replay $bin bench replay --json ;;
         transport)
             benches/record.sh transport unshare -n tests/peers/private_net.sh \

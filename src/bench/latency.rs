@@ -55,6 +55,12 @@ pub struct LatencyReport {
     pub jitter_intervals: usize,
     /// The node's publish rate, Hz; its period is the one the jitter is measured against.
     pub rate_hz: f64,
+    /// Instances running: 2 when a second one (`--shards`) stepped its own 10k-point object
+    /// beside the measured one, each taking its shard of the frames.
+    pub instances: u32,
+    /// Deformed clouds of the second instance's object received in the jitter phase (0 with
+    /// one instance): it was stepping all along.
+    pub second_instance_clouds: usize,
 }
 
 /// tests/peers/latency_peer.py's figures: each repeat a new ~10k-point cloud published once
@@ -165,6 +171,7 @@ pub fn run_latency_bench(
     domain_id: u16,
     rclpy_python: Option<&Path>,
     refine: Option<String>,
+    shards: bool,
     log: impl Fn(&str),
 ) -> Result<LatencyReport> {
     let open = open_interfaces();
@@ -186,6 +193,10 @@ pub fn run_latency_bench(
     // do not stay and load the phases after them): a cloud replaces the frame's object, as it
     // did before streams were tracked. Tracked, it would be a frame of the running object.
     config.params.tracking.enabled = false;
+    if shards {
+        // Every frame measured here hashes to shard 1 of 2; the second instance takes 0.
+        config.params.instances.shard = "1/2".into();
+    }
     let refine = config.params.inference.refine.clone();
     let rate_hz = config.params.rate_hz;
     let topics = config
@@ -193,12 +204,13 @@ pub fn run_latency_bench(
         .topics
         .resolved(&config.names)
         .expect("the default names are valid");
+    let second = shards.then(|| second_instance(domain_id, &topics, model.clone(), stop.clone()));
     let node = {
         let stop = stop.clone();
         std::thread::spawn(move || crate::node::run(config, model, stop))
     };
     let result = (|| {
-        let client = Client::start(domain_id, &topics)?;
+        let client = Client::start(domain_id, &topics, shards)?;
         // A warm-up shape first (the first inference pays for allocations), replaced in its
         // frame by the measured one, so one 10k shape runs during the jitter phase.
         client.latency(&sample_cloud("creature", 9_999, "cloud_10k", 1))?;
@@ -233,7 +245,17 @@ pub fn run_latency_bench(
             }
             None => None,
         };
-        let arrivals = client.arrivals_while_inferring(Duration::from_secs(4))?;
+        if shards {
+            // The second instance's own object, stepping through the jitter phase.
+            client.publish(sample_cloud("creature", 10_000, SECOND_FRAME, 7))?;
+            std::thread::sleep(Duration::from_secs(2));
+        }
+        let (arrivals, second_clouds) = client.arrivals_while_inferring(Duration::from_secs(4))?;
+        if shards && second_clouds == 0 {
+            return Err(dds(
+                "the second instance published nothing in the jitter phase".into(),
+            ));
+        }
         // Last, so its 100k-point frames do not load the jitter phase.
         let l100k = client.latency(&sample_cloud("creature", 100_000, "cloud_100k", 3))?;
         log(&format!(
@@ -268,11 +290,44 @@ pub fn run_latency_bench(
             receive_jitter_max_ms: received.1,
             jitter_intervals: arrivals.len() - 1,
             rate_hz,
+            instances: if shards { 2 } else { 1 },
+            second_instance_clouds: second_clouds,
         })
     })();
     stop.store(true, Ordering::Relaxed);
     let _ = node.join();
+    if let Some(second) = second {
+        let _ = second.join();
+    }
     result
+}
+
+/// The frame of the second instance's object (it hashes to shard 0 of 2).
+const SECOND_FRAME: &str = "shard_load";
+/// The second instance's name: its deformed clouds come on /SECOND_NAME/deformed_points.
+const SECOND_NAME: &str = "physskin_shard0";
+
+/// A second node in this process, shard 0 of 2, hearing the measured node's input topic: it
+/// builds and steps the objects of the frames that hash to it (`SECOND_FRAME`), as a second
+/// instance splitting one camera's objects would, on the same 2 cores.
+fn second_instance(
+    domain_id: u16,
+    topics: &Topics,
+    model: Arc<NeuralModel>,
+    stop: Arc<AtomicBool>,
+) -> std::thread::JoinHandle<std::result::Result<crate::node::StepperStats, crate::node::NodeError>>
+{
+    let mut config = NodeConfig {
+        domain_id,
+        names: crate::runtime::NameResolver::new("/", SECOND_NAME),
+        ..NodeConfig::default()
+    };
+    config.params.instances.shard = "0/2".into();
+    config.params.topics.points = topics.points.clone();
+    config.params.tracking.enabled = false;
+    // Its own iceoryx2 services would share the first's names.
+    config.params.shm.enabled = false;
+    std::thread::spawn(move || crate::node::run(config, model, stop))
 }
 
 /// (p99, max) of |interval - period| over consecutive times, ms.
@@ -292,11 +347,13 @@ struct Client {
     _node: ros2_client::Node,
     points: ros2_client::Publisher<PointCloud2>,
     deformed: ros2_client::Subscription<PointCloud2>,
+    /// The second instance's deformed clouds, when there is one.
+    second: Option<ros2_client::Subscription<PointCloud2>>,
 }
 
 impl Client {
     /// Both directions matched with the node (or 20 s gone).
-    fn start(domain_id: u16, topics: &Topics) -> Result<Self> {
+    fn start(domain_id: u16, topics: &Topics, shards: bool) -> Result<Self> {
         let ctx = context(domain_id, false)?;
         let mut node = client_node(&ctx, "physskin_bench")?;
         let points = publisher::<PointCloud2>(&mut node, &topics.points, reliable_qos(5, false))?;
@@ -305,6 +362,10 @@ impl Client {
             &topics.deformed_points,
             reliable_qos(50, false),
         )?;
+        let second_topic = format!("/{SECOND_NAME}/deformed_points");
+        let second = shards
+            .then(|| subscription::<PointCloud2>(&mut node, &second_topic, reliable_qos(50, false)))
+            .transpose()?;
         let spinner = node.spinner().map_err(|e| dds(format!("{e:?}")))?;
         std::thread::spawn(move || smol::block_on(spinner.spin()));
         smol::block_on(async {
@@ -323,6 +384,7 @@ impl Client {
             _node: node,
             points,
             deformed,
+            second,
         })
     }
 
@@ -362,15 +424,20 @@ impl Client {
     }
 
     /// (stamp ns, arrival) of the "cloud_10k" shape's deformed clouds for `span`, while a new
-    /// 10k-point shape is published every 500 ms in another frame.
-    fn arrivals_while_inferring(&self, span: Duration) -> Result<Vec<(i64, Instant)>> {
+    /// 10k-point shape is published every 500 ms in another frame; and how many deformed
+    /// clouds the second instance sent meanwhile.
+    fn arrivals_while_inferring(&self, span: Duration) -> Result<(Vec<(i64, Instant)>, usize)> {
         // Clouds queued while the rclpy case ran would arrive back to back.
         while self.deformed.take().ok().flatten().is_some() {}
         let mut arrivals = Vec::new();
         let until = Instant::now() + span;
         let mut next_shape = Instant::now();
         let mut seed = 10;
+        let mut second = 0;
         while Instant::now() < until {
+            while let Some(Ok(Some(_))) = self.second.as_ref().map(|s| s.take()) {
+                second += 1;
+            }
             if Instant::now() >= next_shape {
                 self.publish(sample_cloud("plate", 10_000, "other", seed))?;
                 seed += 1;
@@ -382,7 +449,7 @@ impl Client {
                 }
             }
         }
-        Ok(arrivals)
+        Ok((arrivals, second))
     }
 }
 

@@ -70,6 +70,10 @@ enum BenchCommand {
         /// node's default when not given.
         #[arg(long)]
         refine: Option<String>,
+        /// Run a second instance beside the measured one (shards 0/2 and 1/2 of the frames),
+        /// stepping a 10k-point object of its own through the jitter phase.
+        #[arg(long)]
+        shards: bool,
     },
     /// A 100k-point deformed cloud delivered each frame over iceoryx2 and over DDS (run it in a
     /// private network namespace: `unshare -n tests/peers/private_net.sh`).
@@ -297,7 +301,8 @@ pub fn main() -> ExitCode {
                 domain_id,
                 rclpy_python,
                 refine,
-            } => run_bench_latency(json, domain_id, rclpy_python.as_deref(), refine),
+                shards,
+            } => run_bench_latency(json, domain_id, rclpy_python.as_deref(), refine, shards),
             BenchCommand::Replay { json } => run_bench_replay(json),
             BenchCommand::Scene { json, seconds } => crate::cli::scene::bench(seconds, json),
             BenchCommand::Transport { json, domain_id } => run_bench_transport(json, domain_id),
@@ -637,8 +642,9 @@ fn run_bench_latency(
     domain_id: u16,
     rclpy_python: Option<&std::path::Path>,
     refine: Option<String>,
+    shards: bool,
 ) -> crate::Result<()> {
-    let r = crate::bench::run_latency_bench(domain_id, rclpy_python, refine, |line| {
+    let r = crate::bench::run_latency_bench(domain_id, rclpy_python, refine, shards, |line| {
         eprintln!("{line}")
     })?;
     if json {
