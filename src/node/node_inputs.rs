@@ -73,7 +73,7 @@ impl Inputs {
                 }
             }
         }
-        // One subscription per joint-state topic, for every robot on it.
+        // One subscription per joint-state topic (for every robot on it), one for the URDF.
         for (topic, kind) in input_topics.all() {
             match kind {
                 InputKind::Joints(robots) => {

@@ -122,17 +122,11 @@ impl Stage {
         let (bodies, scene) = (&mut self.bodies, &mut self.scene);
         if alone {
             bodies.iter_mut().zip(colliders).for_each(step_body);
-            if let Some(s) = scene {
-                s.step()
-            };
+            scene.iter_mut().for_each(SceneOnStage::step);
         } else {
             rayon::join(
                 || bodies.par_iter_mut().zip(colliders).for_each(step_body),
-                || {
-                    if let Some(s) = scene {
-                        s.step()
-                    }
-                },
+                || scene.iter_mut().for_each(SceneOnStage::step),
             );
         }
         self.ticks += 1;
@@ -158,17 +152,11 @@ impl Stage {
         let (bodies, scene) = (&mut self.bodies, &mut self.scene);
         if alone {
             bodies.iter_mut().for_each(|b| b.body.prepare());
-            if let Some(s) = scene {
-                s.prepare()
-            };
+            scene.iter_mut().for_each(SceneOnStage::prepare);
         } else {
             rayon::join(
                 || bodies.par_iter_mut().for_each(|b| b.body.prepare()),
-                || {
-                    if let Some(s) = scene {
-                        s.prepare()
-                    }
-                },
+                || scene.iter_mut().for_each(SceneOnStage::prepare),
             );
         }
     }
