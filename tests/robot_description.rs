@@ -80,16 +80,17 @@ fn write_bag(path: &std::path::Path, messages: &[(f64, &str, Vec<u8>)]) {
 /// The gripper's URDF (`urdf`), a block's cloud and `seconds` of the grasp's joint states at
 /// 60 Hz, replayed with the block on the floor of `world`: every output message.
 fn replay_grasp(name: &str, urdf: &str, seconds: f64, params: NodeParams) -> Vec<BagMessage> {
-    replay_grasp_with(name, urdf, seconds, params, Vec::new())
+    replay_grasp_with(name, urdf, seconds, params, Vec::new(), true)
 }
 
-/// [`replay_grasp`] with `more` messages among the inputs.
+/// [`replay_grasp`] with `more` messages among the inputs, and the block's cloud if `cloud`.
 fn replay_grasp_with(
     name: &str,
     urdf: &str,
     seconds: f64,
     params: NodeParams,
     more: Vec<(f64, &str, Vec<u8>)>,
+    cloud: bool,
 ) -> Vec<BagMessage> {
     let dir = common::root().join("target/robot-description");
     std::fs::create_dir_all(&dir).unwrap();
@@ -98,10 +99,10 @@ fn replay_grasp_with(
         dir.join(format!("{name}-out.mcap")),
     );
     let description = StringMessage { data: urdf.into() };
-    let mut messages = vec![
-        (0.0, DESCRIPTION, to_cdr(&description)),
-        (0.001, POINTS, to_cdr(&block_cloud())),
-    ];
+    let mut messages = vec![(0.0, DESCRIPTION, to_cdr(&description))];
+    if cloud {
+        messages.push((0.001, POINTS, to_cdr(&block_cloud())));
+    }
     messages.extend(more);
     for tick in 0..(seconds * 60.0) as usize {
         let t = 0.002 + tick as f64 / 60.0;
@@ -308,11 +309,35 @@ fn the_root_link_stands_where_tf_puts_it() {
         transforms: vec![aside],
     };
     let more = vec![(0.0, "/tf_static", to_cdr(&tf))];
-    let messages = replay_grasp_with("aside", &gripper_urdf(), 2.6, on_the_floor(), more);
+    let messages = replay_grasp_with("aside", &gripper_urdf(), 2.6, on_the_floor(), more, true);
     let c = centroids(&messages);
     let rise = c.last().unwrap().1[2] - c[15].1[2];
     assert!(
         rise.abs() < 1e-3,
         "the block moved {rise} m up with the gripper 1 m away"
     );
+}
+
+/// A scene file's block (no robot of its own) in `world`, the fixed frame: the described
+/// gripper lifts it as it lifts a block built from a cloud.
+#[test]
+fn the_described_robot_lifts_a_scene_object_too() {
+    let dir = common::root().join("target/robot-description");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("block.yaml");
+    std::fs::write(
+        &scene,
+        "rate_hz: 60\ngravity: [0, 0, -9.81]\nfloor: 0.0\ndamping: 1.0\nfriction: 0.5\nsleep: null\n\
+         objects:\n  - name: block\n    shape: {box: [0.1, 0.1, 0.1]}\n    position: [0.0, 0.0, 0.05]\n\
+         \x20   material: {young: 2.0e5, poisson: 0.45, density: 500}\n    support: floor\n\
+         \x20   handles: 9\n    cubature: 256\n",
+    )
+    .unwrap();
+    let mut params = on_the_floor();
+    params.scene = scene.display().to_string();
+    // No cloud: the scene's block is the only object.
+    let messages = replay_grasp_with("scene", &gripper_urdf(), 2.6, params, Vec::new(), false);
+    let c = centroids(&messages);
+    let rise = c.last().unwrap().1[2] - c[15].1[2];
+    assert!(rise > 0.18, "the scene's block rose {rise} m");
 }

@@ -182,21 +182,7 @@ pub fn run_latency_bench(
     }
     let model = NeuralModel::bundled()?;
     let stop = Arc::new(AtomicBool::new(false));
-    let mut config = NodeConfig {
-        domain_id,
-        ..NodeConfig::default()
-    };
-    if let Some(refine) = refine {
-        config.params.inference.refine = refine;
-    }
-    // Each measured cloud is a new object in the one frame "cloud_10k" (so that the large ones
-    // do not stay and load the phases after them): a cloud replaces the frame's object, as it
-    // did before streams were tracked. Tracked, it would be a frame of the running object.
-    config.params.tracking.enabled = false;
-    if shards {
-        // Every frame measured here hashes to shard 1 of 2; the second instance takes 0.
-        config.params.instances.shard = "1/2".into();
-    }
+    let config = measured_node(domain_id, refine, shards);
     let refine = config.params.inference.refine.clone();
     let rate_hz = config.params.rate_hz;
     let topics = config
@@ -300,6 +286,27 @@ pub fn run_latency_bench(
         let _ = second.join();
     }
     result
+}
+
+/// The measured node's configuration: `refine` as asked, no tracking, shard 1 of 2 with
+/// `shards`.
+fn measured_node(domain_id: u16, refine: Option<String>, shards: bool) -> NodeConfig {
+    let mut config = NodeConfig {
+        domain_id,
+        ..NodeConfig::default()
+    };
+    if let Some(refine) = refine {
+        config.params.inference.refine = refine;
+    }
+    // Each measured cloud is a new object in the one frame "cloud_10k" (so that the large ones
+    // do not stay and load the phases after them): a cloud replaces the frame's object, as it
+    // did before streams were tracked. Tracked, it would be a frame of the running object.
+    config.params.tracking.enabled = false;
+    if shards {
+        // Every frame measured here hashes to shard 1 of 2; the second instance takes 0.
+        config.params.instances.shard = "1/2".into();
+    }
+    config
 }
 
 /// The frame of the second instance's object (it hashes to shard 0 of 2).

@@ -7,6 +7,7 @@ use std::collections::HashSet;
 use super::markers::MarkerSurface;
 use super::outputs::{DeformedCloud, Outputs};
 use crate::msg::{JointState, Status};
+use crate::physics::Obstacle;
 use crate::pipeline::SoftBody;
 use crate::scene::Scene;
 
@@ -75,6 +76,16 @@ impl SceneOnStage {
             .bodies_named_mut()
             .enumerate()
             .map(move |(i, (_, body))| (first + i as u32, frame, body))
+    }
+
+    /// The frame its objects are simulated and published in.
+    pub fn frame(&self) -> &str {
+        &self.frame
+    }
+
+    /// Colliders from outside the scene (the described robot's links) for its next steps.
+    pub fn set_external_colliders(&mut self, colliders: Vec<Obstacle>) {
+        self.scene.set_external_colliders(colliders);
     }
 
     /// Steps every object; the step waits to be published.

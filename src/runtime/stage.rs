@@ -211,7 +211,7 @@ impl Stage {
 
     /// The described robot's links, where they are now, among the colliders of every body in
     /// the fixed frame (their contact points enabled: a pinned body has none until something
-    /// can touch it).
+    /// can touch it) and of a scene simulated there.
     fn add_robot_links(&mut self, colliders: &mut [Vec<Obstacle>]) {
         let Some(robot) = &self.robot else {
             return;
@@ -219,6 +219,9 @@ impl Stage {
         let tf = self.options.tf.as_ref().and_then(|t| t.read().ok());
         let links = robot.colliders(tf.as_deref());
         let fixed = &self.options.fixed_frame;
+        if let Some(s) = self.scene.as_mut().filter(|s| s.frame() == fixed) {
+            s.set_external_colliders(links.clone());
+        }
         for (b, c) in self.bodies.iter_mut().zip(colliders) {
             if b.output_frame == *fixed {
                 b.body.enable_contacts();

@@ -162,6 +162,9 @@ pub struct Scene {
     pub(crate) objects: Vec<SceneObject>,
     /// The deformable objects' contact hulls the last step collided with, by object index.
     pub(crate) soft_hulls: Vec<(usize, Obstacle)>,
+    /// What moves in the scene's frame without being in its file (the node's robot from
+    /// `robot_description`), after the file's own colliders.
+    external: Vec<Obstacle>,
 }
 
 struct SceneRobot {
@@ -304,7 +307,14 @@ impl Scene {
             robots,
             objects,
             soft_hulls: Vec::new(),
+            external: Vec::new(),
         })
+    }
+
+    /// Colliders from outside the scene file, where they are now (the node's described robot):
+    /// every deformable object collides with them from the next step on.
+    pub fn set_external_colliders(&mut self, colliders: Vec<Obstacle>) {
+        self.external = colliders;
     }
 
     /// Simulated time since the motion's start, s.
@@ -481,7 +491,8 @@ impl Scene {
         r.poses[link] * r.start[link].inverse()
     }
 
-    /// What moves now: every robot link and every rigid object carried by one.
+    /// What moves now: every robot link and every rigid object carried by one, then the
+    /// external colliders (last, so the file's keep their places in the list).
     pub(crate) fn colliders(&self) -> Vec<Obstacle> {
         let mut colliders: Vec<Obstacle> = self
             .robots
@@ -496,6 +507,7 @@ impl Scene {
                 });
             }
         }
+        colliders.extend(self.external.iter().cloned());
         colliders
     }
 
