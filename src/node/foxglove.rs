@@ -13,8 +13,10 @@ use foxglove::websocket::{
     AnyClient, Capability, Client, ClientChannel, GetParametersResponder, Parameter,
     ParameterHandler, ParameterValue, ServerListener, SetParametersResponder,
 };
-use foxglove::WebSocketServerHandle;
-use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer};
+use foxglove::{
+    ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer,
+    WebSocketServerHandle,
+};
 use serde_json::Value;
 
 use super::dds::NodeError;
