@@ -55,8 +55,8 @@ pub struct LatencyReport {
     pub jitter_intervals: usize,
     /// The node's publish rate, Hz; its period is the one the jitter is measured against.
     pub rate_hz: f64,
-    /// Instances running: 2 when a second one (`--shards`) stepped its own 10k-point object
-    /// beside the measured one, each taking its shard of the frames.
+    /// Instances running: 2 when a second one (`--shards`, a process of its own) stepped its
+    /// own 10k-point object beside the measured one, each taking its shard of the frames.
     pub instances: u32,
     /// Deformed clouds of the second instance's object received in the jitter phase (0 with
     /// one instance): it was stepping all along.
@@ -190,7 +190,9 @@ pub fn run_latency_bench(
         .topics
         .resolved(&config.names)
         .expect("the default names are valid");
-    let second = shards.then(|| second_instance(domain_id, &topics, model.clone(), stop.clone()));
+    let second = shards
+        .then(|| second_instance(domain_id, &topics))
+        .transpose()?;
     let node = {
         let stop = stop.clone();
         std::thread::spawn(move || crate::node::run(config, model, stop))
@@ -282,8 +284,11 @@ pub fn run_latency_bench(
     })();
     stop.store(true, Ordering::Relaxed);
     let _ = node.join();
-    if let Some(second) = second {
-        let _ = second.join();
+    if let Some(mut second) = second {
+        // SIGINT, as a launch file stops it; then its exit.
+        // SAFETY: kill(2) only sends a signal; the pid is our child's, not reaped before wait.
+        unsafe { libc::kill(second.id() as i32, libc::SIGINT) };
+        let _ = second.wait();
     }
     result
 }
@@ -314,27 +319,35 @@ const SECOND_FRAME: &str = "shard_load";
 /// The second instance's name: its deformed clouds come on /SECOND_NAME/deformed_points.
 const SECOND_NAME: &str = "physskin_shard0";
 
-/// A second node in this process, shard 0 of 2, hearing the measured node's input topic: it
-/// builds and steps the objects of the frames that hash to it (`SECOND_FRAME`), as a second
-/// instance splitting one camera's objects would, on the same 2 cores.
-fn second_instance(
-    domain_id: u16,
-    topics: &Topics,
-    model: Arc<NeuralModel>,
-    stop: Arc<AtomicBool>,
-) -> std::thread::JoinHandle<std::result::Result<crate::node::StepperStats, crate::node::NodeError>>
-{
-    let mut config = NodeConfig {
-        domain_id,
-        names: crate::runtime::NameResolver::new("/", SECOND_NAME),
-        ..NodeConfig::default()
-    };
-    config.params.instances.shard = "0/2".into();
-    config.params.topics.points = topics.points.clone();
-    config.params.tracking.enabled = false;
-    // Its own iceoryx2 services would share the first's names.
-    config.params.shm.enabled = false;
-    std::thread::spawn(move || crate::node::run(config, model, stop))
+/// A second node, a process of its own as `config/launch/shards.launch.py` starts one: shard 0
+/// of 2, hearing the measured node's input topic, it builds and steps the objects of the frames
+/// that hash to it (`SECOND_FRAME`), as a second instance splitting one camera's objects would,
+/// on the same 2 cores.
+fn second_instance(domain_id: u16, topics: &Topics) -> Result<std::process::Child> {
+    let exe = std::env::current_exe().map_err(|e| dds(format!("this program's path: {e}")))?;
+    let remap = format!("~/points:={}", topics.points);
+    let domain = domain_id.to_string();
+    std::process::Command::new(exe)
+        .args([
+            "node",
+            "--domain-id",
+            &domain,
+            "--name",
+            SECOND_NAME,
+            "--ros-args",
+        ])
+        .args([
+            "-p",
+            "instances.shard:=0/2",
+            "-p",
+            "tracking.enabled:=false",
+        ])
+        // Its own iceoryx2 services would share the first's names.
+        .args(["-p", "shm.enabled:=false", "-r", &remap])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .map_err(|e| dds(format!("the second instance did not start: {e}")))
 }
 
 /// (p99, max) of |interval - period| over consecutive times, ms.

@@ -70,8 +70,9 @@ enum BenchCommand {
         /// node's default when not given.
         #[arg(long)]
         refine: Option<String>,
-        /// Run a second instance beside the measured one (shards 0/2 and 1/2 of the frames),
-        /// stepping a 10k-point object of its own through the jitter phase.
+        /// Run a second instance (a `physskin node` process) beside the measured one (shards
+        /// 0/2 and 1/2 of the frames), stepping a 10k-point object of its own through the
+        /// jitter phase.
         #[arg(long)]
         shards: bool,
     },
