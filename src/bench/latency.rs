@@ -174,12 +174,7 @@ pub fn run_latency_bench(
     shards: bool,
     log: impl Fn(&str),
 ) -> Result<LatencyReport> {
-    let open = open_interfaces();
-    if !open.is_empty() {
-        return Err(dds(format!(
-            "interfaces {open:?} could carry DDS off this machine; run the bench as `unshare -n tests/peers/private_net.sh physskin bench latency`"
-        )));
-    }
+    refuse_open_interfaces()?;
     let model = NeuralModel::bundled()?;
     let stop = Arc::new(AtomicBool::new(false));
     let config = measured_node(domain_id, refine, shards);
@@ -284,13 +279,28 @@ pub fn run_latency_bench(
     })();
     stop.store(true, Ordering::Relaxed);
     let _ = node.join();
-    if let Some(mut second) = second {
-        // SIGINT, as a launch file stops it; then its exit.
-        // SAFETY: kill(2) only sends a signal; the pid is our child's, not reaped before wait.
-        unsafe { libc::kill(second.id() as i32, libc::SIGINT) };
-        let _ = second.wait();
+    if let Some(second) = second {
+        stop_instance(second);
     }
     result
+}
+
+/// An error when DDS could leave this machine (an interface other than loopback is up).
+fn refuse_open_interfaces() -> Result<()> {
+    let open = open_interfaces();
+    if open.is_empty() {
+        return Ok(());
+    }
+    Err(dds(format!(
+        "interfaces {open:?} could carry DDS off this machine; run the bench as `unshare -n tests/peers/private_net.sh physskin bench latency`"
+    )))
+}
+
+/// Stops a node process with SIGINT, as a launch file stops it, and waits for its exit.
+fn stop_instance(mut child: std::process::Child) {
+    // SAFETY: kill(2) only sends a signal; the pid is our child's, not reaped before the wait.
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let _ = child.wait();
 }
 
 /// The measured node's configuration: `refine` as asked, no tracking, shard 1 of 2 with
