@@ -30,17 +30,21 @@ use crate::runtime::{NodeParams, Outputs, Topics};
 
 /// The channels every message goes out on, and the server once started.
 pub struct LiveView {
+    /// Where its server listens.
+    address: SocketAddr,
     context: Arc<Context>,
     channels: Mutex<HashMap<String, Arc<RawChannel>>>,
     server: Mutex<Option<WebSocketServerHandle>>,
 }
 
 impl LiveView {
-    /// A view with no server yet, with a channel for every output topic of `t`, its
-    /// interaction topic (so that a client knows physskin/msg/Interaction to publish it),
-    /// /tf, /tf_static and /diagnostics; other inputs get theirs as they first arrive.
-    pub fn new(t: &Topics) -> Self {
+    /// A view whose server will listen on `address`, not started yet, with a channel for
+    /// every output topic of `t`, its interaction topic (so that a client knows
+    /// physskin/msg/Interaction to publish it), /tf, /tf_static and /diagnostics; other inputs
+    /// get theirs as they first arrive.
+    pub fn new(t: &Topics, address: SocketAddr) -> Self {
         let view = Self {
+            address,
             context: Context::new(),
             channels: Mutex::default(),
             server: Mutex::default(),
@@ -100,15 +104,20 @@ impl LiveView {
         }
     }
 
-    /// Starts the server on `address`; clients' interactions go to `step_tx`, parameters are
-    /// read and set in `params`. Returns the port it listens on.
+    /// Where the server listens (its port as asked: 0 picks one, which `start` returns).
+    pub fn address(&self) -> SocketAddr {
+        self.address
+    }
+
+    /// Starts the server on its address; clients' interactions go to the stepper through
+    /// `client_input`, parameters are read and set in `params`. Returns the port it listens on.
     pub fn start(
         &self,
-        address: SocketAddr,
         name: &str,
         client_input: ClientInput,
         params: Arc<RwLock<NodeParams>>,
     ) -> Result<u16, NodeError> {
+        let address = self.address;
         let server = WebSocketServer::new()
             .name(name)
             .context(&self.context)

@@ -127,8 +127,8 @@ pub fn run(
     }
     outputs.sinks.push(Box::new(publishers));
     // Validated with the other parameters at start.
-    let live =
-        (p.foxglove.socket_address().ok().flatten()).map(|_| Arc::new(LiveView::new(&topics)));
+    let live = (p.foxglove.socket_address().ok().flatten())
+        .map(|address| Arc::new(LiveView::new(&topics, address)));
     if let Some(live) = &live {
         outputs.sinks.push(Box::new(live.clone()));
     }
@@ -291,8 +291,7 @@ fn start_live_view(
     topics: &Topics,
     step_tx: &std::sync::mpsc::Sender<StepperCommand>,
 ) -> Result<(), NodeError> {
-    let address = config.params.foxglove.socket_address().ok().flatten();
-    let (Some(live), Some(address)) = (&shared.live, address) else {
+    let Some(live) = &shared.live else {
         return Ok(());
     };
     let input = ClientInput {
@@ -301,9 +300,10 @@ fn start_live_view(
         outputs: shared.outputs.clone(),
     };
     let name = config.fully_qualified_name();
-    let port = live.start(address, &name, input, shared.params.clone())?;
-    let line = format!("Foxglove live view on ws://{}:{port}", address.ip());
-    if address.ip().is_loopback() {
+    let port = live.start(&name, input, shared.params.clone())?;
+    let ip = live.address().ip();
+    let line = format!("Foxglove live view on ws://{ip}:{port}");
+    if ip.is_loopback() {
         shared
             .outputs
             .report(Status::INFO, 0, "foxglove_started", line);

@@ -26,8 +26,13 @@ impl Shared {
     /// Records an input as it arrives (log time now; publish time its stamp when it has one),
     /// and relays it to the live view.
     pub fn record_input<M: RosMessage>(&self, topic: &str, stamp: Option<i64>, message: &M) {
+        if self.recorder.is_none() && self.live.is_none() {
+            return;
+        }
         let now = self.outputs.clock.now_nanos().unwrap_or(0);
-        self.relay(topic, message);
+        if let Some(live) = &self.live {
+            live.relay(topic, now, message);
+        }
         if let Some(recorder) = &self.recorder {
             let sent = stamp.filter(|s| *s > 0).unwrap_or(now);
             if let Err(e) = recorder.record(topic, now, sent, message) {
