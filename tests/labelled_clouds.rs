@@ -10,7 +10,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use nalgebra::Vector3;
 use physskin::geometry::{sdf_mesh, Camera};
 use physskin::msg::camera_cloud::{camera_cloud, SeenObject};
-use physskin::msg::{from_cdr, Header, PointCloud2, Status, SubspaceState, Time};
+use physskin::msg::{from_cdr, Header, PointCloud2, SubspaceState, Time};
 use physskin::runtime::NodeParams;
 
 mod common;
@@ -36,15 +36,6 @@ fn replay_clouds(
     common::replay_clouds("test-labelled", name, clouds, params, 0.5).1
 }
 
-fn statuses(messages: &[physskin::bag::BagMessage], event: &str) -> Vec<(i64, Status)> {
-    messages
-        .iter()
-        .filter(|m| m.topic == "/physskin/status")
-        .map(|m| (m.log_time, from_cdr::<Status>(&m.data).unwrap()))
-        .filter(|(_, s)| s.event == event)
-        .collect()
-}
-
 #[test]
 fn a_labelled_scan_splits_into_objects_that_keep_ids_colours_and_layout() {
     let full = table_scene(128, 96);
@@ -65,7 +56,7 @@ fn a_labelled_scan_splits_into_objects_that_keep_ids_colours_and_layout() {
     };
     let out = replay_clouds("labelled", &clouds, params);
 
-    let ready = statuses(&out, "shape_ready");
+    let ready = common::statuses(&out, "shape_ready");
     for (_, s) in &ready {
         println!("{}", s.message);
     }
@@ -90,7 +81,7 @@ fn a_labelled_scan_splits_into_objects_that_keep_ids_colours_and_layout() {
         .collect();
     assert_eq!(stepped, ids, "the objects keep their ids across frames");
 
-    let removed = statuses(&out, "shape_removed");
+    let removed = common::statuses(&out, "shape_removed");
     assert_eq!(removed.len(), 1, "{removed:?}");
     let (removed_at, removal) = &removed[0];
     assert!(
@@ -176,7 +167,7 @@ fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
     let seen = pixels - misses;
     assert!(seen > 350, "{seen} points: more than the build reads");
     let out = replay_clouds("organized", &[(0.1, cloud.clone())], params);
-    let ready = statuses(&out, "shape_ready");
+    let ready = common::statuses(&out, "shape_ready");
     assert!(
         ready[0].1.message.contains(&format!(
             "{seen} points (its shape read from a voxel-downsampled"
@@ -287,7 +278,7 @@ fn two_shards_take_the_objects_of_one_cloud_once_each() {
         let mut params = NodeParams::default();
         params.instances.shard = format!("{k}/2");
         let out = replay_clouds(&format!("shard-{k}"), &clouds, params);
-        let ready = statuses(&out, "shape_ready");
+        let ready = common::statuses(&out, "shape_ready");
         assert_eq!(ready.len(), 4, "four objects each: {ready:?}");
         for (_, s) in &ready {
             assert!(

@@ -6,8 +6,8 @@ mod common;
 
 use physskin::bag::{BagMessage, BagWriter, RecordOptions};
 use physskin::msg::{
-    from_cdr, to_cdr, Header, JointState, PointCloud2, QosProfile, Status, StringMessage,
-    TFMessage, Time, TopicInfo, Transform, TransformStamped,
+    from_cdr, to_cdr, Header, JointState, PointCloud2, QosProfile, StringMessage, TFMessage, Time,
+    TopicInfo, Transform, TransformStamped,
 };
 use physskin::replay::{replay, ReplayOptions};
 use physskin::runtime::NodeParams;
@@ -166,13 +166,11 @@ fn centroids(messages: &[BagMessage]) -> Vec<(f64, [f64; 3])> {
         .collect()
 }
 
-/// Every status report's `what: message`.
-fn statuses(messages: &[BagMessage]) -> Vec<String> {
-    (messages.iter().filter(|m| m.topic == "/physskin/status"))
-        .map(|m| {
-            let s: Status = from_cdr(&m.data).unwrap();
-            format!("{}: {}", s.event, s.message)
-        })
+/// The messages of every status of `event`.
+fn said(messages: &[BagMessage], event: &str) -> Vec<String> {
+    common::statuses(messages, event)
+        .into_iter()
+        .map(|(_, s)| s.message)
         .collect()
 }
 
@@ -181,12 +179,11 @@ fn statuses(messages: &[BagMessage]) -> Vec<String> {
 #[test]
 fn a_described_gripper_lifts_a_block_from_a_cloud_and_holds_it() {
     let messages = replay_grasp("grasp", &gripper_urdf(), 7.5, on_the_floor());
-    let said = statuses(&messages);
+    let ready = said(&messages, "robot_ready");
     assert!(
-        said.iter().any(|s| s.starts_with(
-            "robot_ready: robot `gripper` from robot_description: 4 links, 3 collision shapes"
-        )),
-        "{said:#?}"
+        ready.iter().any(|s| s
+            .starts_with("robot `gripper` from robot_description: 4 links, 3 collision shapes")),
+        "{ready:#?}"
     );
     let c = centroids(&messages);
     let at = |t: f64| {
@@ -228,12 +225,8 @@ fn a_missing_mesh_stands_in_as_the_visual_box_and_no_fixed_frame_is_named() {
     );
     assert_ne!(urdf, gripper_urdf(), "the finger's collision was replaced");
     let messages = replay_grasp("missing-mesh", &urdf, 2.6, on_the_floor());
-    let said = statuses(&messages);
-    let missing: Vec<_> = said
-        .iter()
-        .filter(|s| s.starts_with("robot_mesh_missing"))
-        .collect();
-    assert_eq!(missing.len(), 1, "{said:#?}");
+    let missing = said(&messages, "robot_mesh_missing");
+    assert_eq!(missing.len(), 1, "{missing:#?}");
     assert!(
         missing[0].contains("link `left_finger`")
             && missing[0].contains("package://gripper_description/meshes/finger.stl")
@@ -252,11 +245,10 @@ fn a_missing_mesh_stands_in_as_the_visual_box_and_no_fixed_frame_is_named() {
         0.5,
         NodeParams::default(),
     );
-    let said = statuses(&messages);
+    let ignored = said(&messages, "robot_ignored");
     assert!(
-        said.iter()
-            .any(|s| s.starts_with("robot_ignored") && s.contains("set fixed_frame")),
-        "{said:#?}"
+        ignored.iter().any(|s| s.contains("set fixed_frame")),
+        "{ignored:#?}"
     );
 }
 

@@ -45,12 +45,9 @@ fn node_with_peer(domain: u16, node_args: &str, peer: &str, log_name: &str) -> (
 
 /// The statuses of `event` in a node's recording, in their order.
 fn statuses_of(messages: &[physskin::bag::BagMessage], event: &str) -> Vec<physskin::msg::Status> {
-    use physskin::msg::{from_cdr, Status};
-    messages
-        .iter()
-        .filter(|m| m.topic == "/physskin/status")
-        .map(|m| from_cdr::<Status>(&m.data).unwrap())
-        .filter(|s| s.event == event)
+    common::statuses(messages, event)
+        .into_iter()
+        .map(|(_, s)| s)
         .collect()
 }
 

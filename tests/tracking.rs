@@ -39,17 +39,11 @@ fn replay_stream(
     common::replay_clouds("test-tracking", name, clouds, params, 0.3)
 }
 
+/// The statuses of `event`, each with its log time in seconds.
 fn statuses(messages: &[BagMessage], event: &str) -> Vec<(f64, Status)> {
-    messages
-        .iter()
-        .filter(|m| m.topic == "/physskin/status")
-        .map(|m| {
-            (
-                m.log_time as f64 / 1e9,
-                from_cdr::<Status>(&m.data).unwrap(),
-            )
-        })
-        .filter(|(_, s)| s.event == event)
+    common::statuses(messages, event)
+        .into_iter()
+        .map(|(t, s)| (t as f64 / 1e9, s))
         .collect()
 }
 

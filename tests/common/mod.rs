@@ -181,6 +181,22 @@ pub fn replay_clouds(
     (summary, messages)
 }
 
+/// The statuses of `event` on /physskin/status in a recording, with their log times (ns), in
+/// their order.
+#[allow(dead_code)] // only the tests that read statuses
+pub fn statuses(
+    messages: &[physskin::bag::BagMessage],
+    event: &str,
+) -> Vec<(i64, physskin::msg::Status)> {
+    use physskin::msg::{from_cdr, Status};
+    messages
+        .iter()
+        .filter(|m| m.topic == "/physskin/status")
+        .map(|m| (m.log_time, from_cdr::<Status>(&m.data).unwrap()))
+        .filter(|(_, s)| s.event == event)
+        .collect()
+}
+
 /// target/ros-venv with rclpy (Fast DDS) from pip, for the tests that run a ROS 2 peer.
 #[allow(dead_code)] // only the ROS 2 peer tests run rclpy
 pub fn ros_venv() -> PathBuf {
