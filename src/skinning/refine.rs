@@ -19,7 +19,7 @@ use super::eigenmodes::ModeProblem;
 use super::{EigenmodeField, SkinningField};
 use crate::error::{Error, Result};
 use crate::geometry::{Normalization, TetMesh};
-use crate::linalg::SparseCholesky;
+use crate::linalg::{product, transpose_product, SparseCholesky};
 
 /// Directions of a new block that lie within this (relative M-norm) of the span already held
 /// are dropped: they carry only rounding.
@@ -463,7 +463,7 @@ impl Refiner {
             basis.columns(k, rest) * coefficients.rows(k, rest)
         });
         Ok(Step {
-            x: &basis * &coefficients,
+            x: product(&basis, &coefficients),
             values,
             direction,
         })
@@ -473,7 +473,7 @@ impl Refiner {
     /// their coefficients in `basis` (columns x k).
     fn rayleigh_ritz(&self, basis: &DMatrix<f64>, k: usize) -> (Vec<f64>, DMatrix<f64>) {
         let lb = self.problem.laplacian_times(basis);
-        let eig = symmetric(basis.tr_mul(&lb)).symmetric_eigen();
+        let eig = symmetric(transpose_product(basis, &lb)).symmetric_eigen();
         let mut order: Vec<usize> = (0..basis.ncols()).collect();
         order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
         order.truncate(k);
@@ -516,7 +516,7 @@ impl Refiner {
         let scale = DMatrix::from_fn(z.ncols(), strong.len(), |r, c| {
             eig.eigenvectors[(r, strong[c])] / eig.eigenvalues[strong[c]].sqrt()
         });
-        let mut z = z * scale;
+        let mut z = product(&z, &scale);
         // The scaling magnified what rounding left along `against` and the constant: project
         // again, then a Cholesky pass restores unit M-norms.
         self.project_out(&mut z, against);
@@ -528,20 +528,20 @@ impl Refiner {
             .ok_or_else(|| {
                 Error::LinearAlgebra("refine: the block lost rank while orthonormalized".into())
             })?;
-        Ok(z * l_inv.transpose())
+        Ok(product(&z, &l_inv.transpose()))
     }
 
     /// z -= X (X^T M z): removes from z its M-projection on span(`x`) (M-orthonormal columns).
     fn project_out(&self, z: &mut DMatrix<f64>, x: Option<&DMatrix<f64>>) {
         if let Some(x) = x.filter(|x| x.ncols() > 0) {
-            let coefficients = x.tr_mul(&self.problem.mass_times(z));
-            *z -= x * coefficients;
+            let coefficients = transpose_product(x, &self.problem.mass_times(z));
+            *z -= product(x, &coefficients);
         }
     }
 
     /// z^T M z, symmetrized.
     fn gram(&self, z: &DMatrix<f64>) -> DMatrix<f64> {
-        symmetric(z.tr_mul(&self.problem.mass_times(z)))
+        symmetric(transpose_product(z, &self.problem.mass_times(z)))
     }
 }
 
