@@ -19,15 +19,14 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use crate::error::Result;
-use crate::geometry::{
-    box_mesh, reference_mesh, scan_faces, sdf_mesh, Camera, PointIndex, Shape, TetMesh,
-};
-use crate::physics::{FemSim, Obstacle, Poke};
+use crate::geometry::{box_mesh, scan_faces, sdf_mesh, Camera, PointIndex, Shape};
+use crate::physics::Poke;
 use crate::pipeline::{build_seen, strided, SoftBody, Support, Tracker, TrackingOptions};
 use crate::runtime::NodeParams;
 use crate::skinning::{NeuralModel, RefineBudget};
 
 use super::stats::{median, quantile};
+use super::track_truth::{run_truth, Truth};
 
 /// Steps per frame: the simulation at 60 Hz, the camera at 30.
 const STEPS_PER_FRAME: usize = 2;
@@ -94,40 +93,6 @@ pub struct TrackReport {
     pub rows: Vec<TrackRow>,
 }
 
-/// The FEM's run of a sequence: its tetrahedral mesh, surface, and vertex positions per step.
-struct Truth {
-    mesh: Arc<TetMesh>,
-    surface: Vec<[u32; 3]>,
-    positions: Vec<Vec<Vector3<f64>>>,
-    diagonal: f64,
-}
-
-impl Truth {
-    /// Points spread over the FEM's surface at `step`, about as dense as a body's surface
-    /// samples: each triangle at 15 barycentric points (its corners, edges and inside).
-    fn dense_surface(&self, step: usize) -> Vec<Vector3<f64>> {
-        let x = &self.positions[step];
-        let mut out = Vec::with_capacity(15 * self.surface.len());
-        for t in &self.surface {
-            let [a, b, c] = t.map(|i| x[i as usize]);
-            for i in 0..=4 {
-                for j in 0..=(4 - i) {
-                    let (u, v) = (i as f64 / 4.0, j as f64 / 4.0);
-                    out.push(a * (1.0 - u - v) + b * u + c * v);
-                }
-            }
-        }
-        out
-    }
-
-    fn at(&self, step: usize, (t, b): (usize, [f64; 3])) -> Vector3<f64> {
-        let tri = self.surface[t];
-        (0..3)
-            .map(|i| self.positions[step][tri[i] as usize] * b[i])
-            .sum()
-    }
-}
-
 /// One frame: noisy points, where each truly lies (surface triangle, barycentrics).
 struct Frame {
     points: Vec<Vector3<f64>>,
@@ -173,7 +138,13 @@ pub fn run_track_bench(
         .filter(|s| wanted(&options.sequences, s.name))
     {
         progress(&format!("{}: the FEM's run", sequence.name));
-        let truth = run_truth(&sequence, &params, seconds)?;
+        let truth = run_truth(
+            &sequence.shape,
+            sequence.lifted,
+            &sequence.pokes,
+            &params,
+            seconds,
+        )?;
         let camera = camera_for(&truth);
         let frames = scan_frames(&sequence, &truth, &camera, seconds)?;
         if let Some(path) = options.write_stream.as_ref().filter(|_| rows.is_empty()) {
@@ -270,72 +241,6 @@ fn sequences(seconds: f64) -> Vec<Sequence> {
             blocked: Some((0.7, 1.2)),
         },
     ]
-}
-
-/// The FEM stepped through the sequence: a floor at z = 0, the node's default material.
-fn run_truth(sequence: &Sequence, params: &NodeParams, seconds: f64) -> Result<Truth> {
-    let reference = reference_mesh(&sequence.shape);
-    let mut mesh = (*reference.mesh).clone();
-    mesh.vertices
-        .iter_mut()
-        .for_each(|v| v.z += sequence.lifted);
-    let mesh = Arc::new(mesh);
-    let mut fem = FemSim::new(mesh.clone(), params.sim_params())?;
-    fem.add_obstacle(Obstacle::floor(0.0));
-    for poke in &sequence.pokes {
-        let mut poke = *poke;
-        poke.point.z += sequence.lifted;
-        fem.add_poke(poke);
-    }
-    let steps = (seconds * params.rate_hz).round() as usize;
-    let read = |fem: &FemSim| -> Vec<Vector3<f64>> {
-        fem.positions()
-            .chunks_exact(3)
-            .map(|p| Vector3::new(p[0], p[1], p[2]))
-            .collect()
-    };
-    let mut positions = vec![read(&fem)];
-    for _ in 0..steps {
-        fem.step()?;
-        positions.push(read(&fem));
-    }
-    Ok(Truth {
-        surface: boundary(&mesh),
-        diagonal: reference.diagonal,
-        mesh,
-        positions,
-    })
-}
-
-/// The outward-wound boundary triangles of a tetrahedral mesh: faces of one tetrahedron only.
-fn boundary(mesh: &TetMesh) -> Vec<[u32; 3]> {
-    let mut faces: std::collections::HashMap<[u32; 3], ([u32; 3], u32)> = Default::default();
-    let mut count: std::collections::HashMap<[u32; 3], usize> = Default::default();
-    for tet in &mesh.tets {
-        for skip in 0..4 {
-            let face: Vec<u32> = (0..4).filter(|&i| i != skip).map(|i| tet[i]).collect();
-            let mut key = [face[0], face[1], face[2]];
-            key.sort_unstable();
-            *count.entry(key).or_default() += 1;
-            faces.insert(key, ([face[0], face[1], face[2]], tet[skip]));
-        }
-    }
-    let v = |i: u32| mesh.vertices[i as usize];
-    let mut out: Vec<[u32; 3]> = count
-        .into_iter()
-        .filter(|(_, n)| *n == 1)
-        .map(|(key, _)| {
-            let (f, opposite) = faces[&key];
-            let normal = (v(f[1]) - v(f[0])).cross(&(v(f[2]) - v(f[0])));
-            if normal.dot(&(v(opposite) - v(f[0]))) > 0.0 {
-                [f[0], f[2], f[1]]
-            } else {
-                f
-            }
-        })
-        .collect();
-    out.sort_unstable();
-    out
 }
 
 /// A camera 1.5 diagonals away, in front, to the side and above, as a robot's head camera.
