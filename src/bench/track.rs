@@ -308,15 +308,15 @@ fn add_poker(
     vertices: &mut Vec<Vector3<f64>>,
     triangles: &mut Vec<[u32; 3]>,
 ) {
-    let nearest = (0..truth.mesh.vertices.len())
+    // The surface's vertex nearest the poked point at rest: the rod's tip follows it.
+    let rest = &truth.positions[0];
+    let nearest = (0..rest.len())
         .min_by(|&a, &b| {
-            let (da, db) = (
-                (truth.mesh.vertices[a] - poke.point).norm(),
-                (truth.mesh.vertices[b] - poke.point).norm(),
-            );
-            da.total_cmp(&db)
+            (rest[a] - poke.point)
+                .norm()
+                .total_cmp(&(rest[b] - poke.point).norm())
         })
-        .expect("a mesh has vertices");
+        .expect("a surface has vertices");
     let tip = truth.positions[step][nearest];
     let axis = -poke.force.normalize();
     let side = axis.cross(&Vector3::z()).normalize() * 0.012;

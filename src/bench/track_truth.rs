@@ -1,34 +1,39 @@
 //! `bench track`'s truth: the full-space FEM run through a sequence, and the surface the camera
 //! sees on it.
 
-use std::sync::Arc;
-
 use nalgebra::Vector3;
 
 use crate::error::Result;
-use crate::geometry::{reference_mesh, Shape, TetMesh};
+use crate::geometry::{reference_mesh, Shape, TetLocation, TetMesh};
 use crate::physics::{FemSim, Obstacle, Poke};
 use crate::runtime::NodeParams;
 
-/// The FEM's run of a sequence: its tetrahedral mesh, surface, and vertex positions per step.
+/// The FEM's run of a sequence: the surface the camera sees, and its vertices per step.
 pub(super) struct Truth {
-    pub(super) mesh: Arc<TetMesh>,
+    /// The shape's own surface (see [`embedded_surface`]).
     pub(super) surface: Vec<[u32; 3]>,
+    /// The surface's vertices, per step.
     pub(super) positions: Vec<Vec<Vector3<f64>>>,
+    /// Diagonal of the FEM mesh's bounds, m: errors are fractions of it.
     pub(super) diagonal: f64,
 }
 
 impl Truth {
-    /// Points spread over the FEM's surface at `step`, about as dense as a body's surface
-    /// samples: each triangle at 15 barycentric points (its corners, edges and inside).
+    /// Points spread over the surface at `step`, about as dense as a body's surface samples:
+    /// each triangle at its corners, along its edges and inside, at the fewest barycentric
+    /// steps that give `DENSE_POINTS` (at most 4: 15 points a triangle).
     pub(super) fn dense_surface(&self, step: usize) -> Vec<Vector3<f64>> {
         let x = &self.positions[step];
-        let mut out = Vec::with_capacity(15 * self.surface.len());
+        let per_triangle = |n: usize| (n + 1) * (n + 2) / 2;
+        let n = (1..4)
+            .find(|&n| per_triangle(n) * self.surface.len() >= DENSE_POINTS)
+            .unwrap_or(4);
+        let mut out = Vec::with_capacity(per_triangle(n) * self.surface.len());
         for t in &self.surface {
             let [a, b, c] = t.map(|i| x[i as usize]);
-            for i in 0..=4 {
-                for j in 0..=(4 - i) {
-                    let (u, v) = (i as f64 / 4.0, j as f64 / 4.0);
+            for i in 0..=n {
+                for j in 0..=(n - i) {
+                    let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
                     out.push(a * (1.0 - u - v) + b * u + c * v);
                 }
             }
@@ -55,8 +60,7 @@ pub(super) fn run_truth(
     let reference = reference_mesh(shape);
     let mut mesh = (*reference.mesh).clone();
     mesh.vertices.iter_mut().for_each(|v| v.z += lifted);
-    let mesh = Arc::new(mesh);
-    let mut fem = FemSim::new(mesh.clone(), params.sim_params())?;
+    let mut fem = FemSim::new(std::sync::Arc::new(mesh), params.sim_params())?;
     fem.add_obstacle(Obstacle::floor(0.0));
     for poke in pokes {
         let mut poke = *poke;
@@ -70,46 +74,85 @@ pub(super) fn run_truth(
             .map(|p| Vector3::new(p[0], p[1], p[2]))
             .collect()
     };
-    let mut positions = vec![read(&fem)];
+    let (carried, surface) = embedded_surface(shape, &reference.mesh);
+    let mut positions = vec![carry(&carried, &read(&fem))];
     for _ in 0..steps {
         fem.step()?;
-        positions.push(read(&fem));
+        positions.push(carry(&carried, &read(&fem)));
     }
     Ok(Truth {
-        surface: boundary(&mesh),
+        surface,
         diagonal: reference.diagonal,
-        mesh,
         positions,
     })
 }
 
-/// The outward-wound boundary triangles of a tetrahedral mesh: faces of one tetrahedron only.
-fn boundary(mesh: &TetMesh) -> Vec<[u32; 3]> {
-    let mut faces: std::collections::HashMap<[u32; 3], ([u32; 3], u32)> = Default::default();
-    let mut count: std::collections::HashMap<[u32; 3], usize> = Default::default();
-    for tet in &mesh.tets {
-        for skip in 0..4 {
-            let face: Vec<u32> = (0..4).filter(|&i| i != skip).map(|i| tet[i]).collect();
-            let mut key = [face[0], face[1], face[2]];
-            key.sort_unstable();
-            *count.entry(key).or_default() += 1;
-            faces.insert(key, ([face[0], face[1], face[2]], tet[skip]));
-        }
-    }
-    let v = |i: u32| mesh.vertices[i as usize];
-    let mut out: Vec<[u32; 3]> = count
-        .into_iter()
-        .filter(|(_, n)| *n == 1)
-        .map(|(key, _)| {
-            let (f, opposite) = faces[&key];
-            let normal = (v(f[1]) - v(f[0])).cross(&(v(f[2]) - v(f[0])));
-            if normal.dot(&(v(opposite) - v(f[0]))) > 0.0 {
-                [f[0], f[2], f[1]]
-            } else {
-                f
-            }
+/// Longest edge of the surface the camera sees, as a fraction of the FEM mesh's diagonal, about
+/// a cell of the mesh: a box's twelve triangles are split until they bend with it (3,072
+/// triangles), a ball's 5,148 are short enough.
+const SURFACE_EDGE: f64 = 1.0 / 12.0;
+/// Points `Truth::dense_surface` spreads at least (or 15 per triangle).
+const DENSE_POINTS: usize = 20_000;
+
+/// The shape's own surface carried by the FEM, as a renderer draws a simulated soft body's
+/// mesh on its simulation mesh: each vertex of the shape's triangles (split until no edge is
+/// longer than `SURFACE_EDGE` of the diagonal) moves with the tetrahedron it lies in at rest.
+/// The camera then sees the object (a round ball), not the voxel mesh's staircase, which keeps
+/// every cell the surface cuts: a ball's FEM mesh is about 8 cells across and no ellipsoid.
+/// `mesh` is the FEM's mesh at rest, before the sequence lifts it (the shape's frame).
+fn embedded_surface(shape: &Shape, mesh: &TetMesh) -> (Vec<TetLocation>, Vec<[u32; 3]>) {
+    let (lo, hi) = mesh.bounds();
+    let (vertices, triangles) = split_long_edges(
+        shape.positions.clone(),
+        shape.triangles.clone(),
+        SURFACE_EDGE * (hi - lo).norm(),
+    );
+    let located = vertices.iter().map(|p| mesh.locate(p)).collect();
+    (located, triangles)
+}
+
+/// The surface's vertices where the FEM's vertices (`nodes`) put them.
+fn carry(located: &[TetLocation], nodes: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+    located
+        .iter()
+        .map(|l| {
+            (0..4)
+                .map(|i| nodes[l.vertices[i] as usize] * l.barycentric[i])
+                .sum()
         })
-        .collect();
-    out.sort_unstable();
-    out
+        .collect()
+}
+
+/// Every triangle split in four at its edges' midpoints (shared between neighbours, so the
+/// surface stays closed) until no edge is longer than `longest`.
+fn split_long_edges(
+    mut vertices: Vec<Vector3<f64>>,
+    mut triangles: Vec<[u32; 3]>,
+    longest: f64,
+) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+    let too_long = |v: &[Vector3<f64>], t: &[[u32; 3]]| {
+        t.iter().any(|f| {
+            (0..3).any(|i| (v[f[i] as usize] - v[f[(i + 1) % 3] as usize]).norm() > longest)
+        })
+    };
+    while too_long(&vertices, &triangles) {
+        let mut midpoints = std::collections::HashMap::new();
+        let mut midpoint = |a: u32, b: u32, vertices: &mut Vec<Vector3<f64>>| {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                vertices.push((vertices[a as usize] + vertices[b as usize]) / 2.0);
+                vertices.len() as u32 - 1
+            })
+        };
+        let mut split = Vec::with_capacity(4 * triangles.len());
+        for [a, b, c] in triangles {
+            let (ab, bc, ca) = (
+                midpoint(a, b, &mut vertices),
+                midpoint(b, c, &mut vertices),
+                midpoint(c, a, &mut vertices),
+            );
+            split.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        triangles = split;
+    }
+    (vertices, triangles)
 }

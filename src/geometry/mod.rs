@@ -32,5 +32,6 @@ pub(crate) use scan::scan_faces;
 pub use scan::{scan, scan_points, Camera};
 pub(crate) use shape::content_hash;
 pub use shape::{Normalization, Shape};
+pub(crate) use tetmesh::TetLocation;
 pub use tetmesh::TetMesh;
 pub use voxel::VoxelGrid;
