@@ -258,12 +258,24 @@ impl Tracker {
 
 /// Rigid ICP iterations that align the visible samples with a frame before they are matched.
 const ALIGN_ITERATIONS: usize = 3;
+/// Every this many visible samples is paired in the alignment.
+const ICP_STRIDE: usize = 4;
+/// Neighbours of an observed point whose plane gives its normal.
+const NORMAL_NEIGHBOURS: usize = 6;
+/// A rotation the frame pins down less than this share of what it pins a turn of the seen
+/// patch by (its spread squared per pair) is damped away: see `motion_along_normals`.
+const UNSEEN_TURN: f64 = 0.05;
 
 /// The visible samples `seen` moved by the rigid motion that best lays them on the frame's
 /// `points` (a few ICP iterations, each pair within `gate` of its observed point). Nearest
 /// points alone hardly pull a flat face along itself: a block pushed into a spin was matched
 /// to its own trailing positions, 7 to 9 % of its diagonal behind (`bench track`); matched
-/// after the alignment, each sample is pulled toward where the face's motion took it.
+/// after the alignment, each sample is pulled toward where the face's motion took it. The
+/// motion is measured along the frame's normals, so that a turn the surface does not show (a
+/// ball about its centre) is not made up from noise: point to point (Kabsch), a seen ball's cap
+/// was turned by each frame's noise, and the ball with it (`bench track`, 2.5 s: its material
+/// points 2.8315 % of its diagonal off when poked, 14.1236 % when dropped, while its surface
+/// stayed within 0.97 and 1.04 %; measured along the normals, 2.0969 % and 1.4812 %, printed).
 fn rigidly_aligned(
     seen: &[Vector3<f64>],
     points: &[Vector3<f64>],
@@ -271,17 +283,23 @@ fn rigidly_aligned(
     gate: &dyn Fn(&Vector3<f64>) -> f64,
 ) -> Vec<Vector3<f64>> {
     let mut aligned = seen.to_vec();
-    // Every other sample: the motion of a few hundred is as well determined.
+    let mut normals: Vec<Option<Vector3<f64>>> = vec![None; points.len()];
+    // Every fourth sample: the motion of a few hundred is as well determined, and each pair
+    // needs its observed point's normal.
     for _ in 0..ALIGN_ITERATIONS {
-        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = aligned
+        let pairs: Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> = aligned
             .iter()
-            .step_by(2)
+            .step_by(ICP_STRIDE)
             .filter_map(|x| {
                 let (i, d) = cloud.closest(x)?;
-                (d <= gate(&points[i])).then_some((*x, points[i]))
+                if d > gate(&points[i]) {
+                    return None;
+                }
+                let normal = *normals[i].get_or_insert_with(|| normal_at(cloud, points, i));
+                Some((*x, points[i], normal))
             })
             .collect();
-        let Some(motion) = best_rigid_motion(&pairs) else {
+        let Some(motion) = motion_along_normals(&pairs) else {
             break;
         };
         aligned
@@ -291,28 +309,53 @@ fn rigidly_aligned(
     aligned
 }
 
-/// The rotation and translation that best map each pair's first point onto its second
-/// (Kabsch); None for fewer than three pairs.
-fn best_rigid_motion(pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Option<nalgebra::Isometry3<f64>> {
-    if pairs.len() < 3 {
+/// The unit normal of the plane through observed point `i` and its nearest neighbours.
+fn normal_at(cloud: &PointIndex, points: &[Vector3<f64>], i: usize) -> Vector3<f64> {
+    let near = cloud.nearest(&points[i], NORMAL_NEIGHBOURS, None);
+    let mean = near.iter().map(|&j| points[j]).sum::<Vector3<f64>>() / near.len().max(1) as f64;
+    let covariance: nalgebra::Matrix3<f64> = near
+        .iter()
+        .map(|&j| (points[j] - mean) * (points[j] - mean).transpose())
+        .sum();
+    let eigen = nalgebra::SymmetricEigen::new(covariance);
+    let least = eigen.eigenvalues.imin();
+    eigen.eigenvectors.column(least).into_owned()
+}
+
+/// The small rotation and translation that best move each pair's first point onto the plane
+/// through its second with its normal (linearized point-to-plane ICP, one Gauss-Newton
+/// step). Turns the pairs hardly constrain are damped (Tikhonov, `UNSEEN_TURN` of the patch's
+/// spread squared per pair): on a ball they are left to the physics. None for fewer than six
+/// pairs.
+fn motion_along_normals(
+    pairs: &[(Vector3<f64>, Vector3<f64>, Vector3<f64>)],
+) -> Option<nalgebra::Isometry3<f64>> {
+    if pairs.len() < 6 {
         return None;
     }
     let n = pairs.len() as f64;
-    let from = pairs.iter().map(|p| p.0).sum::<Vector3<f64>>() / n;
-    let to = pairs.iter().map(|p| p.1).sum::<Vector3<f64>>() / n;
-    let covariance: nalgebra::Matrix3<f64> = pairs
+    let centre = pairs.iter().map(|p| p.0).sum::<Vector3<f64>>() / n;
+    let spread = pairs
         .iter()
-        .map(|(x, y)| (y - to) * (x - from).transpose())
-        .sum();
-    let svd = covariance.svd(true, true);
-    let (u, v_t) = (svd.u?, svd.v_t?);
-    let mut rotation = u * v_t;
-    if rotation.determinant() < 0.0 {
-        let flip = nalgebra::Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
-        rotation = u * flip * v_t;
+        .map(|p| (p.0 - centre).norm_squared())
+        .sum::<f64>()
+        / n;
+    let mut normal = nalgebra::Matrix6::<f64>::zeros();
+    let mut right = nalgebra::Vector6::<f64>::zeros();
+    for (x, y, m) in pairs {
+        let arm = (x - centre).cross(m);
+        let row = nalgebra::Vector6::new(arm.x, arm.y, arm.z, m.x, m.y, m.z);
+        normal += row * row.transpose();
+        right -= row * (x - y).dot(m);
     }
-    let rotation = nalgebra::UnitQuaternion::from_matrix(&rotation);
-    let translation = to - rotation * from;
+    for a in 0..3 {
+        normal[(a, a)] += UNSEEN_TURN * spread * n;
+    }
+    let step = normal.cholesky()?.solve(&right);
+    let turn = Vector3::new(step[0], step[1], step[2]);
+    let rotation = nalgebra::UnitQuaternion::from_scaled_axis(turn);
+    // About the pairs' centre: x -> R (x - c) + c + t.
+    let translation = centre + Vector3::new(step[3], step[4], step[5]) - rotation * centre;
     Some(nalgebra::Isometry3::from_parts(
         translation.into(),
         rotation,
@@ -435,4 +478,83 @@ fn visible_from(placed: &[Vector3<f64>], viewpoint: &Vector3<f64>, spacing: f64)
             (range <= nearest[&key] + spacing).then_some(i)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pairs of points of a surface (`surface` maps a direction to a point and its normal)
+    /// with their places after the rigid `motion`.
+    fn pairs_moved(
+        surface: impl Fn(&Vector3<f64>) -> (Vector3<f64>, Vector3<f64>),
+        motion: &nalgebra::Isometry3<f64>,
+    ) -> Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> {
+        let mut pairs = Vec::new();
+        for i in 0..12 {
+            for j in 1..6 {
+                let (a, b) = (i as f64 * 0.52, j as f64 * 0.25);
+                let direction = Vector3::new(b.sin() * a.cos(), b.sin() * a.sin(), b.cos());
+                let (x, _) = surface(&direction);
+                let y = motion.transform_point(&x.into()).coords;
+                pairs.push((x, y, motion.rotation * surface(&direction).1));
+            }
+        }
+        pairs
+    }
+
+    /// The seen cap of a ball turned about its centre: the points lie where they were, so
+    /// no turn is made up; moved, only the move is found.
+    #[test]
+    fn a_ball_is_not_turned_by_what_cannot_show_a_turn() {
+        let centre = Vector3::new(0.0, 0.0, 0.1);
+        let ball = |d: &Vector3<f64>| (centre + d.normalize() * 0.1, d.normalize());
+        let turned = nalgebra::Isometry3::rotation_wrt_point(
+            nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.1, 0.0)),
+            centre.into(),
+        );
+        let pairs = pairs_moved(ball, &turned);
+        let motion = motion_along_normals(&pairs).expect("enough pairs");
+        assert!(
+            motion.rotation.angle() < 1e-3,
+            "turned {}",
+            motion.rotation.angle()
+        );
+        assert!(motion.translation.vector.norm() < 1e-3);
+        let shift = nalgebra::Isometry3::translation(0.004, -0.002, 0.003);
+        let motion = motion_along_normals(&pairs_moved(ball, &shift)).expect("enough pairs");
+        assert!((motion.translation.vector - shift.translation.vector).norm() < 2e-4);
+    }
+
+    /// A box's corner (three faces) shows a small turn and move, which the alignment's
+    /// iterations find (each step is damped: the turn is found within `ALIGN_ITERATIONS`).
+    #[test]
+    fn a_box_corner_shows_its_turn() {
+        let corner = |d: &Vector3<f64>| {
+            let axis = d.iamax();
+            let normal = Vector3::ith(axis, 1.0);
+            let p = d.map(|c| c.abs()) * 0.1 / d.abs().max();
+            (p - normal * (p[axis] - 0.1), normal)
+        };
+        let motion = nalgebra::Isometry3::new(
+            Vector3::new(0.002, 0.001, -0.001),
+            Vector3::new(0.01, -0.02, 0.015),
+        );
+        let mut pairs = pairs_moved(corner, &motion);
+        let mut found = nalgebra::Isometry3::identity();
+        for _ in 0..ALIGN_ITERATIONS {
+            let step = motion_along_normals(&pairs).expect("enough pairs");
+            pairs
+                .iter_mut()
+                .for_each(|p| p.0 = step.transform_point(&p.0.into()).coords);
+            found = step * found;
+        }
+        let turn = (found.rotation.inverse() * motion.rotation).angle();
+        assert!(turn < 0.1 * motion.rotation.angle(), "turn off by {turn}");
+        let moved = (found.translation.vector - motion.translation.vector).norm();
+        assert!(
+            moved < 0.1 * motion.translation.vector.norm(),
+            "moved off by {moved}"
+        );
+    }
 }
