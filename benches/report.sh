@@ -15,6 +15,7 @@
 #   latency-refine-off benches/latency.sh, --refine off       (the same, no refinement thread)
 #   latency-shards     benches/latency.sh, --shards           (the same beside a second instance)
 #   replay             bench replay                           (replay speed, recording's cost)
+#   replay-stream      replay bags/stream.mcap                (a 3.5 s camera stream, one build)
 #   transport          bench transport, private namespace     (iceoryx2 against DDS)
 #   scene              bench scene                            (only what a scene needs)
 #   eval               eval                                   (the learned field on 15 shapes, 4 min)
@@ -36,7 +37,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay transport scene eval basis peer track stream-cpu)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay replay-stream transport scene eval basis peer track stream-cpu)
 if [ "${names[*]}" = readme ]; then
     names=(demo contact views real latency scene peer eval track stream-cpu sim-targets sim-creature)
 fi
@@ -58,6 +59,9 @@ for name in "${names[@]}"; do
         latency-refine-off) bash benches/latency.sh latency-refine-off --refine off ;;
         latency-shards) bash benches/latency.sh latency-shards --shards ;;
         replay) benches/record.sh replay $bin bench replay --json ;;
+        replay-stream)
+            benches/record.sh replay-stream $bin replay bags/stream.mcap \
+                --params config/stream.yaml --json ;;
         transport)
             benches/record.sh transport unshare -n tests/peers/private_net.sh \
                 $bin bench transport --json ;;
