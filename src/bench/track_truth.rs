@@ -98,7 +98,7 @@ const DENSE_POINTS: usize = 20_000;
 /// mesh on its simulation mesh: each vertex of the shape's triangles (split until no edge is
 /// longer than `SURFACE_EDGE` of the diagonal) moves with the tetrahedron it lies in at rest.
 /// The camera then sees the object (a round ball), not the voxel mesh's staircase, which keeps
-/// every cell the surface cuts: a ball's FEM mesh (823 vertices) is a staircase no ellipsoid fits.
+/// every cell the surface cuts: the ball's FEM mesh (823 vertices) is one no ellipsoid fits.
 /// `mesh` is the FEM's mesh at rest, before the sequence lifts it (the shape's frame).
 fn embedded_surface(shape: &Shape, mesh: &TetMesh) -> (Vec<TetLocation>, Vec<[u32; 3]>) {
     let (lo, hi) = mesh.bounds();
