@@ -621,7 +621,7 @@ fn write_stream(
 ) -> Result<()> {
     use crate::bag::{BagWriter, RecordOptions};
     use crate::msg::cloud::encode_cloud;
-    use crate::msg::{self as m, to_cdr, Header, PointCloud2, TFMessage, Time};
+    use crate::msg::{self as m, encode, to_cdr, Header, PointCloud2, TFMessage, Time};
     use crate::msg::{QosProfile, TopicInfo};
     let pose = camera.optical_pose();
     let (t, q) = (pose.translation.vector, pose.rotation);
@@ -680,7 +680,7 @@ fn write_stream(
             "/physskin/points",
             ns,
             ns,
-            &to_cdr(&encode_cloud(header, &xyz, &[], &[])),
+            &encode(&encode_cloud(header, &xyz, &[], &[])),
         )?;
     }
     writer.finish()?;

@@ -14,7 +14,7 @@ use crate::bag::{BagError, BagWriter, RecordOptions, RecordSummary};
 use crate::geometry::{bundled, sdf_mesh, Shape};
 use crate::msg::cloud::encode_cloud;
 use crate::msg::{
-    to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
+    encode, to_cdr, Header, Interaction, Mesh, MeshStamped, MeshTriangle, Point, Time,
     Vector3 as RosVector3,
 };
 use crate::runtime::topic_table;
@@ -259,7 +259,7 @@ pub fn write_demo_bag(script: &DemoScript, path: &Path) -> Result<RecordSummary,
                     .collect();
                 (
                     &t.points,
-                    to_cdr(&encode_cloud(header(s.frame, ns), &xyz, &[], &[])),
+                    encode(&encode_cloud(header(s.frame, ns), &xyz, &[], &[])),
                 )
             }
             Delivery::MeshStamped => (

@@ -1,5 +1,6 @@
 //! `ros2msg` schemas for MCAP channels: the message's definition, then every type it uses
-//! (transitively), each after a line of 80 `=` and `MSG: pkg/Name` (the name as the field writes it), as rosbag2 writes them.
+//! (transitively), each after a line of 80 `=` and `MSG: pkg/Name` (the name as the field
+//! writes it), as rosbag2 writes them.
 
 use super::messages::{
     Clock, ColorRGBA, CompressedImage, DiagnosticArray, DiagnosticStatus, Duration, Header,

@@ -21,7 +21,7 @@ use serde_json::Value;
 
 use super::dds::NodeError;
 use crate::msg::{
-    from_cdr, schema_text, to_cdr, DiagnosticArray, Interaction, MarkerArray, Output, PointCloud2,
+    encode, from_cdr, schema_text, DiagnosticArray, Interaction, MarkerArray, Output, PointCloud2,
     RosMessage, Sink, SkinningWeights, Status, SubspaceState, TFMessage,
 };
 use crate::runtime::outputs::{TF, TF_STATIC};
@@ -72,7 +72,7 @@ impl LiveView {
         if !channel.has_sinks() {
             return;
         }
-        let bytes = to_cdr(message);
+        let bytes = encode(message);
         let meta = PartialMetadata {
             log_time: Some(log_time_ns.max(0) as u64),
         };
