@@ -23,7 +23,7 @@ pub use cubature::Cubature;
 pub(crate) use downsample::{view_downsample, voxel_downsample};
 pub use mesh_io::{load_geometry, write_obj, write_ply, LoadError, RawGeometry};
 pub use mesh_io::{parse_obj, parse_ply, parse_stl};
-pub(crate) use point_index::PointIndex;
+pub(crate) use point_index::{least_spread_direction, PointIndex};
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
 pub(crate) use reference_mesh::{bottom_vertices, pinned_slab_top};
 pub use reference_mesh::{reference_mesh, ReferenceMesh};

@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
 
 use super::SoftBody;
-use crate::geometry::PointIndex;
+use crate::geometry::{least_spread_direction, PointIndex};
 use crate::linalg::product;
 use crate::physics::ObservationTerm;
 use crate::Result;
@@ -84,6 +84,8 @@ pub struct Tracker {
     /// Rest positions (3 x S) and subspace samples (4K x S) of the surface samples.
     rests: DMatrix<f64>,
     phis: DMatrix<f64>,
+    /// `phis` transposed (S x 4K), for placing the samples.
+    phis_by_sample: DMatrix<f64>,
     /// Typical distance between neighbouring samples, m.
     spacing: f64,
     diagonal: f64,
@@ -111,11 +113,13 @@ impl Tracker {
         let subspace = body.subspace();
         let phis = subspace.phis(&points);
         let rows = 4 * subspace.handles();
+        let phis = DMatrix::from_fn(rows, points.len(), |a, i| phis[i][a]);
         let (lo, hi) = body.rest_bounds();
         Self {
             options: options.clone(),
             rests: DMatrix::from_fn(3, points.len(), |d, i| points[i][d]),
-            phis: DMatrix::from_fn(rows, points.len(), |a, i| phis[i][a]),
+            phis_by_sample: phis.transpose(),
+            phis,
             spacing,
             diagonal: (hi - lo).norm(),
             expires: None,
@@ -202,10 +206,18 @@ impl Tracker {
     /// the frame, taken after its last step, sees them (a falling body moves 2.5 cm a step
     /// at 1.5 m/s, more than the gate).
     fn placed(&self, body: &SoftBody) -> Vec<Vector3<f64>> {
-        let mut x = product(&body.predicted_state(), &self.phis);
-        x += &self.rests;
-        x.column_iter()
-            .map(|c| Vector3::new(c[0], c[1], c[2]))
+        // phi^T z^T (S x 3), a tall product: faer's kernels take it faster than the wide
+        // z phi (3 x S).
+        let moved = product(&self.phis_by_sample, &body.predicted_state().transpose());
+        (0..moved.nrows())
+            .map(|i| {
+                let rest = self.rests.column(i);
+                Vector3::new(
+                    rest[0] + moved[(i, 0)],
+                    rest[1] + moved[(i, 1)],
+                    rest[2] + moved[(i, 2)],
+                )
+            })
             .collect()
     }
 
@@ -233,25 +245,25 @@ impl Tracker {
         let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
         let aligned = rigidly_aligned(seen, points, &cloud, &gate);
         let model = PointIndex::new(&aligned, 2.0 * self.spacing);
-        let mut squared = 0.0;
-        for y in points {
-            let Some((s, d)) = model.closest(y) else {
-                break;
-            };
-            if d <= gate(y) {
-                pairs.to_model.push((visible[s], *y));
-                squared += d * d;
-            }
-        }
+        let to_model: Vec<(usize, Vector3<f64>, f64)> = points
+            .iter()
+            .filter_map(|y| {
+                let (s, d) = model.closest(y)?;
+                (d <= gate(y)).then_some((visible[s], *y, d))
+            })
+            .collect();
+        let squared: f64 = to_model.iter().map(|p| p.2 * p.2).sum();
+        pairs.to_model = to_model.into_iter().map(|(s, y, _)| (s, y)).collect();
         pairs.explained = pairs.to_model.len();
         pairs.residual_m = (squared / pairs.explained.max(1) as f64).sqrt();
-        for (s, x) in visible.iter().zip(&aligned) {
-            if let Some((i, d)) = cloud.closest(x) {
-                if d <= gate(&points[i]) {
-                    pairs.to_cloud.push((*s, points[i]));
-                }
-            }
-        }
+        pairs.to_cloud = visible
+            .iter()
+            .zip(&aligned)
+            .filter_map(|(s, x)| {
+                let (i, d) = cloud.closest(x)?;
+                (d <= gate(&points[i])).then_some((*s, points[i]))
+            })
+            .collect();
         pairs
     }
 }
@@ -317,9 +329,7 @@ fn normal_at(cloud: &PointIndex, points: &[Vector3<f64>], i: usize) -> Vector3<f
         .iter()
         .map(|&j| (points[j] - mean) * (points[j] - mean).transpose())
         .sum();
-    let eigen = nalgebra::SymmetricEigen::new(covariance);
-    let least = eigen.eigenvalues.imin();
-    eigen.eigenvectors.column(least).into_owned()
+    least_spread_direction(&covariance)
 }
 
 /// The small rotation and translation that best move each pair's first point onto the plane
@@ -451,23 +461,23 @@ fn visible_from(placed: &[Vector3<f64>], viewpoint: &Vector3<f64>, spacing: f64)
     let right = axis.cross(&helper).normalize();
     let down = axis.cross(&right);
     let bin = 2.0 * spacing / distance;
-    let mut nearest: std::collections::HashMap<(i64, i64), f64> = Default::default();
-    let keyed: Vec<Option<((i64, i64), f64)>> = placed
+    let keyed: Vec<Option<([f64; 2], f64)>> = placed
         .iter()
         .map(|p| {
             let ray = p - viewpoint;
             let depth = ray.dot(&axis);
             (depth > 1e-9).then(|| {
                 let (u, v) = (ray.dot(&right) / depth, ray.dot(&down) / depth);
-                (
-                    ((u / bin).floor() as i64, (v / bin).floor() as i64),
-                    ray.norm(),
-                )
+                ([(u / bin).floor(), (v / bin).floor()], ray.norm())
             })
         })
         .collect();
+    let Some(bins) = BinGrid::around(keyed.iter().flatten().map(|k| k.0)) else {
+        return Vec::new();
+    };
+    let mut nearest = vec![f64::INFINITY; bins.len()];
     for (key, range) in keyed.iter().flatten() {
-        let front = nearest.entry(*key).or_insert(f64::INFINITY);
+        let front = &mut nearest[bins.at(key)];
         *front = front.min(*range);
     }
     keyed
@@ -475,9 +485,53 @@ fn visible_from(placed: &[Vector3<f64>], viewpoint: &Vector3<f64>, spacing: f64)
         .enumerate()
         .filter_map(|(i, k)| {
             let (key, range) = (*k)?;
-            (range <= nearest[&key] + spacing).then_some(i)
+            (range <= nearest[bins.at(&key)] + spacing).then_some(i)
         })
         .collect()
+}
+
+/// The image bins of a z-buffer's samples, one dense array: a body seen from outside spans
+/// some fifty bins a side, and a hash map of them cost a tenth of the correction.
+struct BinGrid {
+    first: [f64; 2],
+    width: usize,
+    height: usize,
+}
+
+/// Seen from inside or from very near, a body could span bins without bound: beyond this
+/// many a side, the outer bins are merged into the edge ones.
+const MAX_BINS_A_SIDE: f64 = 1024.0;
+
+impl BinGrid {
+    fn around(keys: impl Iterator<Item = [f64; 2]>) -> Option<Self> {
+        let (lo, hi) = keys.fold(
+            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+            |(lo, hi), k| {
+                (
+                    [lo[0].min(k[0]), lo[1].min(k[1])],
+                    [hi[0].max(k[0]), hi[1].max(k[1])],
+                )
+            },
+        );
+        (lo[0] <= hi[0]).then(|| {
+            let side = |a: usize| (hi[a] - lo[a]).min(MAX_BINS_A_SIDE) as usize + 1;
+            Self {
+                first: lo,
+                width: side(0),
+                height: side(1),
+            }
+        })
+    }
+
+    fn len(&self) -> usize {
+        self.width * self.height
+    }
+
+    fn at(&self, key: &[f64; 2]) -> usize {
+        let column = ((key[0] - self.first[0]) as usize).min(self.width - 1);
+        let row = ((key[1] - self.first[1]) as usize).min(self.height - 1);
+        column + self.width * row
+    }
 }
 
 #[cfg(test)]
