@@ -85,7 +85,7 @@ impl<'a> PointIndex<'a> {
     }
 
     /// Indices of the `k` nearest points to `query` (fewer if there are fewer points), nearest
-    /// first, skipping `exclude`.
+    /// first (ties by index), skipping `exclude`.
     pub fn nearest(&self, query: &Vector3<f64>, k: usize, exclude: Option<usize>) -> Vec<usize> {
         let wanted = k.min(self.points.len() - usize::from(exclude.is_some()));
         if wanted == 0 {
@@ -94,30 +94,31 @@ impl<'a> PointIndex<'a> {
         let center = self.key(query);
         let last_ring = self.last_ring(center);
         let margin = self.depth_in_cell(query, center);
-        let mut found: Vec<(f64, usize)> = Vec::new();
+        // The best `wanted` so far, sorted: callers ask for a handful, thousands of times (a
+        // tracker's normals), and keeping every visited point to select from cost more than
+        // the search.
+        let mut best: Vec<(f64, usize)> = Vec::with_capacity(wanted + 1);
         for ring in 0..=last_ring {
             self.visit_ring(center, ring, |i| {
-                if Some(i) != exclude {
-                    found.push(((self.points[i] - query).norm_squared(), i));
+                if Some(i) == exclude {
+                    return;
                 }
+                let entry = ((self.points[i] - query).norm_squared(), i);
+                let worse = |a: &(f64, usize)| a.0.total_cmp(&entry.0).then(a.1.cmp(&entry.1));
+                if best.len() == wanted && worse(&best[wanted - 1]).is_lt() {
+                    return;
+                }
+                let at = best.partition_point(|a| worse(a).is_lt());
+                best.insert(at, entry);
+                best.truncate(wanted);
             });
             // Every point not yet seen is at least `ring` whole cells and the margin away.
             let reach = ring as f64 * self.cell + margin;
-            if found.len() >= wanted {
-                found.select_nth_unstable_by(wanted - 1, |a, b| a.0.total_cmp(&b.0));
-                if found[wanted - 1].0.sqrt() < reach {
-                    break;
-                }
+            if best.len() == wanted && best[wanted - 1].0.sqrt() < reach {
+                break;
             }
         }
-        let by_distance =
-            |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-        if found.len() > wanted {
-            found.select_nth_unstable_by(wanted - 1, by_distance);
-            found.truncate(wanted);
-        }
-        found.sort_unstable_by(by_distance);
-        found.into_iter().map(|(_, i)| i).collect()
+        best.into_iter().map(|(_, i)| i).collect()
     }
 
     /// The nearest point to `query` and its distance (None without points): `nearest` for one
