@@ -38,7 +38,7 @@ pub struct TrackingOptions {
     /// How long an observation pulls after its frame, s. Default 1/60 (one step at 60 Hz).
     pub hold_s: f64,
     /// Surface samples matched against a frame (half the body's own points, half samples of
-    /// its whole surface, hidden side included). Default 3000.
+    /// its whole surface, hidden side included). Default 2000.
     pub samples: usize,
 }
 
@@ -50,7 +50,7 @@ impl Default for TrackingOptions {
             gate_fraction: 0.05,
             unexplained_share: 0.5,
             hold_s: 1.0 / 60.0,
-            samples: 3000,
+            samples: 2000,
         }
     }
 }

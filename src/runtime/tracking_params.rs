@@ -36,7 +36,7 @@ pub struct TrackingParams {
     pub relock_within_s: f64,
     /// Points of a frame matched, at most (a cloud's pixels thinned evenly). Default 500.
     pub max_points: usize,
-    /// Surface samples of the object matched against a frame. Default 3000.
+    /// Surface samples of the object matched against a frame. Default 2000.
     pub samples: usize,
     /// How long a frame pulls the object, s. Default 1/60 (one step at 60 Hz).
     pub hold_s: f64,
