@@ -189,15 +189,16 @@ pub fn run_track_bench(
 }
 
 /// The pokes' push along -x, N. The floor holds with the node's friction (0.5): the block
-/// (4.6 kg) slides only under a push past half its weight. Pushed with 8 N, the ball rolls
-/// away, and its roll is what a round surface does not show (see docs/limits.md).
+/// (4.6 kg) slides only under a push past half its weight; the ball rocks under 2 N and rolls
+/// away under 8 N, a roll its round surface does not show (see docs/limits.md).
 const BALL_POKE_N: f64 = 2.0;
+const BALL_ROLL_N: f64 = 8.0;
 const BLOCK_POKE_N: f64 = 40.0;
 /// Each hand's squeeze, N, spread over 3 x 3 points this far apart, m.
 const SQUEEZE_N: f64 = 150.0;
 const SQUEEZE_SPACING: f64 = 0.03;
 
-/// The four sequences, each `seconds` long.
+/// The five sequences, each `seconds` long.
 fn sequences(seconds: f64) -> Vec<Sequence> {
     let ball = || {
         let mut shape = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 28);
@@ -258,6 +259,13 @@ fn sequences(seconds: f64) -> Vec<Sequence> {
             lifted: 0.0,
             pokes: vec![poke(0.2, Vector3::new(0.12, 0.03, 0.09), BLOCK_POKE_N)],
             blocked: Some((0.7, 1.2)),
+        },
+        Sequence {
+            name: "ball rolled",
+            shape: ball(),
+            lifted: 0.0,
+            pokes: vec![poke(0.3, Vector3::new(0.07, 0.04, 0.15), BALL_ROLL_N)],
+            blocked: None,
         },
     ]
 }
