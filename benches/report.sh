@@ -16,6 +16,7 @@
 #   latency-shards     benches/latency.sh, --shards           (the same beside a second instance)
 #   replay             bench replay                           (replay speed, recording's cost)
 #   replay-stream      replay bags/stream.mcap                (a 3.5 s camera stream, one build)
+#   replay-minute      replay a minute of bench track's poked ball (written first, 2 minutes)
 #   transport          bench transport, private namespace     (iceoryx2 against DDS)
 #   scene              bench scene                            (only what a scene needs)
 #   eval               eval                                   (the learned field on 15 shapes, 4 min)
@@ -37,7 +38,7 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay replay-stream transport scene eval basis peer track stream-cpu)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay replay-stream replay-minute transport scene eval basis peer track stream-cpu)
 if [ "${names[*]}" = readme ]; then
     names=(demo contact views real latency scene peer eval track stream-cpu sim-targets sim-creature)
 fi
@@ -61,6 +62,13 @@ for name in "${names[@]}"; do
         replay) benches/record.sh replay $bin bench replay --json ;;
         replay-stream)
             benches/record.sh replay-stream $bin replay bags/stream.mcap \
+                --params config/stream.yaml --json ;;
+        replay-minute)
+            # Not bundled (about 50 MB): the bench writes it from its FEM truth, then it replays.
+            mkdir -p target/bench
+            $bin bench track --sequence "ball poked" --modes tracked --seconds 60 \
+                --write-stream target/bench/minute.mcap --plot target/bench/minute.svg >/dev/null
+            benches/record.sh replay-minute $bin replay target/bench/minute.mcap \
                 --params config/stream.yaml --json ;;
         transport)
             benches/record.sh transport unshare -n tests/peers/private_net.sh \
