@@ -33,13 +33,13 @@ pub struct ReplayBenchReport {
     pub tick_ms_with: f64,
     /// What recording adds to the tick, % (negative: within noise).
     pub record_overhead_pct: f64,
-    /// Ticks timed without recording, and as many with (two blocks of 240 each).
+    /// Ticks timed without recording, and as many with (every other tick recorded).
     pub ticks_per_side: usize,
 }
 
 /// Replays `demo_bag` (an MCAP recording's bytes) three times, its output recorded
 /// into `scratch`, then times a 10k-point body's 60 Hz tick without and with
-/// recording; `progress` gets a line per replay and per block. Errs when `scratch`
+/// recording; `progress` gets a line per replay and one for the ticks. Errs when `scratch`
 /// cannot be created or a replay, the body's build or the recording fails.
 pub fn run_replay_bench(
     demo_bag: &[u8],
@@ -83,14 +83,16 @@ pub fn run_replay_bench(
         tick_ms_without: without,
         tick_ms_with: with,
         record_overhead_pct: (with / without - 1.0) * 100.0,
-        ticks_per_side: 2 * TICKS_PER_BLOCK,
+        ticks_per_side: TICKS_PER_SIDE,
     })
 }
 
-const TICKS_PER_BLOCK: usize = 240;
+const TICKS_PER_SIDE: usize = 480;
 
 /// One 10k-point body stepped at 60 Hz (paced by the wall clock, so the recorder's thread has
-/// the time between ticks it has in a node), alternating blocks without and with recording.
+/// the time between ticks it has in a node), every other tick recorded. Alternating ticks see
+/// the same motion: in blocks of 240 ticks a side, the body's motion differed from block to
+/// block, and runs gave 1 to 19 % for the same code.
 fn record_overhead(
     model: &Arc<NeuralModel>,
     path: PathBuf,
@@ -128,39 +130,30 @@ fn record_overhead(
     recording.sinks.push(Box::new(recorder.clone()));
     let period = Duration::from_secs_f64(1.0 / params.rate_hz);
     let mut times = [Vec::new(), Vec::new()];
-    let mut tick = 0i64;
-    for block in 0..4 {
-        let side = block % 2;
+    let start = Instant::now();
+    for i in 0..2 * TICKS_PER_SIDE {
+        let side = i % 2;
         let out = if side == 0 { &quiet } else { &recording };
-        let start = Instant::now();
-        for i in 0..TICKS_PER_BLOCK {
-            tick += 1;
-            clock.set(&Time::from_nanos(tick * period.as_nanos() as i64));
-            if i % 60 == 0 {
-                // A push a second keeps the body moving, as a handled object would.
-                poke(&mut stage, out, i);
-            }
-            let t = Instant::now();
-            stage.tick(out);
-            times[side].push(t.elapsed().as_secs_f64() * 1e3);
-            if let Some(wait) = (period * (i as u32 + 1)).checked_sub(start.elapsed()) {
-                std::thread::sleep(wait);
-            }
+        clock.set(&Time::from_nanos((i as i64 + 1) * period.as_nanos() as i64));
+        if i % 60 == (i / 60) % 2 {
+            // A push a second keeps the body moving, as a handled object would; on recorded
+            // and unrecorded ticks in turn.
+            poke(&mut stage, out, i);
         }
-        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-        progress(&format!(
-            "block {} ({}): mean tick {:.3} ms",
-            block + 1,
-            if side == 0 {
-                "not recording"
-            } else {
-                "recording"
-            },
-            mean(&times[side][times[side].len() - TICKS_PER_BLOCK..])
-        ));
+        let t = Instant::now();
+        stage.tick(out);
+        times[side].push(t.elapsed().as_secs_f64() * 1e3);
+        if let Some(wait) = (period * (i as u32 + 1)).checked_sub(start.elapsed()) {
+            std::thread::sleep(wait);
+        }
     }
-    recorder.finish()?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    progress(&format!(
+        "mean tick {:.3} ms not recording, {:.3} ms recording",
+        mean(&times[0]),
+        mean(&times[1])
+    ));
+    recorder.finish()?;
     Ok((points, mean(&times[0]), mean(&times[1])))
 }
 
