@@ -81,11 +81,12 @@ impl Outputs {
         }
     }
 
-    /// Hands one message to every sink.
+    /// Hands one message to every sink, shared (a recording keeps it without a copy).
     fn emit(&self, topic: &str, message: Output) {
         let now = self.clock.now_nanos().unwrap_or(0);
+        let message = Arc::new(message);
         for sink in &self.sinks {
-            sink.send(topic, now, &message);
+            sink.send_shared(topic, now, &message);
         }
     }
 
