@@ -76,7 +76,7 @@ pub struct RecorderHealth {
     pub path: String,
     /// Messages handed to the writing thread.
     pub messages: u64,
-    /// Serialized message bytes the writing thread took (before compression).
+    /// Serialized message bytes handed to the writer (before compression).
     pub bytes: u64,
     /// Messages lost because the recording had stopped.
     pub dropped: u64,
