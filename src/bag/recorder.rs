@@ -1,6 +1,5 @@
-//! Recording on a thread of its own: callers hand over bytes, or the runtime's messages
-//! shared, which that thread serializes; serialization of shared messages, compression and disk
-//! writes never run on the stepping thread.
+//! Recording on a thread of its own: callers serialize and hand over bytes; compression and
+//! disk writes never run on the stepping thread.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, SyncSender};
@@ -17,35 +16,9 @@ enum Command {
         topic: String,
         log_time: i64,
         publish_time: i64,
-        data: Payload,
+        data: Vec<u8>,
     },
     Finish,
-}
-
-/// A message's bytes, or the runtime's message to serialize on the writing thread: a 10k-point
-/// cloud's serialization was most of what recording added to a tick (`bench replay`).
-enum Payload {
-    Bytes(Vec<u8>),
-    Shared(Arc<Output>),
-}
-
-impl Payload {
-    fn bytes(&self) -> std::borrow::Cow<'_, [u8]> {
-        match self {
-            Payload::Bytes(data) => data.as_slice().into(),
-            Payload::Shared(message) => encode_output(message).into(),
-        }
-    }
-}
-
-fn encode_output(message: &Output) -> Vec<u8> {
-    match message {
-        Output::Cloud(m) => encode(m),
-        Output::Weights(m) => encode(m),
-        Output::State(m) => encode(m),
-        Output::Status(m) => encode(m),
-        Output::Markers(m) => encode(m),
-    }
 }
 
 /// A recording in progress. Cheap to share (`&self` everywhere); [`Recorder::finish`] ends it.
@@ -106,13 +79,7 @@ impl Recorder {
                             log_time,
                             publish_time,
                             data,
-                        } => {
-                            let bytes = data.bytes();
-                            seen_by_writer
-                                .bytes
-                                .fetch_add(bytes.len() as u64, Ordering::Relaxed);
-                            writer.write(&topic, log_time, publish_time, &bytes)
-                        }
+                        } => writer.write(&topic, log_time, publish_time, &data),
                         Command::Finish => break,
                     };
                     if let Err(e) = result {
@@ -173,9 +140,7 @@ impl Recorder {
         publish_time: i64,
         message: &M,
     ) -> Result<(), BagError> {
-        self.queue(topic, log_time, publish_time, || {
-            Payload::Bytes(encode(message))
-        })
+        self.queue(topic, log_time, publish_time, || encode(message))
     }
 
     /// Records an already serialized (CDR) message of a declared topic.
@@ -186,9 +151,7 @@ impl Recorder {
         publish_time: i64,
         data: &[u8],
     ) -> Result<(), BagError> {
-        self.queue(topic, log_time, publish_time, || {
-            Payload::Bytes(data.to_vec())
-        })
+        self.queue(topic, log_time, publish_time, || data.to_vec())
     }
 
     /// Hands a message to the writing thread; `data` is only made for wanted topics.
@@ -197,22 +160,29 @@ impl Recorder {
         topic: &str,
         log_time: i64,
         publish_time: i64,
-        data: impl FnOnce() -> Payload,
+        data: impl FnOnce() -> Vec<u8>,
     ) -> Result<(), BagError> {
         if !self.wants(topic) {
             return Ok(());
         }
+        let data = data();
+        let size = data.len() as u64;
         let sent = self.send(Command::Message {
             topic: topic.into(),
             log_time,
             publish_time,
-            data: data(),
+            data,
         });
         let c = &self.counters;
         match &sent {
-            Ok(()) => c.messages.fetch_add(1, Ordering::Relaxed),
-            Err(_) => c.dropped.fetch_add(1, Ordering::Relaxed),
-        };
+            Ok(()) => {
+                c.messages.fetch_add(1, Ordering::Relaxed);
+                c.bytes.fetch_add(size, Ordering::Relaxed);
+            }
+            Err(_) => {
+                c.dropped.fetch_add(1, Ordering::Relaxed);
+            }
+        }
         sent
     }
 
@@ -251,13 +221,15 @@ impl Recorder {
 /// publish time too. A message the recording refuses is logged, and the runtime goes on.
 impl Sink for Recorder {
     fn send(&self, topic: &str, log_time_ns: i64, message: &Output) {
-        self.send_shared(topic, log_time_ns, &Arc::new(message.clone()));
-    }
-
-    fn send_shared(&self, topic: &str, log_time_ns: i64, message: &Arc<Output>) {
-        let at = log_time_ns;
-        let shared = || Payload::Shared(message.clone());
-        if let Err(e) = self.queue(topic, at, at, shared) {
+        let (t, at) = (topic, log_time_ns);
+        let recorded = match message {
+            Output::Cloud(m) => self.record(t, at, at, m),
+            Output::Weights(m) => self.record(t, at, at, m),
+            Output::State(m) => self.record(t, at, at, m),
+            Output::Status(m) => self.record(t, at, at, m),
+            Output::Markers(m) => self.record(t, at, at, m),
+        };
+        if let Err(e) = recorded {
             log::error!("recording {topic}: {e}");
         }
     }

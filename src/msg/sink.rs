@@ -27,12 +27,6 @@ pub trait Sink: Send + Sync {
     /// must own the message clones it.
     fn send(&self, topic: &str, log_time_ns: i64, message: &Output);
 
-    /// The same message, shared: a sink that keeps it (a recording, encoding on its own
-    /// thread) takes a reference instead of a copy. `send` by default.
-    fn send_shared(&self, topic: &str, log_time_ns: i64, message: &Arc<Output>) {
-        self.send(topic, log_time_ns, message)
-    }
-
     /// A body's deformed points after a step, borrowed from the body: for sinks that hand
     /// arrays over without a message (iceoryx2). Nothing by default.
     fn deformed(&self, _shape_id: u32, _stamp_ns: i64, _handles: usize, _points: &[f32]) {}
@@ -45,9 +39,6 @@ pub trait Sink: Send + Sync {
 impl<S: Sink + ?Sized> Sink for Arc<S> {
     fn send(&self, topic: &str, log_time_ns: i64, message: &Output) {
         (**self).send(topic, log_time_ns, message)
-    }
-    fn send_shared(&self, topic: &str, log_time_ns: i64, message: &Arc<Output>) {
-        (**self).send_shared(topic, log_time_ns, message)
     }
     fn deformed(&self, shape_id: u32, stamp_ns: i64, handles: usize, points: &[f32]) {
         (**self).deformed(shape_id, stamp_ns, handles, points)

@@ -81,12 +81,11 @@ impl Outputs {
         }
     }
 
-    /// Hands one message to every sink, shared (a recording keeps it without a copy).
+    /// Hands one message to every sink.
     fn emit(&self, topic: &str, message: Output) {
         let now = self.clock.now_nanos().unwrap_or(0);
-        let message = Arc::new(message);
         for sink in &self.sinks {
-            sink.send_shared(topic, now, &message);
+            sink.send(topic, now, &message);
         }
     }
 
