@@ -245,25 +245,25 @@ impl Tracker {
         let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
         let aligned = rigidly_aligned(seen, points, &cloud, &gate);
         let model = PointIndex::new(&aligned, 2.0 * self.spacing);
-        let to_model: Vec<(usize, Vector3<f64>, f64)> = points
-            .iter()
-            .filter_map(|y| {
-                let (s, d) = model.closest(y)?;
-                (d <= gate(y)).then_some((visible[s], *y, d))
-            })
-            .collect();
-        let squared: f64 = to_model.iter().map(|p| p.2 * p.2).sum();
-        pairs.to_model = to_model.into_iter().map(|(s, y, _)| (s, y)).collect();
+        let mut squared = 0.0;
+        for y in points {
+            let Some((s, d)) = model.closest(y) else {
+                break;
+            };
+            if d <= gate(y) {
+                pairs.to_model.push((visible[s], *y));
+                squared += d * d;
+            }
+        }
         pairs.explained = pairs.to_model.len();
         pairs.residual_m = (squared / pairs.explained.max(1) as f64).sqrt();
-        pairs.to_cloud = visible
-            .iter()
-            .zip(&aligned)
-            .filter_map(|(s, x)| {
-                let (i, d) = cloud.closest(x)?;
-                (d <= gate(&points[i])).then_some((*s, points[i]))
-            })
-            .collect();
+        for (s, x) in visible.iter().zip(&aligned) {
+            if let Some((i, d)) = cloud.closest(x) {
+                if d <= gate(&points[i]) {
+                    pairs.to_cloud.push((*s, points[i]));
+                }
+            }
+        }
         pairs
     }
 }
