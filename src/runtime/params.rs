@@ -143,7 +143,7 @@ impl Default for SimulationParams {
             support: Support::PinBottom,
             cubature: 256,
             solver: "quasi_newton".into(),
-            friction: 0.5,
+            friction: crate::scene::DEFAULT_FRICTION,
         }
     }
 }

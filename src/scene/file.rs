@@ -278,8 +278,11 @@ fn default_gravity() -> [f64; 3] {
 fn default_damping() -> f64 {
     1.0
 }
+/// The Coulomb friction of a scene that names none, and of the node's contacts by default.
+pub const DEFAULT_FRICTION: f64 = 0.5;
+
 fn default_friction() -> f64 {
-    0.5
+    DEFAULT_FRICTION
 }
 /// The rolling friction of a scene that names none, m.
 pub const DEFAULT_ROLLING_FRICTION: f64 = 1e-3;

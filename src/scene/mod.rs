@@ -12,7 +12,7 @@ mod world;
 use std::path::PathBuf;
 
 pub use file::SceneFile;
-pub(crate) use file::{ObjectKind, DEFAULT_ROLLING_FRICTION};
+pub(crate) use file::{ObjectKind, DEFAULT_FRICTION, DEFAULT_ROLLING_FRICTION};
 pub(crate) use reference::{reference_errors, ObjectError, Recorder};
 pub(crate) use robot::Robot;
 pub(crate) use urdf_geometry::MeshLookup;
