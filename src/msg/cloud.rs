@@ -8,7 +8,7 @@ use super::messages::{Header, PointCloud2, PointField};
 /// PointField datatype FLOAT32.
 pub const FLOAT32: u8 = 7;
 /// PointField datatype FLOAT64.
-pub const FLOAT64: u8 = 8;
+pub(crate) const FLOAT64: u8 = 8;
 
 /// Why a PointCloud2 could not be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -127,7 +127,7 @@ pub fn point_field(name: &str, offset: u32, datatype: u8) -> PointField {
 }
 
 /// Bytes per value of a PointField datatype (INT8 1 ... FLOAT64 8); None for unknown ones.
-pub fn datatype_size(datatype: u8) -> Option<usize> {
+pub(crate) fn datatype_size(datatype: u8) -> Option<usize> {
     match datatype {
         1 | 2 => Some(1),
         3 | 4 => Some(2),
@@ -138,7 +138,7 @@ pub fn datatype_size(datatype: u8) -> Option<usize> {
 }
 
 /// The value of a field of any numeric datatype at the start of `bytes`, as f64.
-pub fn read_scalar(bytes: &[u8], datatype: u8, big: bool) -> f64 {
+pub(crate) fn read_scalar(bytes: &[u8], datatype: u8, big: bool) -> f64 {
     macro_rules! read {
         ($t:ty, $n:expr) => {{
             let raw: [u8; $n] = bytes[..$n].try_into().expect("size checked by the caller");

@@ -7,7 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 /// The ROS 2 type of a Rust field type ("uint32", "float32[]", "std_msgs/Header").
-pub trait RosType {
+pub(crate) trait RosType {
     /// The type as a .msg file writes it.
     fn ros_type() -> String;
 }

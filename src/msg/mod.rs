@@ -13,5 +13,7 @@ mod topic;
 pub use messages::*;
 pub use qos::QosProfile;
 pub use schema::schema_text;
-pub use sink::{Collector, Output, Sink};
+#[cfg(test)]
+pub(crate) use sink::Collector;
+pub(crate) use sink::{Output, Sink};
 pub use topic::TopicInfo;

@@ -2,7 +2,9 @@
 //! of its shell: DDS publishers in the node, an MCAP recorder in a node that records and in a
 //! replay, iceoryx2 for local programs, a collector in tests.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
+#[cfg(test)]
+use std::sync::Mutex;
 
 use super::messages::{MarkerArray, PointCloud2, SkinningWeights, Status, SubspaceState};
 
@@ -50,9 +52,11 @@ impl<S: Sink + ?Sized> Sink for Arc<S> {
 
 /// A sink that keeps every message, for tests and embedding programs that read outputs in
 /// process.
+#[cfg(test)]
 #[derive(Default)]
 pub struct Collector(Mutex<Vec<(String, i64, Output)>>);
 
+#[cfg(test)]
 impl Collector {
     /// The messages so far, (topic, log time, message), in the order they came; the collector
     /// is emptied.
@@ -64,6 +68,7 @@ impl Collector {
     }
 }
 
+#[cfg(test)]
 impl Sink for Collector {
     fn send(&self, topic: &str, log_time_ns: i64, message: &Output) {
         if let Ok(mut v) = self.0.lock() {

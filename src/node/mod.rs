@@ -21,4 +21,4 @@ pub use dds::NodeError;
 pub(crate) use dds::{context, publisher, reliable_qos, subscription};
 pub(crate) use logger::install_logger;
 pub use node::{run, NodeConfig};
-pub use send::{send_recording, SendOptions, SendSummary};
+pub(crate) use send::{send_recording, SendOptions, SendSummary};

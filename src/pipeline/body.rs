@@ -745,7 +745,7 @@ impl SoftBody {
     }
 
     /// Pulls observed material points toward where a sensor saw them over the next steps
-    /// (see [`crate::physics::ReducedSim::observe`]); it wakes the body. [`crate::pipeline::Tracker`]
+    /// (see [`crate::physics::ReducedSim::observe`]); it wakes the body. The node's tracker
     /// makes the term from a camera's frame.
     pub fn observe(&mut self, term: &crate::physics::ObservationTerm) -> Result<()> {
         self.sim.observe(term)?;

@@ -42,7 +42,7 @@ pub struct BodyOptions {
     /// Handles kept, the constant one included: the smoothest of the field's. Default all.
     pub handles: Option<usize>,
     /// How long the network's field is refined toward the skinning eigenmodes before the body
-    /// starts (see [`crate::skinning::refine()`]). Default `DEFAULT_REFINE_MS` ms: the
+    /// starts (toward the skinning eigenmodes). Default `DEFAULT_REFINE_MS` ms: the
     /// refined field is as accurate as the eigenmodes, the network's alone is not.
     pub refine: RefineBudget,
     /// When the body may sleep. Default never.

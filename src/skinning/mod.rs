@@ -8,11 +8,12 @@ mod truncated;
 
 pub(crate) use eigenmodes::linear_gradients;
 pub use eigenmodes::{EigenmodeField, EigenmodeOptions};
-pub use metrics::FieldMetrics;
+pub(crate) use metrics::FieldMetrics;
 pub(crate) use neural::{inverse_sqrt, load_tensors, save_tensors, CONFIG_KEY};
 pub(crate) use neural::{ColumnNormalization, Network, NetworkConfig};
 pub use neural::{NeuralField, NeuralModel};
-pub use refine::{refine, RefineBudget, RefineOptions, RefineReport};
+pub use refine::{RefineBudget, RefineOptions};
+pub(crate) use refine::RefineReport;
 pub(crate) use refine::{refine_field, refine_field_until, Refined, DEFAULT_REFINE_MS};
 pub use truncated::TruncatedField;
 

@@ -273,7 +273,8 @@ pub fn refine_field_until(
 /// any scale, the constant is removed) toward the k lowest skinning eigenmodes of `mesh`, the
 /// modes [`EigenmodeField::compute`] finds with `modes: k`. The field answers in the frame of
 /// `normalization`. Fails when `start` does not fit the mesh or a factorization fails.
-pub fn refine(
+#[cfg(test)]
+pub(crate) fn refine(
     mesh: TetMesh,
     normalization: Normalization,
     start: &DMatrix<f64>,
