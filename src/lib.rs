@@ -136,4 +136,12 @@ pub mod skinning;
 mod training;
 
 pub use error::{Error, Result};
+
+/// What the fuzz targets reach beyond the public API: the decoders the node runs on its inputs
+/// before it builds anything. Only in `cargo fuzz` builds, which set `--cfg fuzzing`.
+#[cfg(fuzzing)]
+pub mod fuzzing {
+    pub use crate::geometry::{parse_obj, parse_ply, parse_stl};
+    pub use crate::runtime::{BuildRequest, TfBuffer};
+}
 pub use pipeline::{BodyOptions, SoftBody, Support};

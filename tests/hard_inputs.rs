@@ -14,7 +14,7 @@ use physskin::msg::{
     QosProfile, RosMessage, Status, Time, TopicInfo, Vector3 as RosVector,
 };
 use physskin::replay::{replay, ReplayOptions};
-use physskin::runtime::{BuildRequest, NodeParams};
+use physskin::runtime::NodeParams;
 use physskin::skinning::NeuralModel;
 
 const POINTS: &str = "/physskin/points";
@@ -451,10 +451,7 @@ fn every_bad_input_gets_its_own_clear_status_and_the_good_object_runs_on() {
     let cases = corpus();
     corpus_bag(&dir.join("in.mcap"), &cases);
     let model = NeuralModel::bundled().unwrap();
-    let params = NodeParams {
-        max_points: 4000,
-        ..NodeParams::default()
-    };
+    let params = common::params(&[("max_points", serde_json::json!(4000))]);
     let options = ReplayOptions {
         params,
         record: Some(RecordOptions {
@@ -539,8 +536,15 @@ fn ten_million_points_are_refused_before_any_work_under_the_cap() {
     c.width = count as u32;
     c.row_step = 12 * c.width;
     c.data = vec![0u8; 12 * count];
-    let refused = BuildRequest::from_cloud(&c, NodeParams::default().max_points, "instance")
-        .expect_err("refused");
+    // The node's cap, read by its ROS name; the node decodes every cloud with it first.
+    let cap = NodeParams::default()
+        .flattened()
+        .into_iter()
+        .find_map(|(name, value)| (name == "max_points").then(|| value.as_u64()).flatten())
+        .expect("max_points") as usize;
+    let refused = physskin::msg::cloud::decode_cloud(&c, cap)
+        .expect_err("refused")
+        .to_string();
     assert!(
         refused.contains("10000000 points, more than max_points = 1000000"),
         "{refused}"

@@ -12,6 +12,7 @@ use physskin::geometry::{sdf_mesh, Camera};
 use physskin::msg::camera_cloud::{camera_cloud, SeenObject};
 use physskin::msg::{from_cdr, Header, PointCloud2, SubspaceState, Time};
 use physskin::runtime::NodeParams;
+use serde_json::json;
 
 mod common;
 
@@ -50,10 +51,7 @@ fn a_labelled_scan_splits_into_objects_that_keep_ids_colours_and_layout() {
     let mut clouds: Vec<(f64, PointCloud2)> =
         (1..=3).map(|i| (0.1 * i as f64, full.clone())).collect();
     clouds.extend((4..=16).map(|i| (0.1 * i as f64, without_box.clone())));
-    let params = NodeParams {
-        object_timeout_s: 0.5,
-        ..NodeParams::default()
-    };
+    let params = common::params(&[("object_timeout_s", json!(0.5))]);
     let out = replay_clouds("labelled", &clouds, params);
 
     let ready = common::statuses(&out, "shape_ready");
@@ -158,12 +156,11 @@ fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
     // No instance field by this name: the whole cloud is one object. It is read from a
     // downsampled copy of 300 points, every point still deformed, and its deformed clouds go
     // out at 15 Hz while it steps at 60.
-    let mut params = NodeParams {
-        instance_field: "segment_id".into(),
-        ..NodeParams::default()
-    };
-    params.inference.max_build_points = 300;
-    params.publish.rate_hz = 15.0;
+    let params = common::params(&[
+        ("instance_field", json!("segment_id")),
+        ("inference.max_build_points", json!(300)),
+        ("publish.rate_hz", json!(15.0)),
+    ]);
     let seen = pixels - misses;
     assert!(seen > 350, "{seen} points: more than the build reads");
     let out = replay_clouds("organized", &[(0.1, cloud.clone())], params);
@@ -207,7 +204,6 @@ fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
 fn objects_of_one_cloud_rest_on_each_other() {
     use physskin::geometry::box_grid_mesh;
     use physskin::msg::cloud::{point_field, FLOAT32};
-    use physskin::pipeline::Support;
     let blocks = [(1u16, 0.2, 0.1), (2u16, 0.16, 0.285)];
     let mut data = Vec::new();
     for (instance, side, height) in blocks {
@@ -239,12 +235,11 @@ fn objects_of_one_cloud_rest_on_each_other() {
         data,
         is_dense: true,
     };
-    let mut params = NodeParams {
-        fixed_frame: "world".into(),
-        floor_z: 0.0,
-        ..NodeParams::default()
-    };
-    params.simulation.support = Support::Floor;
+    let params = common::params(&[
+        ("fixed_frame", json!("world")),
+        ("floor_z", json!(0.0)),
+        ("simulation.support", json!("floor")),
+    ]);
     let out = replay_clouds("stacked", &[(0.1, cloud)], params);
     let lowest_of_top = out
         .iter()
@@ -275,8 +270,7 @@ fn two_shards_take_the_objects_of_one_cloud_once_each() {
         (1..=2).map(|i| (0.1 * i as f64, cloud.clone())).collect();
     let mut taken: BTreeMap<i64, u32> = BTreeMap::new();
     for k in 0..2u32 {
-        let mut params = NodeParams::default();
-        params.instances.shard = format!("{k}/2");
+        let params = common::params(&[("instances.shard", json!(format!("{k}/2")))]);
         let out = replay_clouds(&format!("shard-{k}"), &clouds, params);
         let ready = common::statuses(&out, "shape_ready");
         assert_eq!(ready.len(), 4, "four objects each: {ready:?}");

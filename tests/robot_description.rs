@@ -11,6 +11,7 @@ use physskin::msg::{
 };
 use physskin::replay::{replay, ReplayOptions};
 use physskin::runtime::NodeParams;
+use serde_json::json;
 
 const POINTS: &str = "/physskin/points";
 const DESCRIPTION: &str = "/robot_description";
@@ -143,11 +144,18 @@ fn replay_grasp_with(
 
 /// The block on the floor of `world`, every contact with friction 0.5 (a grip holds by it).
 fn on_the_floor() -> NodeParams {
-    let mut p = NodeParams::default();
-    p.fixed_frame = "world".into();
-    p.simulation.support = physskin::Support::Floor;
-    p.simulation.friction = 0.5;
-    p
+    on_the_floor_with(&[])
+}
+
+/// [`on_the_floor`] with more parameters set by name.
+fn on_the_floor_with(more: &[(&str, serde_json::Value)]) -> NodeParams {
+    let mut settings = vec![
+        ("fixed_frame", json!("world")),
+        ("simulation.support", json!("floor")),
+        ("simulation.friction", json!(0.5)),
+    ];
+    settings.extend(more.iter().cloned());
+    common::params(&settings)
 }
 
 /// (log time s, centroid) of every deformed cloud.
@@ -325,8 +333,7 @@ fn the_described_robot_lifts_a_scene_object_too() {
          \x20   handles: 9\n    cubature: 256\n",
     )
     .unwrap();
-    let mut params = on_the_floor();
-    params.scene = scene.display().to_string();
+    let params = on_the_floor_with(&[("scene", json!(scene.display().to_string()))]);
     // No cloud: the scene's block is the only object.
     let messages = replay_grasp_with("scene", &gripper_urdf(), 2.6, params, Vec::new(), false);
     let c = centroids(&messages);

@@ -148,8 +148,7 @@ fn a_stream_is_one_object_tracked_paused_relocked_and_replaced() {
 #[test]
 fn without_tracking_every_frame_rebuilds_the_object() {
     let clouds: Vec<_> = stream().into_iter().take(8).collect();
-    let mut params = NodeParams::default();
-    params.tracking.enabled = false;
+    let params = common::params(&[("tracking.enabled", serde_json::json!(false))]);
     let (summary, out) = replay_stream("rebuild", &clouds, params);
     // The first frame builds; each later one differs (noise) and rebuilds the object in place.
     assert_eq!(summary.observations, 0);

@@ -4,10 +4,10 @@
 
 use libfuzzer_sys::fuzz_target;
 use physskin::bag::read_recording;
+use physskin::fuzzing::{BuildRequest, TfBuffer};
 use physskin::msg::{
     from_cdr, Interaction, JointState, Mesh, PointCloud2, TFMessage,
 };
-use physskin::runtime::{BuildRequest, TfBuffer};
 
 fuzz_target!(|bytes: &[u8]| {
     let Ok(recording) = read_recording(bytes, "fuzz") else {

@@ -3,9 +3,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use physskin::geometry::{parse_obj, parse_ply, parse_stl, Shape};
+use physskin::fuzzing::{parse_obj, parse_ply, parse_stl, BuildRequest};
+use physskin::geometry::Shape;
 use physskin::msg::{from_cdr, Mesh, MeshStamped};
-use physskin::runtime::BuildRequest;
 
 fn shape_of(mesh: &Mesh) {
     if let Ok(request) = BuildRequest::from_mesh(mesh, "fuzz", 0, 100_000) {

@@ -4,8 +4,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use physskin::fuzzing::BuildRequest;
 use physskin::msg::{from_cdr, PointCloud2, PointField};
-use physskin::runtime::BuildRequest;
 
 const CAP: usize = 100_000;
 

@@ -23,7 +23,8 @@ pub use cubature::Cubature;
 pub(crate) use downsample::{view_downsample, voxel_downsample};
 pub use mesh_io::{load_geometry, write_obj, LoadError, RawGeometry};
 pub(crate) use mesh_io::write_ply;
-pub use mesh_io::{parse_obj, parse_ply, parse_stl};
+#[cfg(fuzzing)]
+pub(crate) use mesh_io::{parse_obj, parse_ply, parse_stl};
 pub(crate) use point_index::{least_spread_direction, PointIndex};
 pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
 pub(crate) use reference_mesh::{bottom_vertices, pinned_slab_top};

@@ -17,5 +17,4 @@ pub(crate) use seen::{build_seen, SeenBody, DEFAULT_MAX_BUILD_POINTS};
 pub(crate) use switch::{BasisPlan, PreparedBasis};
 pub(crate) use touch::contact_hulls;
 pub(crate) use track::strided;
-pub use track::TrackingOptions;
-pub(crate) use track::{FrameFit, Tracker};
+pub(crate) use track::{FrameFit, Tracker, TrackingOptions};

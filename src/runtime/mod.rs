@@ -25,18 +25,18 @@ pub(crate) mod tf;
 pub(crate) mod tracking;
 pub(crate) mod tracking_params;
 
-pub use builder::BuildRequest;
-pub(crate) use builder::{BuildOutcome, Builder, REPLAY_REFINE_ITERATIONS};
+pub(crate) use builder::{BuildOutcome, BuildRequest, Builder, REPLAY_REFINE_ITERATIONS};
 pub(crate) use clock::NodeClock;
 pub(crate) use diagnostics::Health;
 pub(crate) use inputs::{Input, InputKind, InputTopics};
 pub(crate) use names::{NameError, NameResolver};
 pub(crate) use outputs::{topic_table, Outputs};
 pub(crate) use param_file::ParamLoader;
-pub use params::{
-    InferenceParams, InstanceParams, MarkerParams, MaterialParams, NodeParams, PublishParams,
-    RecordParams, ShmParams, SimulationParams, TfParams, Topics,
+pub use params::NodeParams;
+pub(crate) use params::{
+    InferenceParams, InstanceParams, MarkerParams, MaterialParams, PublishParams, RecordParams,
+    ShmParams, SimulationParams, TfParams, Topics,
 };
 pub(crate) use stage::{Stage, StageOptions};
-pub use tf::{TfBuffer, TfError};
-pub use tracking_params::TrackingParams;
+pub(crate) use tf::TfBuffer;
+pub(crate) use tracking_params::TrackingParams;

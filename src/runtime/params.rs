@@ -10,7 +10,7 @@ use serde_json::{Map, Value};
 
 use super::names::{NameError, NameResolver};
 use super::shard::Shard;
-pub use super::tracking_params::TrackingParams;
+pub(crate) use super::tracking_params::TrackingParams;
 use crate::physics::{SimParams, Solver};
 use crate::pipeline::{BodyOptions, Support};
 use crate::skinning::RefineBudget;
@@ -374,55 +374,55 @@ pub struct InstanceParams {
 #[serde(default, deny_unknown_fields)]
 pub struct NodeParams {
     /// Steps per second (of sim time when use_sim_time). Read-only after start. Default 60.
-    pub rate_hz: f64,
+    pub(crate) rate_hz: f64,
     /// Take time from /clock. Read-only after start. Default false.
-    pub use_sim_time: bool,
+    pub(crate) use_sim_time: bool,
     /// Largest cloud or mesh accepted, points. Default 1,000,000.
-    pub max_points: usize,
+    pub(crate) max_points: usize,
     /// Frame of shape_msgs/Mesh inputs, which carry none. Default "world".
-    pub mesh_frame: String,
+    pub(crate) mesh_frame: String,
     /// With a frame here, inputs are transformed into it (tf2, at their stamp) and simulated
     /// there: gravity, the floor and the outputs are in this frame. Default "": each object
     /// lives in its input's own frame.
-    pub fixed_frame: String,
+    pub(crate) fixed_frame: String,
     /// Height of the floor (support: floor) in the fixed frame, m. Without a fixed frame the
     /// floor is the object's lowest point. Default 0.
-    pub floor_z: f64,
+    pub(crate) floor_z: f64,
     /// An object whose frame (or label) sends no geometry for this long is removed, s; 0: never.
     /// Default 0.
-    pub object_timeout_s: f64,
+    pub(crate) object_timeout_s: f64,
     /// The field of a cloud that splits it into objects by instance id (0: background). With
     /// the default, "instance", also `label`, `segment` or `object_id`. Default "instance".
-    pub instance_field: String,
+    pub(crate) instance_field: String,
     /// The tf2 buffer and wait.
-    pub tf: TfParams,
+    pub(crate) tf: TfParams,
     /// RViz markers of the deformed surfaces.
-    pub markers: MarkerParams,
+    pub(crate) markers: MarkerParams,
     /// Topic names.
-    pub topics: Topics,
+    pub(crate) topics: Topics,
     /// Material of new shapes.
-    pub material: MaterialParams,
+    pub(crate) material: MaterialParams,
     /// Simulation of new shapes.
-    pub simulation: SimulationParams,
+    pub(crate) simulation: SimulationParams,
     /// Inference of new shapes.
-    pub inference: InferenceParams,
+    pub(crate) inference: InferenceParams,
     /// Which outputs are published.
-    pub publish: PublishParams,
+    pub(crate) publish: PublishParams,
     /// MCAP recording.
-    pub record: RecordParams,
+    pub(crate) record: RecordParams,
     /// The iceoryx2 hand-off.
-    pub shm: ShmParams,
+    pub(crate) shm: ShmParams,
     /// Streams of clouds: later frames of a running object correct it.
-    pub tracking: TrackingParams,
+    pub(crate) tracking: TrackingParams,
     /// Objects split among instances.
-    pub instances: InstanceParams,
+    pub(crate) instances: InstanceParams,
     /// The robot from `robot_description`.
-    pub robot: RobotParams,
+    pub(crate) robot: RobotParams,
     /// The Foxglove live view.
-    pub foxglove: FoxgloveParams,
+    pub(crate) foxglove: FoxgloveParams,
     /// Scene file (config/scenes/*.yaml): its objects are built and simulated, and its robots
     /// follow their joint-state topics. Read-only after start. Default "" (none).
-    pub scene: String,
+    pub(crate) scene: String,
 }
 
 impl Default for NodeParams {
@@ -499,7 +499,7 @@ impl NodeParams {
 
     /// [`NodeParams::with`] while the node runs (`ros2 param set`, a Foxglove client): the
     /// parameters that only take effect at start are refused.
-    pub fn with_while_running(&self, name: &str, value: Value) -> Result<Self, ParamError> {
+    pub(crate) fn with_while_running(&self, name: &str, value: Value) -> Result<Self, ParamError> {
         if READ_ONLY
             .iter()
             .any(|r| name == *r || (r.ends_with('.') && name.starts_with(r)))
@@ -636,7 +636,7 @@ impl NodeParams {
     }
 
     /// The solver named by `simulation.solver`; an `Error::InvalidParameter` for another name.
-    pub fn solver(&self) -> crate::Result<Solver> {
+    pub(crate) fn solver(&self) -> crate::Result<Solver> {
         match self.simulation.solver.as_str() {
             "newton" => Ok(Solver::Newton),
             "quasi_newton" => Ok(Solver::QuasiNewton),
@@ -648,7 +648,7 @@ impl NodeParams {
     }
 
     /// The simulation parameters of new shapes.
-    pub fn sim_params(&self) -> SimParams {
+    pub(crate) fn sim_params(&self) -> SimParams {
         SimParams {
             young: self.material.young,
             poisson: self.material.poisson,
@@ -662,12 +662,12 @@ impl NodeParams {
     }
 
     /// How long a new object's field is refined (`inference.refine`, validated).
-    pub fn refine_budget(&self) -> RefineBudget {
+    pub(crate) fn refine_budget(&self) -> RefineBudget {
         self.inference.refine.parse().unwrap_or(RefineBudget::Off)
     }
 
     /// How new shapes are built and simulated.
-    pub fn body_options(&self) -> crate::Result<BodyOptions> {
+    pub(crate) fn body_options(&self) -> crate::Result<BodyOptions> {
         Ok(BodyOptions {
             surface_points: self.inference.surface_points,
             reference_points: self.inference.reference_points,

@@ -8,6 +8,18 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// The node's parameters with `settings` set by their ROS names, as `ros2 param set` or a
+/// parameter file would; a refused one fails the test with the node's reason.
+#[allow(dead_code)] // only the tests that replay with parameters
+pub fn params(settings: &[(&str, serde_json::Value)]) -> physskin::runtime::NodeParams {
+    let defaults = physskin::runtime::NodeParams::default();
+    settings.iter().fold(defaults, |params, (name, value)| {
+        params
+            .with(name, value.clone())
+            .unwrap_or_else(|e| panic!("{name} = {value}: {e}"))
+    })
+}
+
 /// Every .rs file below `dir`, for the house rules' checks.
 #[allow(dead_code)] // only the house rules read the sources
 pub fn rust_sources(dir: &Path) -> Vec<PathBuf> {
