@@ -141,7 +141,7 @@ pub use error::{Error, Result};
 /// before it builds anything. Only in `cargo fuzz` builds, which set `--cfg fuzzing`.
 #[cfg(fuzzing)]
 pub mod fuzzing {
-    pub use crate::geometry::{parse_obj, parse_ply, parse_stl};
+    pub use crate::geometry::{complete_view, parse_obj, parse_ply, parse_stl};
     pub use crate::runtime::{BuildRequest, TfBuffer};
 }
 pub use pipeline::{BodyOptions, SoftBody, Support};

@@ -582,7 +582,9 @@ fn subspace_field_and_lifting_agree_with_the_field() {
             &mut w,
             None,
         );
-        let phi = physskin::physics::phi_of(&w, &x);
+        // phi = w (x) [x; 1]: each handle's weight times the point's homogeneous coordinates.
+        let homogeneous = [x.x, x.y, x.z, 1.0];
+        let phi = nalgebra::DVector::from_fn(4 * k, |r, _| w[r / 4] * homogeneous[r % 4]);
         let expected = x + &z * phi;
         let got = Vector3::new(
             out[3 * v] as f64,
@@ -599,7 +601,7 @@ fn subspace_field_and_lifting_agree_with_the_field() {
 #[test]
 fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
     use nalgebra::DVector;
-    use physskin::physics::{Material, Matrix9};
+    use physskin::physics::Material;
     let f = bar();
     let k = f.subspace.handles();
     // A large, non-symmetric deformation, so every term of J_F matters.
@@ -611,7 +613,7 @@ fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
     ] {
         let material = Material::from_young_poisson(model, 1e5, 0.45);
         let (_, gradient) = f.subspace.elastic_forces(&z, &material);
-        let hessians: Vec<Matrix9> = f
+        let hessians: Vec<_> = f
             .subspace
             .deformation_gradients(&z)
             .iter()

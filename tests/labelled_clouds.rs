@@ -200,15 +200,31 @@ fn an_organized_cloud_keeps_its_shape_with_nan_pixels_in_place() {
 /// Two objects of one labelled cloud touch each other in the node as in a scene: a 0.16 m
 /// block 5 mm above a 0.2 m one, both on the floor of the fixed frame, comes to rest on the
 /// bottom one. Stepped apart, it would fall through it to the floor.
+/// The lattice points on the surface of a cube of `side` centered at the origin, about
+/// `spacing` apart: what a scanner sees of a block from every side.
+fn cube_surface(side: f64, spacing: f64) -> Vec<Vector3<f64>> {
+    let n = (side / spacing).round() as i32;
+    let at = |i: i32| side * (i as f64 / n as f64 - 0.5);
+    let mut points = Vec::new();
+    for i in 0..=n {
+        for j in 0..=n {
+            for k in 0..=n {
+                if [i, j, k].iter().any(|&c| c == 0 || c == n) {
+                    points.push(Vector3::new(at(i), at(j), at(k)));
+                }
+            }
+        }
+    }
+    points
+}
+
 #[test]
 fn objects_of_one_cloud_rest_on_each_other() {
-    use physskin::geometry::box_grid_mesh;
-    use physskin::msg::cloud::{point_field, FLOAT32};
+    use physskin::msg::PointField;
     let blocks = [(1u16, 0.2, 0.1), (2u16, 0.16, 0.285)];
     let mut data = Vec::new();
     for (instance, side, height) in blocks {
-        let mesh = box_grid_mesh(Vector3::repeat(side), 0.01);
-        for p in &mesh.positions {
+        for p in &cube_surface(side, 0.01) {
             for c in [p.x, p.y, p.z + height] {
                 data.extend_from_slice(&(c as f32).to_le_bytes());
             }
@@ -223,12 +239,14 @@ fn objects_of_one_cloud_rest_on_each_other() {
         },
         height: 1,
         width: (data.len() / 16) as u32,
-        fields: vec![
-            point_field("x", 0, FLOAT32),
-            point_field("y", 4, FLOAT32),
-            point_field("z", 8, FLOAT32),
-            point_field("instance", 12, 4),
-        ],
+        fields: [("x", 0, 7), ("y", 4, 7), ("z", 8, 7), ("instance", 12, 4)] // FLOAT32, UINT16
+            .map(|(name, offset, datatype)| PointField {
+                name: name.into(),
+                offset,
+                datatype,
+                count: 1,
+            })
+            .to_vec(),
         is_bigendian: false,
         point_step: 16,
         row_step: data.len() as u32,

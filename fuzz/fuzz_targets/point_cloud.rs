@@ -53,7 +53,7 @@ fuzz_target!(|bytes: &[u8]| {
             assert_eq!(out.data.len() as u64, out.row_step as u64 * out.height as u64);
             // Taken as one camera's view from the frame's origin, as the node does.
             let viewpoint = Default::default();
-            let _ = physskin::geometry::complete_view(&request.points, &viewpoint, Some(0.0));
+            let _ = physskin::fuzzing::complete_view(&request.points, &viewpoint, Some(0.0));
             let _ = physskin::geometry::Shape::new(request.points, None, Vec::new());
         }
     }

@@ -16,20 +16,25 @@ mod shape;
 mod tetmesh;
 mod voxel;
 
-pub use completion::{complete_view, Completed, Completion, CompletionError, Prior};
+pub(crate) use completion::complete_view;
+#[cfg(test)]
+pub(crate) use completion::CompletionError;
+pub use completion::{Completed, Completion, Prior};
 pub(crate) use contact_samples::{contact_samples, ContactSamples};
 pub(crate) use cubature::stratified_subset;
 pub use cubature::Cubature;
 pub(crate) use downsample::{view_downsample, voxel_downsample};
-pub use mesh_io::{load_geometry, write_obj, LoadError, RawGeometry};
-pub(crate) use mesh_io::write_ply;
+pub use mesh_io::{load_geometry, LoadError, RawGeometry};
+pub(crate) use mesh_io::{write_obj, write_ply};
 #[cfg(fuzzing)]
 pub(crate) use mesh_io::{parse_obj, parse_ply, parse_stl};
 pub(crate) use point_index::{least_spread_direction, PointIndex};
-pub use primitives::{box_grid_mesh, box_mesh, bundled, capsule_mesh, sdf_mesh, BUNDLED};
+pub use primitives::{box_mesh, bundled, sdf_mesh};
+pub(crate) use primitives::{box_grid_mesh, capsule_mesh, BUNDLED};
 pub(crate) use reference_mesh::{bottom_vertices, pinned_slab_top};
-pub use reference_mesh::{reference_mesh, ReferenceMesh};
-pub use sampling::{sample_surface, SurfaceSamples, SurfaceSampling};
+pub(crate) use reference_mesh::{reference_mesh, ReferenceMesh};
+pub use sampling::SurfaceSamples;
+pub(crate) use sampling::{sample_surface, SurfaceSampling};
 pub(crate) use scan::scan_faces;
 pub use scan::{scan_points, Camera};
 pub(crate) use scan::scan;
@@ -38,3 +43,6 @@ pub use shape::{Normalization, Shape};
 pub(crate) use tetmesh::TetLocation;
 pub use tetmesh::TetMesh;
 pub use voxel::VoxelGrid;
+
+#[cfg(test)]
+mod tests;

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use super::messages::{Header, PointCloud2, PointField};
 
 /// PointField datatype FLOAT32.
-pub const FLOAT32: u8 = 7;
+pub(crate) const FLOAT32: u8 = 7;
 /// PointField datatype FLOAT64.
 pub(crate) const FLOAT64: u8 = 8;
 
@@ -117,7 +117,7 @@ impl Coordinate {
 }
 
 /// A one-value PointField: `name` at `offset` with `datatype` (FLOAT32 7, UINT16 4, ...).
-pub fn point_field(name: &str, offset: u32, datatype: u8) -> PointField {
+pub(crate) fn point_field(name: &str, offset: u32, datatype: u8) -> PointField {
     PointField {
         name: name.into(),
         offset,

@@ -17,7 +17,7 @@ mod subspace;
 
 pub use fem::FemSim;
 pub use lift::Lifter;
-pub use material::{Material, MaterialModel, Matrix9};
+pub use material::{Material, MaterialModel};
 pub use obstacle::Obstacle;
 pub(crate) use obstacle::Penetration;
 pub(crate) use reduced::{state_projection, SimSetup};
@@ -25,4 +25,4 @@ pub use reduced::{ObservationTerm, ReducedSim, Solver, StepReport};
 pub use scene::Poke;
 pub use scene::SimParams;
 pub(crate) use subspace::sample;
-pub use subspace::{phi_of, Subspace};
+pub use subspace::Subspace;

@@ -11,10 +11,13 @@ mod touch;
 mod track;
 
 pub use body::{BuildTimings, SoftBody};
-pub use input::network_input;
+pub(crate) use input::network_input;
 pub use options::{BodyOptions, SleepRule, Support};
 pub(crate) use seen::{build_seen, SeenBody, DEFAULT_MAX_BUILD_POINTS};
 pub(crate) use switch::{BasisPlan, PreparedBasis};
 pub(crate) use touch::contact_hulls;
 pub(crate) use track::strided;
 pub(crate) use track::{FrameFit, Tracker, TrackingOptions};
+
+#[cfg(test)]
+mod tests;

@@ -4,9 +4,9 @@
 //! UPDATE_GOLDEN=1 after retraining).
 
 use nalgebra::Vector3;
-use physskin::geometry::{box_mesh, VoxelGrid};
-use physskin::pipeline::network_input;
-use physskin::skinning::{NeuralField, NeuralModel, SkinningField};
+use crate::geometry::{box_mesh, VoxelGrid};
+use crate::pipeline::network_input;
+use crate::skinning::{NeuralField, NeuralModel, SkinningField};
 
 fn box_field() -> NeuralField {
     let shape = box_mesh(Vector3::new(0.4, 0.3, 0.2));

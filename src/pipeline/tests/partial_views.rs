@@ -2,12 +2,12 @@
 //! of the bundled shapes, completed from the viewpoint, against the volume of the whole object.
 
 use nalgebra::Vector3;
-use physskin::geometry::{
+use crate::geometry::{
     bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, Completion,
     CompletionError, Shape,
 };
-use physskin::pipeline::{BodyOptions, SoftBody, Support};
-use physskin::skinning::NeuralModel;
+use crate::pipeline::{BodyOptions, SoftBody, Support};
+use crate::skinning::NeuralModel;
 
 /// The volume enclosed by a closed, outward-wound mesh (divergence theorem).
 fn mesh_volume(shape: &Shape) -> f64 {

@@ -1,7 +1,7 @@
 //! Geometry in: loaders, normalization, the voxel inside test, sampling, cubature, tet meshes.
 
 use nalgebra::Vector3;
-use physskin::geometry::{
+use crate::geometry::{
     box_mesh, bundled, load_geometry, reference_mesh, sample_surface, sdf_mesh, write_obj,
     Cubature, RawGeometry, Shape, SurfaceSampling, TetMesh, VoxelGrid,
 };
@@ -274,7 +274,7 @@ fn shapes_with_bad_data_are_refused_with_a_reason() {
 
 #[test]
 fn bundled_shapes_are_closed_and_their_voxel_volume_matches() {
-    for name in physskin::geometry::BUNDLED {
+    for name in crate::geometry::BUNDLED {
         let shape = bundled(name).unwrap();
         let exact = shape
             .closed_volume()
