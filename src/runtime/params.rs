@@ -369,7 +369,10 @@ pub struct InstanceParams {
     pub shard: String,
 }
 
-/// Every node parameter. Names in ROS are the dotted paths (`material.young`).
+/// Every node parameter, each named by its dotted ROS path (`material.young`): set one with
+/// [`NodeParams::with`], a file's with [`NodeParams::from_yaml_file`], read them all with
+/// [`NodeParams::flattened`]; config/physskin.yaml lists them with their defaults. The groups
+/// are not public fields: a parameter is what `ros2 param` sees, checked on the way in.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NodeParams {
