@@ -30,8 +30,8 @@
 #   fem                bench fem                              (the FEM reference's convergence, 35 minutes)
 #   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
 #   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
-# `readme` stands for every file README.md quotes, the slow creature last: one run of
-# `benches/report.sh readme` (about an hour) puts the README's figures at one commit.
+# `readme` stands for every file README.md quotes, the full `bench sim` last: one run of
+# `benches/report.sh readme` (about 95 minutes) puts the README's figures at one commit.
 # Usage: benches/report.sh [NAME...]   (default: all but the three sim runs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -40,7 +40,7 @@ bin=target/release/physskin
 names=("$@")
 [ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay replay-stream replay-minute transport scene eval basis peer track stream-cpu)
 if [ "${names[*]}" = readme ]; then
-    names=(demo contact views real latency scene peer eval track stream-cpu sim-targets sim-creature)
+    names=(demo contact views real latency scene peer eval track stream-cpu sim)
 fi
 for name in "${names[@]}"; do
     started=$(date +%s)
