@@ -136,6 +136,7 @@ pub mod skinning;
 mod training;
 
 pub use error::{Error, Result};
+pub use pipeline::{BodyOptions, SoftBody, Support};
 
 /// What the fuzz targets reach beyond the public API: the decoders the node runs on its inputs
 /// before it builds anything. Only in `cargo fuzz` builds, which set `--cfg fuzzing`.
@@ -144,4 +145,3 @@ pub mod fuzzing {
     pub use crate::geometry::{complete_view, parse_obj, parse_ply, parse_stl};
     pub use crate::runtime::{BuildRequest, TfBuffer};
 }
-pub use pipeline::{BodyOptions, SoftBody, Support};

@@ -50,8 +50,7 @@ impl<S: Sink + ?Sized> Sink for Arc<S> {
     }
 }
 
-/// A sink that keeps every message, for tests and embedding programs that read outputs in
-/// process.
+/// A sink that keeps every message, for the runtime's tests.
 #[cfg(test)]
 #[derive(Default)]
 pub struct Collector(Mutex<Vec<(String, i64, Output)>>);
