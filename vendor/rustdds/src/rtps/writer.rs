@@ -1541,12 +1541,15 @@ impl Writer {
     let first_keeper = if !self.like_stateless {
       // Regular stateful writer behavior
       // All readers have acked up to this point (SequenceNumber)
+      // With no reader matched, every sample is acknowledged by all of them: a durable
+      // (TRANSIENT_LOCAL) writer then keeps its History depth for late joiners, not
+      // everything up to the resource-limit backstop.
       let acked_by_all_readers = self
         .readers
         .values()
         .map(RtpsReaderProxy::acked_up_to_before)
         .min()
-        .unwrap_or_else(SequenceNumber::zero);
+        .unwrap_or_else(|| self.send_buffer.last_change_sequence_number() + SequenceNumber::from(1_i64));
       // If all readers have acked all up to before 5, and depth is 5, we need
       // to keep samples 0..4, i.e. from acked_up_to_before - depth .
       let depth_keeper = if let Some(depth) = depth {
