@@ -144,7 +144,7 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
     let (config, topics) = node_config(options);
     let node = {
         let stop = stop.clone();
-        std::thread::spawn(move || crate::node::run(config, model, stop))
+        std::thread::spawn(move || crate::node::run_counted(config, model, stop))
     };
     let client = match connect(options.domain_id, &topics) {
         Ok(c) => c,

@@ -113,10 +113,7 @@ pub fn run(args: NodeArgs, ros: RosArgs) -> crate::Result<()> {
     // Ctrl-C and SIGTERM stop the node cleanly, so DDS tells its peers it is leaving.
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .map_err(|e| NodeError::Signal(e.to_string()))?;
-    let stats = crate::node::run(config, model, stop)?;
-    eprintln!(
-        "physskin node stopped: {} ticks, {} missed",
-        stats.ticks, stats.missed
-    );
+    // The node's own `node_stopped` line counts its ticks.
+    crate::node::run(config, model, stop)?;
     Ok(())
 }

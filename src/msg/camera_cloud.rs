@@ -84,15 +84,3 @@ pub fn camera_cloud(
         is_dense: false,
     })
 }
-
-/// One mesh holding all of `shapes` (to aim a camera at them together).
-pub fn merged(shapes: &[&Shape]) -> crate::Result<Shape> {
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for shape in shapes {
-        let base = positions.len() as u32;
-        positions.extend_from_slice(&shape.positions);
-        triangles.extend(shape.triangles.iter().map(|t| t.map(|i| i + base)));
-    }
-    Shape::new(positions, None, triangles)
-}

@@ -619,7 +619,7 @@ pub fn to_cdr<M: Serialize>(message: &M) -> Vec<u8> {
 }
 
 /// `to_cdr`, with a fast path for PointCloud2, whose data serde would write byte by byte.
-pub fn encode<M: RosMessage>(message: &M) -> Vec<u8> {
+pub(crate) fn encode<M: RosMessage>(message: &M) -> Vec<u8> {
     match (message as &dyn std::any::Any).downcast_ref::<PointCloud2>() {
         Some(cloud) => cloud_to_cdr(cloud),
         None => to_cdr(message),

@@ -14,11 +14,11 @@ mod send;
 mod services;
 mod shared;
 
-pub use crate::runtime::stepper::StepperStats;
 pub use args::LogLevel;
 pub(crate) use args::{split_ros_args, RosArgs, RosArgsError};
 pub use dds::NodeError;
 pub(crate) use dds::{context, publisher, reliable_qos, subscription};
 pub(crate) use logger::install_logger;
+pub(crate) use node::run_counted;
 pub use node::{run, NodeConfig};
-pub(crate) use send::{send_recording, SendOptions, SendSummary};
+pub(crate) use send::{send_recording, SendOptions};

@@ -74,8 +74,18 @@ impl NodeConfig {
     }
 }
 
-/// Runs the node until `stop` is set; returns the stepper's counters.
+/// Runs the node until `stop` is set. Its last status, `node_stopped`, counts the ticks it
+/// stepped and missed.
 pub fn run(
+    config: NodeConfig,
+    model: Arc<NeuralModel>,
+    stop: Arc<AtomicBool>,
+) -> Result<(), NodeError> {
+    run_counted(config, model, stop).map(|_| ())
+}
+
+/// [`run`], returning the stepper's counters (for `bench soak`).
+pub(crate) fn run_counted(
     config: NodeConfig,
     model: Arc<NeuralModel>,
     stop: Arc<AtomicBool>,

@@ -89,7 +89,7 @@ impl SoftBody {
         Self::build_filled(model, shape, None, points, options)
     }
 
-    /// Builds the body of a completed view (see [`crate::geometry::complete_view`]): the
+    /// Builds the body of a view completed to a solid ([`Completed`]): the
     /// network reads its closed surface, the inside test its fill; `points` (usually the
     /// observed ones) are deformed.
     pub fn build_view(

@@ -33,10 +33,6 @@ pub(crate) use names::{NameError, NameResolver};
 pub(crate) use outputs::{topic_table, Outputs};
 pub(crate) use param_file::ParamLoader;
 pub use params::NodeParams;
-pub(crate) use params::{
-    InferenceParams, InstanceParams, MarkerParams, MaterialParams, PublishParams, RecordParams,
-    ShmParams, SimulationParams, TfParams, Topics,
-};
+pub(crate) use params::Topics;
 pub(crate) use stage::{Stage, StageOptions};
 pub(crate) use tf::TfBuffer;
-pub(crate) use tracking_params::TrackingParams;

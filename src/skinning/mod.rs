@@ -13,9 +13,9 @@ pub(crate) use neural::{inverse_sqrt, load_tensors, save_tensors, CONFIG_KEY};
 pub(crate) use neural::{ColumnNormalization, Network, NetworkConfig};
 pub use neural::{NeuralField, NeuralModel};
 pub use refine::RefineBudget;
-pub(crate) use refine::{RefineOptions, RefineReport};
 pub(crate) use refine::{refine_field, refine_field_until, Refined, DEFAULT_REFINE_MS};
-pub use truncated::TruncatedField;
+pub(crate) use refine::{RefineOptions, RefineReport};
+pub(crate) use truncated::TruncatedField;
 
 use nalgebra::Vector3;
 

@@ -39,7 +39,7 @@ pub enum RefineBudget {
     Millis(u32),
     /// At most this many iterations.
     Iterations(u32),
-    /// Until the Ritz values settle ([`RefineOptions::tolerance`]).
+    /// Until the Ritz values settle (the refinement's tolerance).
     Full,
 }
 

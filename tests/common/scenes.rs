@@ -2,10 +2,22 @@
 
 use nalgebra::Vector3;
 use physskin::geometry::{box_mesh, sdf_mesh, Camera, Shape};
-use physskin::msg::camera_cloud::{camera_cloud, merged, SeenObject};
+use physskin::msg::camera_cloud::{camera_cloud, SeenObject};
 use physskin::msg::{Header, PointCloud2, Time};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
+
+/// One mesh holding all of `shapes`, to aim a camera at them together.
+fn merged(shapes: &[&Shape]) -> physskin::Result<Shape> {
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for shape in shapes {
+        let base = positions.len() as u32;
+        positions.extend_from_slice(&shape.positions);
+        triangles.extend(shape.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    Shape::new(positions, None, triangles)
+}
 
 /// The optical frame the table scene's clouds are in.
 pub const OPTICAL_FRAME: &str = "camera_color_optical_frame";
