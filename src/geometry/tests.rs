@@ -1,10 +1,10 @@
 //! Geometry in: loaders, normalization, the voxel inside test, sampling, cubature, tet meshes.
 
-use nalgebra::Vector3;
 use crate::geometry::{
     box_mesh, bundled, load_geometry, reference_mesh, sample_surface, sdf_mesh, write_obj,
     Cubature, RawGeometry, Shape, SurfaceSampling, TetMesh, VoxelGrid,
 };
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 

@@ -3,10 +3,10 @@
 //! outputs recorded when it was committed (tests/data/model_golden.json; regenerate with
 //! UPDATE_GOLDEN=1 after retraining).
 
-use nalgebra::Vector3;
 use crate::geometry::{box_mesh, VoxelGrid};
 use crate::pipeline::network_input;
 use crate::skinning::{NeuralField, NeuralModel, SkinningField};
+use nalgebra::Vector3;
 
 fn box_field() -> NeuralField {
     let shape = box_mesh(Vector3::new(0.4, 0.3, 0.2));

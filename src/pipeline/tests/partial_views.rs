@@ -1,13 +1,13 @@
 //! One camera's view of an object becomes the right solid: caps of a sphere and z-buffer scans
 //! of the bundled shapes, completed from the viewpoint, against the volume of the whole object.
 
-use nalgebra::Vector3;
 use crate::geometry::{
     bundled, capsule_mesh, complete_view, scan_points, sdf_mesh, Camera, Completion,
     CompletionError, Shape,
 };
 use crate::pipeline::{BodyOptions, SoftBody, Support};
 use crate::skinning::NeuralModel;
+use nalgebra::Vector3;
 
 /// The volume enclosed by a closed, outward-wound mesh (divergence theorem).
 fn mesh_volume(shape: &Shape) -> f64 {

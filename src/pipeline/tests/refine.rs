@@ -2,11 +2,11 @@
 //! the skinning eigenmodes while it moves, without a visible jump, and keeps moving; a body
 //! built with refinement on runs on the refined field from its first step.
 
-use nalgebra::Vector3;
 use crate::geometry::bundled;
 use crate::physics::SimParams;
 use crate::skinning::{NeuralModel, RefineBudget, RefineOptions};
 use crate::{BodyOptions, SoftBody, Support};
+use nalgebra::Vector3;
 
 /// The bundled rod (1.2 m along x, 5 cm radius), held at its -x end, free otherwise. At
 /// E = 1e8 Pa it sags about 4 cm and swings at about 3 Hz.
