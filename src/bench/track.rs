@@ -26,7 +26,7 @@ use crate::runtime::NodeParams;
 use crate::skinning::{NeuralModel, RefineBudget};
 
 use super::stats::{median, quantile};
-use super::track_truth::{run_truth, Truth};
+use super::track_truth::{run_truth, SubspaceFit, Truth};
 
 /// Steps per frame: the simulation at 60 Hz, the camera at 30.
 const STEPS_PER_FRAME: usize = 2;
@@ -66,6 +66,9 @@ pub struct TrackRow {
     pub hidden_error_pct: f64,
     /// The seen points' error while the view was blocked (sequences with a blocked view).
     pub blocked_error_pct: Option<f64>,
+    /// Tracked: the seen points' error of the best state the body's subspace has (least squares
+    /// against the truth, step by step), what no correction can go below.
+    pub subspace_fit_pct: Option<f64>,
     /// Symmetric Chamfer distance between the body's whole deformed surface and the FEM's,
     /// mean over the sequence, % of the diagonal.
     pub chamfer_pct: f64,
@@ -394,6 +397,8 @@ struct Tracked {
     hidden: Vec<usize>,
     hidden_lifter: crate::physics::Lifter,
     surface_lifter: crate::physics::Lifter,
+    /// The subspace's best fit to the material points (tracked mode only: it costs).
+    fit: Option<SubspaceFit>,
 }
 
 impl Run<'_> {
@@ -402,6 +407,7 @@ impl Run<'_> {
         let (mut builds, mut cpu) = (0, 0.0);
         let mut tracked: Option<(Tracked, Tracker)> = None;
         let (mut seen, mut hidden, mut chamfer, mut blocked) = (vec![], vec![], vec![], vec![]);
+        let mut fitted = vec![];
         let (mut corrections, mut steps, mut over_time) = (vec![], vec![], vec![]);
         let options = self.options;
         for step in 0..self.truth.positions.len() {
@@ -412,7 +418,7 @@ impl Run<'_> {
                 if rebuild {
                     built_now = true;
                     let started = Instant::now();
-                    let body = self.build(frame, step)?;
+                    let body = self.build(frame, step, mode == "tracked")?;
                     cpu += started.elapsed().as_secs_f64();
                     builds += 1;
                     let tracker = Tracker::new(&body.body, options);
@@ -434,6 +440,14 @@ impl Run<'_> {
                 tracker.stepped(&mut body.body);
             }
             let (s, h, c) = self.errors(body, step);
+            if let Some(fit) = &body.fit {
+                let truth: Vec<_> = body
+                    .material
+                    .iter()
+                    .map(|m| self.truth.at(step, *m))
+                    .collect();
+                fitted.push((fit.error(&truth) / self.truth.diagonal).powi(2));
+            }
             let t = step as f64 * self.params.sim_params().dt;
             if sequence.blocked.is_some_and(|(a, b)| t >= a && t < b) {
                 blocked.push(s * s);
@@ -452,6 +466,7 @@ impl Run<'_> {
             seen_error_pct: rms(&seen),
             hidden_error_pct: rms(&hidden),
             blocked_error_pct: (!blocked.is_empty()).then(|| rms(&blocked)),
+            subspace_fit_pct: (!fitted.is_empty()).then(|| rms(&fitted)),
             chamfer_pct: 100.0 * chamfer.iter().sum::<f64>() / chamfer.len().max(1) as f64,
             correction_ms_median: median(&corrections),
             correction_ms_p99: quantile(&corrections, 0.99),
@@ -465,7 +480,7 @@ impl Run<'_> {
     /// The body of `frame` (taken at `step`), as the node builds a cloud in the fixed frame
     /// with a replay's refinement; the FEM's surface vertices no frame point lies near are its
     /// hidden side.
-    fn build(&self, frame: &Frame, step: usize) -> Result<Tracked> {
+    fn build(&self, frame: &Frame, step: usize, with_fit: bool) -> Result<Tracked> {
         let mut options = self.params.body_options()?;
         options.refine = RefineBudget::Iterations(8);
         let built = build_seen(
@@ -498,7 +513,11 @@ impl Run<'_> {
             .collect();
         let rest: Vec<Vector3<f64>> = hidden.iter().map(|&i| positions[i]).collect();
         let surface = built.body.surface_samples().points.clone();
+        let fit = with_fit
+            .then(|| SubspaceFit::new(&built.body.lifter_for(&frame.points)))
+            .flatten();
         Ok(Tracked {
+            fit,
             hidden_lifter: built.body.lifter_for(&rest),
             surface_lifter: built.body.lifter_for(&surface),
             body: built.body,

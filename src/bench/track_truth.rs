@@ -156,3 +156,44 @@ fn split_long_edges(
     }
     (vertices, triangles)
 }
+
+/// The best any state of a body's subspace does on its material points: the least-squares fit
+/// of the handle matrix to their true places. No tracker can beat it; a sequence whose tracked
+/// error sits near it asks for a richer subspace, not a better correction.
+pub(super) struct SubspaceFit {
+    /// Each point's phi = w (x) [x; 1]: points x 4K.
+    phi: nalgebra::DMatrix<f64>,
+    normal: nalgebra::linalg::Cholesky<f64, nalgebra::Dyn>,
+}
+
+impl SubspaceFit {
+    /// The fit for the rest points of `lifter`; None when its points do not pin every
+    /// handle's affine map down.
+    pub(super) fn new(lifter: &crate::physics::Lifter) -> Option<Self> {
+        let (n, k) = (lifter.len(), lifter.handles());
+        let rest = lifter.rest_points();
+        let phi = nalgebra::DMatrix::from_fn(n, 4 * k, |i, c| {
+            let homogeneous = [rest[i].x, rest[i].y, rest[i].z, 1.0];
+            lifter.weight(i, c / 4) as f64 * homogeneous[c % 4]
+        });
+        let mut normal = phi.transpose() * &phi;
+        // A hair of ridge: a handle that hardly reaches the points leaves the rest unchanged.
+        let ridge = 1e-12 * normal.trace() / normal.nrows() as f64;
+        normal
+            .iter_mut()
+            .step_by(4 * k + 1)
+            .for_each(|d| *d += ridge);
+        Some(Self {
+            normal: normal.cholesky()?,
+            phi,
+        })
+    }
+
+    /// RMS distance of the best fit to `targets` (one per rest point), m.
+    pub(super) fn error(&self, targets: &[Vector3<f64>]) -> f64 {
+        let t = nalgebra::DMatrix::from_fn(targets.len(), 3, |i, d| targets[i][d]);
+        let coefficients = self.normal.solve(&(self.phi.transpose() * &t));
+        let residual = &self.phi * coefficients - t;
+        (residual.norm_squared() / targets.len().max(1) as f64).sqrt()
+    }
+}

@@ -56,11 +56,11 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         super::print_json(&report);
         return Ok(());
     }
-    println!("| sequence | mode | builds | frames | seen error % | hidden error % | blocked error % | Chamfer % | correction ms median | p99 | step ms median | p99 | CPU share |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| sequence | mode | builds | frames | seen error % | hidden error % | blocked error % | subspace's best % | Chamfer % | correction ms median | p99 | step ms median | p99 | CPU share |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &report.rows {
         println!(
-            "| {} | {} | {} | {} | {:.4} | {:.4} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",
+            "| {} | {} | {} | {} | {:.4} | {:.4} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",
             r.sequence,
             r.mode,
             r.builds,
@@ -68,6 +68,7 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
             r.seen_error_pct,
             r.hidden_error_pct,
             r.blocked_error_pct.map_or("-".into(), |e| format!("{e:.4}")),
+            r.subspace_fit_pct.map_or("-".into(), |e| format!("{e:.4}")),
             r.chamfer_pct,
             r.correction_ms_median,
             r.correction_ms_p99,
