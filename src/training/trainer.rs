@@ -86,7 +86,7 @@ pub fn train_from(
     let mut momenta = LossMomenta::new(loss_count);
     let checkpoint = dir.join(CHECKPOINT);
     let start = starting_step(&checkpoint, init, config, &mut adam, &mut momenta)?;
-    eprintln!("{} parameters", adam.parameter_count());
+    log::info!("{} parameters", adam.parameter_count());
     let log = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -159,10 +159,10 @@ fn starting_step(
     let mut start = 0;
     if checkpoint.exists() {
         start = restore(checkpoint, config, adam, momenta)?;
-        eprintln!("resuming from {} at step {start}", checkpoint.display());
+        log::info!("resuming from {} at step {start}", checkpoint.display());
     } else if let Some(init) = init {
         initialize(init, &config.network, adam)?;
-        eprintln!("starting from the weights of {}", init.display());
+        log::info!("starting from the weights of {}", init.display());
     }
     Ok(start)
 }
@@ -183,7 +183,7 @@ fn sample_dataset(config: &TrainingConfig) -> (Vec<ShapeSample>, Vec<ShapeSample
         .enumerate()
         .map(sample)
         .collect();
-    eprintln!(
+    log::info!(
         "{} training shapes, {} held out (first {} evaluated), sampled in {:.1} s",
         train_samples.len(),
         held_shapes.len(),
@@ -353,7 +353,7 @@ impl Run<'_> {
         let message = describe(&line);
         self.bar.set_message(message.clone());
         if !std::io::stderr().is_terminal() {
-            eprintln!("step {step}/{}: {message}", self.config.steps);
+            log::info!("step {step}/{}: {message}", self.config.steps);
         }
         writeln!(
             self.log,
