@@ -16,7 +16,11 @@ mod shape;
 mod tetmesh;
 mod voxel;
 
+#[cfg(not(fuzzing))]
 pub(crate) use completion::complete_view;
+// The fuzz targets reach these through `crate::fuzzing`, built only under `cargo fuzz`.
+#[cfg(fuzzing)]
+pub use completion::complete_view;
 #[cfg(test)]
 pub(crate) use completion::CompletionError;
 pub use completion::{Completed, Completion, Prior};
@@ -26,7 +30,7 @@ pub use cubature::Cubature;
 pub(crate) use downsample::{view_downsample, voxel_downsample};
 pub use mesh_io::{load_geometry, LoadError, RawGeometry};
 #[cfg(fuzzing)]
-pub(crate) use mesh_io::{parse_obj, parse_ply, parse_stl};
+pub use mesh_io::{parse_obj, parse_ply, parse_stl};
 pub(crate) use mesh_io::{write_obj, write_ply};
 pub(crate) use point_index::{least_spread_direction, PointIndex};
 pub(crate) use primitives::{box_grid_mesh, capsule_mesh, BUNDLED};

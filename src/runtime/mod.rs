@@ -25,7 +25,12 @@ pub(crate) mod tf;
 pub(crate) mod tracking;
 pub(crate) mod tracking_params;
 
-pub(crate) use builder::{BuildOutcome, BuildRequest, Builder, REPLAY_REFINE_ITERATIONS};
+#[cfg(not(fuzzing))]
+pub(crate) use builder::BuildRequest;
+// The fuzz targets reach these through `crate::fuzzing`, built only under `cargo fuzz`.
+#[cfg(fuzzing)]
+pub use builder::BuildRequest;
+pub(crate) use builder::{BuildOutcome, Builder, REPLAY_REFINE_ITERATIONS};
 pub(crate) use clock::NodeClock;
 pub(crate) use diagnostics::Health;
 pub(crate) use inputs::{Input, InputKind, InputTopics};
@@ -35,4 +40,7 @@ pub(crate) use param_file::ParamLoader;
 pub use params::NodeParams;
 pub(crate) use params::Topics;
 pub(crate) use stage::{Stage, StageOptions};
+#[cfg(not(fuzzing))]
 pub(crate) use tf::TfBuffer;
+#[cfg(fuzzing)]
+pub use tf::TfBuffer;
