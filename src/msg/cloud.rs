@@ -442,33 +442,4 @@ mod tests {
             Err(CloudError::NoFinitePoints { dropped: 1 })
         );
     }
-
-    #[test]
-    fn the_fast_point_cloud_encoder_writes_what_serde_writes() {
-        use crate::msg::{encode, to_cdr, Header, Time};
-        for (frame, points, channels) in [
-            ("", 0usize, 0usize),
-            ("a", 1, 0),
-            ("lidar_top", 257, 3),
-            ("abc", 10, 17),
-        ] {
-            let xyz: Vec<f32> = (0..3 * points).map(|i| i as f32 * 0.37 - 5.0).collect();
-            let names: Vec<String> = (0..channels).map(|i| format!("w{i}")).collect();
-            let values: Vec<f32> = (0..points * channels).map(|i| i as f32).collect();
-            let header = Header {
-                stamp: Time {
-                    sec: -3,
-                    nanosec: 999,
-                },
-                frame_id: frame.into(),
-            };
-            let mut cloud = encode_cloud(header, &xyz, &names, &values);
-            cloud.is_dense = points % 2 == 0;
-            assert_eq!(
-                encode(&cloud),
-                to_cdr(&cloud),
-                "frame {frame:?}, {points} points"
-            );
-        }
-    }
 }

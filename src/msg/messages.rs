@@ -702,3 +702,37 @@ pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, String>
     };
     parsed.map(|(m, _)| m).map_err(|e| format!("bad CDR: {e}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg::cloud::encode_cloud;
+
+    #[test]
+    fn the_fast_point_cloud_encoder_writes_what_serde_writes() {
+        for (frame, points, channels) in [
+            ("", 0usize, 0usize),
+            ("a", 1, 0),
+            ("lidar_top", 257, 3),
+            ("abc", 10, 17),
+        ] {
+            let xyz: Vec<f32> = (0..3 * points).map(|i| i as f32 * 0.37 - 5.0).collect();
+            let names: Vec<String> = (0..channels).map(|i| format!("w{i}")).collect();
+            let values: Vec<f32> = (0..points * channels).map(|i| i as f32).collect();
+            let header = Header {
+                stamp: Time {
+                    sec: -3,
+                    nanosec: 999,
+                },
+                frame_id: frame.into(),
+            };
+            let mut cloud = encode_cloud(header, &xyz, &names, &values);
+            cloud.is_dense = points % 2 == 0;
+            assert_eq!(
+                encode(&cloud),
+                to_cdr(&cloud),
+                "frame {frame:?}, {points} points"
+            );
+        }
+    }
+}
