@@ -33,6 +33,12 @@ pub struct TrackArgs {
     /// Write the first sequence's frames to this MCAP file (a camera's stream to replay).
     #[arg(long)]
     write_stream: Option<PathBuf>,
+    /// Share of a frame's miss kept as a force nothing modelled (`tracking.force_gain`).
+    #[arg(long)]
+    force_gain: Option<f64>,
+    /// How long that force lasts, s (`tracking.force_memory_s`).
+    #[arg(long)]
+    force_memory_s: Option<f64>,
     /// Where the plot of the first sequence's error over time goes.
     #[arg(long, default_value = "target/bench/track.svg")]
     plot: PathBuf,
@@ -43,6 +49,8 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
     let mut tracking = TrackingOptions::default();
     tracking.stiffness = args.stiffness.unwrap_or(tracking.stiffness);
     tracking.hold_s = args.hold_s.unwrap_or(tracking.hold_s);
+    tracking.force_gain = args.force_gain.unwrap_or(tracking.force_gain);
+    tracking.force_memory_s = args.force_memory_s.unwrap_or(tracking.force_memory_s);
     let options = TrackBenchOptions {
         seconds: args.seconds,
         tracking,

@@ -21,7 +21,7 @@ pub use material::{Material, MaterialModel};
 pub use obstacle::Obstacle;
 pub(crate) use obstacle::Penetration;
 pub(crate) use reduced::{state_projection, SimSetup};
-pub use reduced::{ObservationTerm, ReducedSim, Solver, StepReport};
+pub use reduced::{ObservationTerm, ReducedSim, Solver, StepReport, UnmodelledForce};
 pub use scene::Poke;
 pub use scene::SimParams;
 pub(crate) use subspace::sample;

@@ -17,7 +17,7 @@ use serde::Serialize;
 use super::SoftBody;
 use crate::geometry::{least_spread_direction, PointIndex};
 use crate::linalg::product;
-use crate::physics::ObservationTerm;
+use crate::physics::{ObservationTerm, UnmodelledForce};
 use crate::Result;
 
 /// How observations correct a body.
@@ -40,6 +40,14 @@ pub struct TrackingOptions {
     /// Surface samples matched against a frame (half the body's own points, half samples of
     /// its whole surface, hidden side included). Default 2000.
     pub samples: usize,
+    /// Share of a frame's miss, along the seen surface's normals, that stays as a force
+    /// nothing modelled (a hand, a poker, a floor above the completed bottom): it acts in
+    /// every later step, so that between frames the physics keeps what they showed instead
+    /// of relaxing it. 0: a frame corrects only while it pulls. Default 0.1.
+    pub force_gain: f64,
+    /// How long that force lasts once frames stop showing it (its e-folding time), s.
+    /// Default 0.5.
+    pub force_memory_s: f64,
 }
 
 impl Default for TrackingOptions {
@@ -51,6 +59,8 @@ impl Default for TrackingOptions {
             unexplained_share: 0.5,
             hold_s: 1.0 / 60.0,
             samples: 2000,
+            force_gain: 0.1,
+            force_memory_s: 0.5,
         }
     }
 }
@@ -168,11 +178,14 @@ impl Tracker {
             }
         }
         if let Some(pairs) = matched {
-            let term = pairs.pulls(placed.len(), body.mass()).term(
-                &self.rests,
-                &self.phis,
-                self.stiffness(body),
-            );
+            let stiffness = self.stiffness(body);
+            let mut term =
+                pairs
+                    .pulls(placed.len(), body.mass())
+                    .term(&self.rests, &self.phis, stiffness);
+            if !fit.relocked {
+                term.unmodelled = self.unmodelled_force(&pairs, body.mass() * stiffness);
+            }
             fit.correspondences = term.weights.len();
             body.observe(&term)?;
             self.expires = Some(body.time() + self.options.hold_s - 1e-9);
@@ -194,6 +207,31 @@ impl Tracker {
     pub fn pause(&mut self, body: &mut SoftBody) {
         self.expires = None;
         body.forget_observation();
+    }
+
+    /// The frame's share of the force nothing modelled: `force_gain` of a pull of the body's
+    /// whole mass on springs of `pull` (N/m), spread over the sampled misses, each only along
+    /// its observed point's normal: along the surface a miss is the matching's noise (nearest
+    /// samples a spacing apart), and kept as a force it spun a tracked ball up (`bench track`).
+    fn unmodelled_force(&self, pairs: &Pairs, pull: f64) -> Option<UnmodelledForce> {
+        if self.options.force_gain <= 0.0 || pairs.misses.is_empty() {
+            return None;
+        }
+        let each = self.options.force_gain * pull / pairs.misses.len() as f64;
+        let rows = self.phis.nrows();
+        let mut force = DMatrix::zeros(3, rows);
+        for (s, miss) in &pairs.misses {
+            for a in 0..rows {
+                let share = self.phis[(a, *s)] * each;
+                for d in 0..3 {
+                    force[(d, a)] += miss[d] * share;
+                }
+            }
+        }
+        Some(UnmodelledForce {
+            force,
+            memory_s: self.options.force_memory_s,
+        })
     }
 
     /// Per-kg spring stiffness: `stiffness` over h^2.
@@ -243,16 +281,23 @@ impl Tracker {
         }
         let cloud = PointIndex::for_surface(points);
         let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
-        let aligned = rigidly_aligned(seen, points, &cloud, &gate);
+        let mut normals = Normals::new(&cloud, points);
+        let aligned = rigidly_aligned(seen, points, &cloud, &mut normals, &gate);
         let model = PointIndex::new(&aligned, 2.0 * self.spacing);
         let mut squared = 0.0;
-        for y in points {
+        for (i, y) in points.iter().enumerate() {
             let Some((s, d)) = model.closest(y) else {
                 break;
             };
             if d <= gate(y) {
                 pairs.to_model.push((visible[s], *y));
                 squared += d * d;
+                if pairs.to_model.len().is_multiple_of(MISS_STRIDE) {
+                    // Where the frame saw it against where the body will be, not against the
+                    // aligned sample: the alignment's motion is part of the miss.
+                    let n = normals.at(i);
+                    pairs.misses.push((visible[s], n * n.dot(&(y - seen[s]))));
+                }
             }
         }
         pairs.explained = pairs.to_model.len();
@@ -292,10 +337,10 @@ fn rigidly_aligned(
     seen: &[Vector3<f64>],
     points: &[Vector3<f64>],
     cloud: &PointIndex,
+    normals: &mut Normals<'_>,
     gate: &dyn Fn(&Vector3<f64>) -> f64,
 ) -> Vec<Vector3<f64>> {
     let mut aligned = seen.to_vec();
-    let mut normals: Vec<Option<Vector3<f64>>> = vec![None; points.len()];
     // Every fourth sample: the motion of a few hundred is as well determined, and each pair
     // needs its observed point's normal.
     for _ in 0..ALIGN_ITERATIONS {
@@ -307,8 +352,7 @@ fn rigidly_aligned(
                 if d > gate(&points[i]) {
                     return None;
                 }
-                let normal = *normals[i].get_or_insert_with(|| normal_at(cloud, points, i));
-                Some((*x, points[i], normal))
+                Some((*x, points[i], normals.at(i)))
             })
             .collect();
         let Some(motion) = motion_along_normals(&pairs) else {
@@ -319,6 +363,27 @@ fn rigidly_aligned(
             .for_each(|x| *x = motion.transform_point(&(*x).into()).coords);
     }
     aligned
+}
+
+/// The observed points' normals, each found when first asked for.
+struct Normals<'a> {
+    cloud: &'a PointIndex<'a>,
+    points: &'a [Vector3<f64>],
+    found: Vec<Option<Vector3<f64>>>,
+}
+
+impl<'a> Normals<'a> {
+    fn new(cloud: &'a PointIndex<'a>, points: &'a [Vector3<f64>]) -> Self {
+        Self {
+            cloud,
+            points,
+            found: vec![None; points.len()],
+        }
+    }
+
+    fn at(&mut self, i: usize) -> Vector3<f64> {
+        *self.found[i].get_or_insert_with(|| normal_at(self.cloud, self.points, i))
+    }
 }
 
 /// The unit normal of the plane through observed point `i` and its nearest neighbours.
@@ -375,11 +440,17 @@ fn motion_along_normals(
 /// A gate this many times wider pulls back a body the gate no longer explains.
 const RELOCK_GATE: f64 = 4.0;
 
-/// A frame's correspondences: (sample, observed point) each way.
+/// Every this many cloud-to-model pairs, one miss along the normal feeds the force nothing
+/// modelled: its normal is the costly part, and the force is a sum over the whole frame.
+const MISS_STRIDE: usize = 2;
+
+/// A frame's correspondences: (sample, observed point) each way, and for every
+/// `MISS_STRIDE`-th cloud-to-model pair its sample's miss along the observed normal.
 #[derive(Default)]
 struct Pairs {
     to_model: Vec<(usize, Vector3<f64>)>,
     to_cloud: Vec<(usize, Vector3<f64>)>,
+    misses: Vec<(usize, Vector3<f64>)>,
     explained: usize,
     residual_m: f64,
 }
@@ -432,6 +503,7 @@ impl Pulls {
             }),
             weights: pulled.iter().map(|&s| self.weight[s]).collect(),
             stiffness,
+            unmodelled: None,
         }
     }
 }

@@ -40,6 +40,12 @@ pub struct TrackingParams {
     pub samples: usize,
     /// How long a frame pulls the object, s. Default 1/60 (one step at 60 Hz).
     pub hold_s: f64,
+    /// Share of a frame's miss along the seen normals kept as a force nothing modelled (a
+    /// hand, a poker), acting between frames; 0 corrects only while a frame pulls.
+    /// Default 0.1.
+    pub force_gain: f64,
+    /// How long that force lasts once frames stop showing it (e-folding time), s. Default 0.5.
+    pub force_memory_s: f64,
 }
 
 impl Default for TrackingParams {
@@ -57,6 +63,8 @@ impl Default for TrackingParams {
             max_points: 500,
             samples: options.samples,
             hold_s: options.hold_s,
+            force_gain: options.force_gain,
+            force_memory_s: options.force_memory_s,
         }
     }
 }
@@ -71,6 +79,8 @@ impl TrackingParams {
             unexplained_share: self.unexplained_share,
             hold_s: self.hold_s,
             samples: self.samples,
+            force_gain: self.force_gain,
+            force_memory_s: self.force_memory_s,
         }
     }
 
@@ -128,6 +138,16 @@ impl TrackingParams {
         })?;
         ensure(positive(self.hold_s), "tracking.hold_s", || {
             format!("{} s is not a positive time", self.hold_s)
-        })
+        })?;
+        ensure(
+            self.force_gain.is_finite() && (0.0..=1.0).contains(&self.force_gain),
+            "tracking.force_gain",
+            || format!("{} is outside [0, 1]", self.force_gain),
+        )?;
+        ensure(
+            positive(self.force_memory_s),
+            "tracking.force_memory_s",
+            || format!("{} s is not a positive time", self.force_memory_s),
+        )
     }
 }

@@ -25,7 +25,7 @@ mod point;
 mod rebase;
 mod search;
 
-pub use observe::ObservationTerm;
+pub use observe::{ObservationTerm, UnmodelledForce};
 pub use rebase::{state_projection, SimSetup};
 
 use super::material::Material;
@@ -251,6 +251,8 @@ pub struct ReducedSim {
     pokes: Vec<(DVector<f64>, Poke)>,
     /// What a sensor saw, pulling the observed material points (see `observe`).
     observed: Option<observe::Observed>,
+    /// The forces observations showed that nothing modelled (see `observe`).
+    unmodelled: Option<observe::UnmodelledForce>,
     /// What the quasi-Newton preconditioner holds besides contact: elasticity (at rest, or at
     /// the state of the last refresh) plus inertia, damping and pins.
     held: Option<DMatrix<f64>>,
@@ -328,6 +330,7 @@ impl ReducedSim {
             diagonal,
             pokes: Vec::new(),
             observed: None,
+            unmodelled: None,
             held: None,
             held_rotation: Matrix3::identity(),
             factored_contact: None,
@@ -383,6 +386,7 @@ impl ReducedSim {
         self.refresh_due = false;
         self.ahead = AheadWork::default();
         self.forget_observation();
+        self.unmodelled = None;
     }
 
     /// The elastic Hessian at rest (PSD-projected), kept by the subspace.
@@ -504,6 +508,7 @@ impl ReducedSim {
         self.z_before = Some(before);
         self.colliders_before = self.colliders.clone();
         self.time += self.params.dt;
+        self.fade_unmodelled();
         report.elastic_energy = current.elastic;
         report.constraint_energy = current.nonquadratic - current.elastic + self.pin_energy();
         report.contacts = current.touching.len();
@@ -714,6 +719,9 @@ impl ReducedSim {
         }
         if let Some(observed) = &self.observed {
             linear -= &observed.offset;
+        }
+        if let Some(unmodelled) = &self.unmodelled {
+            linear += &unmodelled.force;
         }
         StepObjective {
             quadratic: self.quadratic_part(),

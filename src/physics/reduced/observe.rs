@@ -26,6 +26,23 @@ pub struct ObservationTerm {
     /// The springs' stiffness per kg, 1/s^2: k h^2 = 1 pulls a free body halfway toward the
     /// observation in one step.
     pub stiffness: f64,
+    /// This frame's share of the forces nothing modelled, added to the estimate that acts in
+    /// every later step (see [`UnmodelledForce`]).
+    pub unmodelled: Option<UnmodelledForce>,
+}
+
+/// A generalized force (3 x 4K, the subspace's coordinates) that the observations showed and
+/// nothing modelled: a hand, a poker, a support higher than the body's bottom. Springs that
+/// pull only while a frame is fresh correct the body for that step; the physics, which knows
+/// no such force, then relaxes the correction before the next frame. Added up frame by frame
+/// (the integral term of a controller, an augmented state of a filter), the estimate makes the
+/// physics hold what the frames showed between them; it fades once frames stop showing it.
+#[derive(Clone, Debug)]
+pub struct UnmodelledForce {
+    /// The force, N per subspace coordinate (3 x 4K).
+    pub force: DMatrix<f64>,
+    /// Its e-folding time once frames stop adding to it, s.
+    pub memory_s: f64,
 }
 
 /// The observation as the step objective takes it: k P = k sum w phi phi^T (4K x 4K, taken
@@ -55,11 +72,18 @@ impl ObservationTerm {
         let finite = self.stiffness.is_finite()
             && self.stiffness >= 0.0
             && self.weights.iter().all(|w| w.is_finite() && *w >= 0.0)
-            && self.targets.iter().all(|t| t.is_finite());
+            && self.targets.iter().all(|t| t.is_finite())
+            && self.unmodelled.as_ref().is_none_or(|u| {
+                u.force.shape() == (3, rows)
+                    && u.force.iter().all(|f| f.is_finite())
+                    && u.memory_s > 0.0
+            });
         if !finite {
             return Err(Error::InvalidParameter {
                 name: "observation",
-                reason: "a negative or non-finite stiffness, weight or target".into(),
+                reason: "a negative or non-finite stiffness, weight or target, or an unmodelled \
+                         force of another shape or without a positive memory"
+                    .into(),
             });
         }
         Ok(())
@@ -83,8 +107,24 @@ impl ReducedSim {
         let mut offset = DMatrix::zeros(3, weighted.nrows());
         add_product_transposed(&mut offset, &gaps, &weighted);
         self.observed = Some(Observed { quadratic, offset });
+        if let Some(frame) = &term.unmodelled {
+            match &mut self.unmodelled {
+                Some(estimate) => {
+                    estimate.force += &frame.force;
+                    estimate.memory_s = frame.memory_s;
+                }
+                None => self.unmodelled = Some(frame.clone()),
+            }
+        }
         self.observation_changed();
         Ok(())
+    }
+
+    /// After a step: the estimate of the forces nothing modelled fades by its memory.
+    pub(super) fn fade_unmodelled(&mut self) {
+        if let Some(estimate) = &mut self.unmodelled {
+            estimate.force *= (-self.params.dt / estimate.memory_s).exp();
+        }
     }
 
     /// The steps from now on run on physics alone.

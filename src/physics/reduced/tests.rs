@@ -589,6 +589,7 @@ fn an_observation_pulls_the_body_onto_what_was_seen_and_forgetting_it_leaves_phy
             targets: DMatrix::from_fn(3, seen.len(), |d, i| seen[i][d] + shift[d]),
             weights: vec![mass / seen.len() as f64; seen.len()],
             stiffness: 4.0 / (params.dt * params.dt),
+            unmodelled: None,
         };
         sim.observe(&term).unwrap();
         assert!(sim.is_observed());
@@ -628,10 +629,73 @@ fn an_observation_pulls_the_body_onto_what_was_seen_and_forgetting_it_leaves_phy
         targets: DMatrix::zeros(3, 1),
         weights: vec![1.0],
         stiffness: 1.0,
+        unmodelled: None,
     };
     assert!(
         sim.observe(&bad).is_err(),
         "a term of the wrong shape is refused"
     );
     assert!(!sim.is_observed());
+}
+
+/// A force nothing modelled, as a frame estimated it, acts in the steps after the frame and
+/// fades with its memory: set to carry the body's weight, it holds a free body up where
+/// gravity alone drops it; with a short memory the body soon falls at g again.
+#[test]
+fn an_unmodelled_force_acts_between_frames_and_fades() {
+    let small = SmallBox::new();
+    let params = crate::physics::SimParams {
+        young: 1e5,
+        ..Default::default()
+    };
+    let rows = 4 * small.subspace().handles();
+    let weight = DMatrix::from_fn(3, rows, |d, a| {
+        -params.gravity[d] * small.subspace().mass_moment()[a]
+    });
+    let term = |memory_s: f64| super::ObservationTerm {
+        phis: DMatrix::zeros(rows, 0),
+        rests: DMatrix::zeros(3, 0),
+        targets: DMatrix::zeros(3, 0),
+        weights: vec![],
+        stiffness: 0.0,
+        unmodelled: Some(super::UnmodelledForce {
+            force: weight.clone(),
+            memory_s,
+        }),
+    };
+    let centre = small.mesh.vertices[0];
+    // The vertical acceleration over the three steps after `skip` steps of a body that took
+    // the term of `memory_s` (None: no term), m/s^2.
+    let acceleration = |memory_s: Option<f64>, skip: usize| {
+        let mut sim = small.quasi_newton(small.subspace(), params.clone());
+        if let Some(memory_s) = memory_s {
+            sim.observe(&term(memory_s)).unwrap();
+            sim.forget_observation();
+        }
+        for _ in 0..skip {
+            sim.step();
+        }
+        let mut z = [0.0; 3];
+        for height in &mut z {
+            sim.step();
+            *height = sim.position_of(&centre).z;
+        }
+        (z[2] - 2.0 * z[1] + z[0]) / (params.dt * params.dt)
+    };
+    let g = params.gravity.z;
+    let free = acceleration(None, 0);
+    assert!(
+        (free - g).abs() < 0.01 * g.abs(),
+        "free fall at {free} m/s^2"
+    );
+    let held = acceleration(Some(1e6), 5);
+    assert!(
+        held.abs() < 0.01 * g.abs(),
+        "held, it falls at {held} m/s^2"
+    );
+    let faded = acceleration(Some(params.dt), 10);
+    assert!(
+        (faded - g).abs() < 0.01 * g.abs(),
+        "faded, it falls at {faded} m/s^2"
+    );
 }
