@@ -43,7 +43,7 @@ pub struct TrackingOptions {
     /// Share of a frame's miss, along the seen surface's normals, that stays as a force
     /// nothing modelled (a hand, a poker, a floor above the completed bottom): it acts in
     /// every later step, so that between frames the physics keeps what they showed instead
-    /// of relaxing it. 0: a frame corrects only while it pulls. Default 0.1.
+    /// of relaxing it. 0: a frame corrects only while it pulls. Default 0.15.
     pub force_gain: f64,
     /// How long that force lasts once frames stop showing it (its e-folding time), s.
     /// Default 0.5.
@@ -59,7 +59,7 @@ impl Default for TrackingOptions {
             unexplained_share: 0.5,
             hold_s: 1.0 / 60.0,
             samples: 2000,
-            force_gain: 0.1,
+            force_gain: 0.15,
             force_memory_s: 0.5,
         }
     }
@@ -292,10 +292,9 @@ impl Tracker {
             if d <= gate(y) {
                 pairs.to_model.push((visible[s], *y));
                 squared += d * d;
-                if pairs.to_model.len().is_multiple_of(MISS_STRIDE) {
-                    // Where the frame saw it against where the body will be, not against the
-                    // aligned sample: the alignment's motion is part of the miss.
-                    let n = normals.at(i);
+                // Where the frame saw it against where the body will be, not against the
+                // aligned sample: the alignment's motion is part of the miss.
+                if let Some(n) = normals.known(i) {
                     pairs.misses.push((visible[s], n * n.dot(&(y - seen[s]))));
                 }
             }
@@ -384,6 +383,11 @@ impl<'a> Normals<'a> {
     fn at(&mut self, i: usize) -> Vector3<f64> {
         *self.found[i].get_or_insert_with(|| normal_at(self.cloud, self.points, i))
     }
+
+    /// The normal at `i` if it was asked for already.
+    fn known(&self, i: usize) -> Option<Vector3<f64>> {
+        self.found[i]
+    }
 }
 
 /// The unit normal of the plane through observed point `i` and its nearest neighbours.
@@ -440,12 +444,10 @@ fn motion_along_normals(
 /// A gate this many times wider pulls back a body the gate no longer explains.
 const RELOCK_GATE: f64 = 4.0;
 
-/// Every this many cloud-to-model pairs, one miss along the normal feeds the force nothing
-/// modelled: its normal is the costly part, and the force is a sum over the whole frame.
-const MISS_STRIDE: usize = 2;
-
-/// A frame's correspondences: (sample, observed point) each way, and for every
-/// `MISS_STRIDE`-th cloud-to-model pair its sample's miss along the observed normal.
+/// A frame's correspondences: (sample, observed point) each way, and, for the cloud-to-model
+/// pairs whose observed point the alignment found the normal of (a few hundred spread over the
+/// frame; a normal for every point cost a tenth of a millisecond more), the sample's miss along
+/// it.
 #[derive(Default)]
 struct Pairs {
     to_model: Vec<(usize, Vector3<f64>)>,

@@ -42,7 +42,7 @@ pub struct TrackingParams {
     pub hold_s: f64,
     /// Share of a frame's miss along the seen normals kept as a force nothing modelled (a
     /// hand, a poker), acting between frames; 0 corrects only while a frame pulls.
-    /// Default 0.1.
+    /// Default 0.15.
     pub force_gain: f64,
     /// How long that force lasts once frames stop showing it (e-folding time), s. Default 0.5.
     pub force_memory_s: f64,
