@@ -8,6 +8,10 @@
 //! cannot bulge where nothing was seen). A sample facing away, hidden behind the body's own
 //! front, or with no observed point near it (an occluder in front of it) takes no part; the
 //! physics moves it.
+//!
+//! The springs pull for one step; part of each frame's miss along the seen normals also stays
+//! as a force nothing modelled ([`UnmodelledForce`]), so that between frames the physics keeps
+//! a push or a hand the frames showed instead of relaxing it.
 
 use std::time::Instant;
 
