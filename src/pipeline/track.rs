@@ -286,7 +286,7 @@ impl Tracker {
         let cloud = PointIndex::for_surface(points);
         let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
         let mut normals = Normals::new(&cloud, points);
-        let aligned = rigidly_aligned(seen, points, &cloud, &mut normals, &gate);
+        let aligned = rigidly_aligned(seen, &mut normals, &gate);
         let model = PointIndex::new(&aligned, 2.0 * self.spacing);
         let mut squared = 0.0;
         for (i, y) in points.iter().enumerate() {
@@ -327,7 +327,8 @@ const NORMAL_NEIGHBOURS: usize = 6;
 const UNSEEN_TURN: f64 = 0.05;
 
 /// The visible samples `seen` moved by the rigid motion that best lays them on the frame's
-/// `points` (a few ICP iterations, each pair within `gate` of its observed point). Nearest
+/// points, those `normals` are of (a few ICP iterations, each pair within `gate` of its
+/// observed point). Nearest
 /// points alone hardly pull a flat face along itself: a block pushed into a spin was matched
 /// to its own trailing positions, 7 to 9 % of its diagonal behind (`bench track`); matched
 /// after the alignment, each sample is pulled toward where the face's motion took it. The
@@ -338,11 +339,10 @@ const UNSEEN_TURN: f64 = 0.05;
 /// stayed within 0.97 and 1.04 %; measured along the normals, 2.0969 % and 1.4812 %, printed).
 fn rigidly_aligned(
     seen: &[Vector3<f64>],
-    points: &[Vector3<f64>],
-    cloud: &PointIndex,
     normals: &mut Normals<'_>,
     gate: &dyn Fn(&Vector3<f64>) -> f64,
 ) -> Vec<Vector3<f64>> {
+    let (cloud, points) = (normals.cloud, normals.points);
     let mut aligned = seen.to_vec();
     // Every fourth sample: the motion of a few hundred is as well determined, and each pair
     // needs its observed point's normal.
@@ -368,7 +368,8 @@ fn rigidly_aligned(
     aligned
 }
 
-/// The observed points' normals, each found when first asked for.
+/// The observed points (and their index) with their normals, each found when first asked
+/// for.
 struct Normals<'a> {
     cloud: &'a PointIndex<'a>,
     points: &'a [Vector3<f64>],
