@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 
 use crate::error::Result;
 use crate::geometry::{reference_mesh, Shape, TetLocation, TetMesh};
-use crate::physics::{FemSim, Obstacle, Poke};
+use crate::physics::{phi_of, FemSim, Obstacle, Poke};
 use crate::runtime::NodeParams;
 
 /// The FEM's run of a sequence: the surface the camera sees, and its vertices per step.
@@ -172,10 +172,13 @@ impl SubspaceFit {
     pub(super) fn new(lifter: &crate::physics::Lifter) -> Option<Self> {
         let (n, k) = (lifter.len(), lifter.handles());
         let rest = lifter.rest_points();
-        let phi = nalgebra::DMatrix::from_fn(n, 4 * k, |i, c| {
-            let homogeneous = [rest[i].x, rest[i].y, rest[i].z, 1.0];
-            lifter.weight(i, c / 4) as f64 * homogeneous[c % 4]
-        });
+        let rows: Vec<_> = (0..n)
+            .map(|i| {
+                let weights: Vec<f64> = (0..k).map(|a| lifter.weight(i, a) as f64).collect();
+                phi_of(&weights, &rest[i])
+            })
+            .collect();
+        let phi = nalgebra::DMatrix::from_fn(n, 4 * k, |i, c| rows[i][c]);
         let mut normal = phi.transpose() * &phi;
         // A hair of ridge: a handle that hardly reaches the points leaves the rest unchanged.
         let ridge = 1e-12 * normal.trace() / normal.nrows() as f64;

@@ -24,5 +24,5 @@ pub(crate) use reduced::{state_projection, SimSetup};
 pub use reduced::{ObservationTerm, ReducedSim, Solver, StepReport, UnmodelledForce};
 pub use scene::Poke;
 pub use scene::SimParams;
-pub(crate) use subspace::sample;
 pub use subspace::Subspace;
+pub(crate) use subspace::{phi_of, sample};
