@@ -124,6 +124,16 @@ fn the_official_client_sees_the_node_and_pushes_an_object() {
     );
     let seen: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
 
+    // The library's own name for the protocol and the SDK's are each taken, and echoed.
+    let mut protocols: Vec<&str> = seen["protocols"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect();
+    protocols.sort_unstable();
+    assert_eq!(protocols, ["foxglove.sdk.v1", "foxglove.websocket.v1"]);
+
     // Every output topic, the interaction topic, /tf and /diagnostics are cdr channels with
     // their ROS 2 schemas; the parameters are there.
     let channels = seen["channels"].as_array().unwrap();

@@ -44,11 +44,26 @@ const seen = {
   markers: [],
   pushedAtNs: null,
   latencyMs: [],
+  // The subprotocol the server answered with, per connection.
+  protocols: [],
 };
-const client = new FoxgloveClient({
-  // The SDK's server speaks foxglove.sdk.v1; this client library names the older
-  // foxglove.websocket.v1. Both are offered; the wire format is the same.
-  ws: new WebSocket(url, ["foxglove.sdk.v1", FoxgloveClient.SUPPORTED_SUBPROTOCOL]),
+// The library as it ships offers only its own name for the protocol, foxglove.websocket.v1
+// (as Lichtblick and Foxglove Studio up to 1.87 do); the node's server must take it.
+const socket = new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
+socket.on("open", () => {
+  seen.protocols.push(socket.protocol);
+});
+const client = new FoxgloveClient({ ws: socket });
+// Today's Foxglove app offers the SDK's name, foxglove.sdk.v1: a second connection with it
+// alone, closed once the server has answered.
+const probe = new WebSocket(url, ["foxglove.sdk.v1"]);
+probe.on("open", () => {
+  seen.protocols.push(probe.protocol);
+  probe.close();
+});
+probe.on("error", (e) => {
+  console.error("probe error", e);
+  process.exit(2);
 });
 const readers = new Map();
 

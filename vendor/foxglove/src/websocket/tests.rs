@@ -296,6 +296,22 @@ async fn test_handshake_with_multiple_subprotocols() {
         Some(&HeaderValue::from_static(SUBPROTOCOL))
     );
 
+    // req3 offers only the protocol's earlier name, which the server echoes
+    let mut req3 = request.clone();
+    req3.headers_mut().insert(
+        "sec-websocket-protocol",
+        HeaderValue::from_static("foxglove.websocket.v1"),
+    );
+
+    let (_, response) = tokio_tungstenite::connect_async(req3)
+        .await
+        .expect("Failed to connect");
+
+    assert_eq!(
+        response.headers().get("sec-websocket-protocol"),
+        Some(&HeaderValue::from_static("foxglove.websocket.v1"))
+    );
+
     let _ = server.stop();
 }
 
