@@ -13,8 +13,8 @@ use crate::error::{Error, Result};
 use crate::geometry::{load_geometry, Completion, Shape};
 use crate::physics::Solver;
 use crate::pipeline::{build_seen, BodyOptions, SoftBody, Support, DEFAULT_MAX_BUILD_POINTS};
-use crate::runtime::REPLAY_REFINE_ITERATIONS;
-use crate::skinning::{NeuralModel, RefineBudget};
+use crate::runtime::REPLAY_REFINE;
+use crate::skinning::NeuralModel;
 
 /// What to simulate and against what.
 #[derive(Clone, Debug)]
@@ -178,7 +178,7 @@ pub(crate) fn scenario_body_options(cubature: usize) -> BodyOptions {
         cubature,
         support: Support::Free,
         // Refined as a replay refines: by a count of iterations, so that runs repeat.
-        refine: RefineBudget::Iterations(REPLAY_REFINE_ITERATIONS),
+        refine: REPLAY_REFINE,
         ..BodyOptions::default()
     }
 }

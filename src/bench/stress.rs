@@ -12,8 +12,8 @@ use serde::Serialize;
 use crate::geometry::{box_grid_mesh, bundled, Shape};
 use crate::physics::{SimParams, Solver};
 use crate::pipeline::{BodyOptions, SoftBody, Support};
-use crate::runtime::REPLAY_REFINE_ITERATIONS;
-use crate::skinning::{NeuralModel, RefineBudget, SkinningField};
+use crate::runtime::REPLAY_REFINE;
+use crate::skinning::{NeuralModel, SkinningField};
 use crate::Result;
 
 /// How a case starts.
@@ -225,7 +225,7 @@ pub fn run_stress(cases: &[StressCase], mut progress: impl FnMut(&str)) -> Resul
             let shape = stress_shape(c.shape)?;
             // Refined as a replay refines: by a count of iterations, so that runs repeat.
             let options = BodyOptions {
-                refine: RefineBudget::Iterations(REPLAY_REFINE_ITERATIONS),
+                refine: REPLAY_REFINE,
                 ..BodyOptions::default()
             };
             let field = SoftBody::infer(&model, &shape, &options)?;

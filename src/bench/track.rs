@@ -22,8 +22,8 @@ use crate::error::Result;
 use crate::geometry::{box_mesh, scan_faces, sdf_mesh, Camera, PointIndex, Shape};
 use crate::physics::Poke;
 use crate::pipeline::{build_seen, strided, SoftBody, Support, Tracker, TrackingOptions};
-use crate::runtime::NodeParams;
-use crate::skinning::{NeuralModel, RefineBudget};
+use crate::runtime::{NodeParams, REPLAY_REFINE};
+use crate::skinning::NeuralModel;
 
 use super::stats::{median, quantile};
 use super::track_truth::{run_truth, SubspaceFit, Truth};
@@ -482,7 +482,7 @@ impl Run<'_> {
     /// hidden side.
     fn build(&self, frame: &Frame, step: usize, with_fit: bool) -> Result<Tracked> {
         let mut options = self.params.body_options()?;
-        options.refine = RefineBudget::Iterations(8);
+        options.refine = REPLAY_REFINE;
         let built = build_seen(
             self.model,
             &frame.points,

@@ -49,10 +49,11 @@ pub struct BuildRequest {
     pub template: Option<CloudTemplate>,
 }
 
-/// Refinement iterations of a replay's builds: by `bench basis`, 5 to 8 bring the error to the
+/// How a replay's builds refine: by `bench basis`, 5 to 8 iterations bring the error to the
 /// eigenmodes' own on the bench's shapes; full convergence can take ten times longer on
-/// symmetric shapes (a ball), whose near-equal eigenvalues converge slowly.
-pub const REPLAY_REFINE_ITERATIONS: u32 = 8;
+/// symmetric shapes (a ball), whose near-equal eigenvalues converge slowly, but their span
+/// settles in 4 to 7 (`RefineBudget::Settled`), which is where a replay stops.
+pub const REPLAY_REFINE: RefineBudget = RefineBudget::Settled(8);
 
 /// What the build thread hands the stepper.
 pub enum Built {
@@ -276,7 +277,7 @@ pub struct Builder {
 }
 
 impl Builder {
-    /// Refines each field within its build, 8 iterations (`REPLAY_REFINE_ITERATIONS`), when
+    /// Refines each field within its build (`REPLAY_REFINE`: up to 8 iterations), when
     /// `inference.refine` is on: a replay is offline and must reproduce itself, which a time
     /// budget would not.
     pub fn refine_in_build(&mut self) {
@@ -504,7 +505,7 @@ fn build_body(
 ) -> crate::Result<SeenBody> {
     let mut options = params.body_options()?;
     if refine && params.refine_budget() != RefineBudget::Off {
-        options.refine = RefineBudget::Iterations(REPLAY_REFINE_ITERATIONS);
+        options.refine = REPLAY_REFINE;
     }
     build_seen(
         model,

@@ -30,7 +30,7 @@ pub(crate) use builder::BuildRequest;
 // The fuzz targets reach these through `crate::fuzzing`, built only under `cargo fuzz`.
 #[cfg(fuzzing)]
 pub use builder::BuildRequest;
-pub(crate) use builder::{BuildOutcome, Builder, REPLAY_REFINE_ITERATIONS};
+pub(crate) use builder::{BuildOutcome, Builder, REPLAY_REFINE};
 pub(crate) use clock::NodeClock;
 pub(crate) use diagnostics::Health;
 pub(crate) use inputs::{Input, InputKind, InputTopics};

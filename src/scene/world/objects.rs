@@ -184,6 +184,9 @@ pub(super) fn deformable_object(
         _ if handles < full => String::new(),
         RefineBudget::Off => String::new(),
         RefineBudget::Iterations(n) => format!("; refined toward the eigenmodes ({n} iterations)"),
+        RefineBudget::Settled(n) => {
+            format!("; refined toward the eigenmodes (until settled, at most {n} iterations)")
+        }
         RefineBudget::Millis(ms) => format!("; refined toward the eigenmodes (within {ms} ms)"),
         RefineBudget::Full => "; refined to the eigenmodes".to_string(),
     };

@@ -231,3 +231,33 @@ fn the_start_block_sampled_on_every_other_line_is_exact_for_an_affine_field() {
         );
     }
 }
+
+#[test]
+fn a_settled_budget_stops_once_the_sum_of_the_ritz_values_holds_still() {
+    let (meshes, normalization) = bar(&[20]);
+    let mesh = &meshes[0];
+    let start = random_block(mesh.vertices.len(), 8, 3);
+    let run = |budget| {
+        let options = RefineOptions {
+            budget,
+            ..Default::default()
+        };
+        refine(mesh.clone(), normalization, &start, &options).unwrap()
+    };
+    let long = run(RefineBudget::Iterations(40)).report;
+    let traces = long.traces();
+    // The first iteration after which the sum moved by less than SETTLED.
+    let settled_at = (1..traces.len())
+        .find(|&i| (traces[i - 1] - traces[i]).abs() < SETTLED * traces[i].abs())
+        .expect("the sum settles within 40 iterations");
+    assert!(settled_at > 1 && settled_at < 40, "{traces:?}");
+    let settled = run(RefineBudget::Settled(40));
+    assert_eq!(settled.report.iterations, settled_at, "{traces:?}");
+    // It is the fixed count's refinement, stopped there: the same field to the last bit.
+    let fixed = run(RefineBudget::Iterations(settled_at as u32));
+    assert_eq!(settled.field.eigenvalues, fixed.field.eigenvalues);
+    assert_eq!(vertex_columns(&settled.field), vertex_columns(&fixed.field));
+    // A cap below that point stops at the cap.
+    let capped = run(RefineBudget::Settled(settled_at as u32 - 1)).report;
+    assert_eq!(capped.iterations, settled_at - 1);
+}
