@@ -177,7 +177,7 @@ pub(crate) fn scenario_body_options(cubature: usize) -> BodyOptions {
     BodyOptions {
         cubature,
         support: Support::Free,
-        // Refined as a replay refines: by a count of iterations, so that runs repeat.
+        // Refined as a replay refines (by the iterations, never by the clock), so that runs repeat.
         refine: REPLAY_REFINE,
         ..BodyOptions::default()
     }

@@ -223,7 +223,7 @@ pub fn run_stress(cases: &[StressCase], mut progress: impl FnMut(&str)) -> Resul
     for c in cases {
         if !fields.iter().any(|(name, _, _)| *name == c.shape) {
             let shape = stress_shape(c.shape)?;
-            // Refined as a replay refines: by a count of iterations, so that runs repeat.
+            // Refined as a replay refines (by the iterations, never by the clock), so that runs repeat.
             let options = BodyOptions {
                 refine: REPLAY_REFINE,
                 ..BodyOptions::default()

@@ -52,7 +52,8 @@ pub struct BuildRequest {
 /// How a replay's builds refine: by `bench basis`, 5 to 8 iterations bring the error to the
 /// eigenmodes' own on the bench's shapes; full convergence can take ten times longer on
 /// symmetric shapes (a ball), whose near-equal eigenvalues converge slowly, but their span
-/// settles in 4 to 7 (`RefineBudget::Settled`), which is where a replay stops.
+/// settles in 5 to 7 on the demo's bodies (`RefineBudget::Settled`), which is where a replay
+/// stops.
 pub const REPLAY_REFINE: RefineBudget = RefineBudget::Settled(8);
 
 /// What the build thread hands the stepper.
