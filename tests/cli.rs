@@ -276,6 +276,52 @@ fn eval_reports_the_papers_metrics_per_shape_and_on_average() {
     assert!(h > 0.0 && h <= 1.0 + 1e-9, "h_spec in (0, 1], got {h}");
 }
 
+/// `eval` reports each field's hanging equilibrium against the FEM's (issue 74): the static
+/// error and the ratio of Rayleigh's lowest frequencies. Refined to convergence, the network's
+/// field spans the eigenmodes' subspace, so its statics are theirs.
+#[test]
+fn eval_reports_each_fields_static_error_and_frequency_ratio() {
+    let dir = std::env::temp_dir().join(format!("physskin-eval-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/config/samples/bunny.obj");
+    std::fs::copy(bunny, dir.join("bunny.obj")).unwrap();
+    let out = succeeded(physskin().arg("eval").arg(&dir).args([
+        "--resolution",
+        "10",
+        "--steps",
+        "5",
+        "--refine",
+        "full",
+        "--json",
+    ]));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let shape = &report["shapes"][0];
+    let figure = |key: &str, field: &str| shape[key][field].as_f64().unwrap();
+    for field in ["learned", "eigen", "refined"] {
+        let (error, ratio) = (
+            figure("static_error_pct", field),
+            figure("frequency_ratio", field),
+        );
+        assert!(
+            error.is_finite() && error > 0.0,
+            "{field}: static error {error} %"
+        );
+        assert!(
+            ratio.is_finite() && ratio > 0.1,
+            "{field}: frequency ratio {ratio}"
+        );
+    }
+    for key in ["static_error_pct", "frequency_ratio"] {
+        let (eigen, refined) = (figure(key, "eigen"), figure(key, "refined"));
+        assert!(
+            (refined - eigen).abs() <= 1e-3 * eigen,
+            "{key}: refined {refined}, eigenmodes {eigen}"
+        );
+        assert_eq!(report["mean"][key]["eigen"].as_f64().unwrap(), eigen);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Lines, planes and meshes of no area are refused by `infer` and `simulate --input` with the
 /// reason; a camera's scan (`physskin scan`) is completed from its viewpoint and simulated
 /// against the FEM of the whole mesh, and the JSON has the issue's fields.

@@ -11,6 +11,7 @@ use serde::Serialize;
 
 use super::input::prepare_input;
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, BenchShape, Scenario};
+use super::statics::{fem_hanging, reduced_against, Equilibrium};
 use crate::geometry::TetMesh;
 use crate::geometry::{Cubature, Shape, VoxelGrid};
 use crate::physics::{SimParams, Solver, Subspace};
@@ -96,6 +97,12 @@ pub struct ShapeEval {
     pub refined_error_pct: f64,
     /// Per scenario: (name, learned error %, eigenmode error %, refined error %).
     pub scenarios: Vec<(String, f64, f64, f64)>,
+    /// The hanging equilibrium, solved statically, against the FEM's: RMS distance of the
+    /// mesh's vertices, % of the diagonal, per field (NaN if not simulated).
+    pub static_error_pct: PerField,
+    /// Rayleigh's lowest frequency of that equilibrium over the FEM's, per field (NaN if not
+    /// simulated): above 1, the reduced body is too stiff.
+    pub frequency_ratio: PerField,
     /// Time of the eigen-solve the learned field replaces, ms.
     pub eigen_solve_ms: f64,
     /// The refinement: the tet mesh, the start block, the factorization and the iterations, ms
@@ -144,6 +151,45 @@ pub struct EvalMean {
     pub refine_ms: f64,
     /// Mean build time of a new shape's basis (inference plus refinement), ms.
     pub build_ms: f64,
+    /// Means of the shapes' static errors, % of the diagonal.
+    pub static_error_pct: PerField,
+    /// Means of the shapes' frequency ratios.
+    pub frequency_ratio: PerField,
+}
+
+/// One figure for each field `eval` simulates.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct PerField {
+    /// The network's field.
+    pub learned: f64,
+    /// The skinning eigenmodes with as many handles.
+    pub eigen: f64,
+    /// The network's field refined toward the eigenmodes.
+    pub refined: f64,
+}
+
+impl PerField {
+    const NAN: Self = Self {
+        learned: f64::NAN,
+        eigen: f64::NAN,
+        refined: f64::NAN,
+    };
+
+    fn mean(values: impl Iterator<Item = Self>) -> Self {
+        let (mut sum, mut n) = (Self::default(), 0.0);
+        for v in values {
+            sum.learned += v.learned;
+            sum.eigen += v.eigen;
+            sum.refined += v.refined;
+            n += 1.0;
+        }
+        let n = f64::max(n, 1.0);
+        Self {
+            learned: sum.learned / n,
+            eigen: sum.eigen / n,
+            refined: sum.refined / n,
+        }
+    }
 }
 
 /// What `eval` reports (serialized for `--json`).
@@ -167,7 +213,8 @@ pub fn evaluate_fields(
         let row = evaluate_shape(model, name, shape, options)?;
         progress(&format!(
             "{name}: omega {:.3e} kappa {:.4} h {:.5} infer {:.1} ms, error learned {:.3} % eigen {:.3} % \
-             refined {:.3} % ({} iterations, {:.1} ms)",
+             refined {:.3} % ({} iterations, {:.1} ms); static learned {:.3} % eigen {:.3} % \
+             refined {:.3} %, frequency x{:.3} x{:.3} x{:.3}",
             row.omega_orth,
             row.kappa_log,
             row.h_spec,
@@ -176,7 +223,13 @@ pub fn evaluate_fields(
             row.eigen_error_pct,
             row.refined_error_pct,
             row.refine_iterations,
-            row.refine_ms
+            row.refine_ms,
+            row.static_error_pct.learned,
+            row.static_error_pct.eigen,
+            row.static_error_pct.refined,
+            row.frequency_ratio.learned,
+            row.frequency_ratio.eigen,
+            row.frequency_ratio.refined
         ));
         rows.push(row);
     }
@@ -202,6 +255,8 @@ pub fn evaluate_fields(
             .fold(f64::NAN, f64::max),
         refine_ms: mean_of(&|r| r.refine_ms),
         build_ms: mean_of(&|r| r.build_ms),
+        static_error_pct: PerField::mean(rows.iter().map(|r| r.static_error_pct)),
+        frequency_ratio: PerField::mean(rows.iter().map(|r| r.frequency_ratio)),
     };
     Ok(EvalReport { shapes: rows, mean })
 }
@@ -274,6 +329,8 @@ fn evaluate_shape(
         eigen_error_pct: f64::NAN,
         refined_error_pct: f64::NAN,
         scenarios: Vec::new(),
+        static_error_pct: PerField::NAN,
+        frequency_ratio: PerField::NAN,
         eigen_solve_ms: f64::NAN,
         refine_ms: f64::NAN,
         refine_iterations: 0,
@@ -315,13 +372,22 @@ fn simulate_both(
     let params = scenario_params(&bench);
     let cubature = Cubature::stratified(&bench.grid, options.cubature, bench.mesh.volume());
     let references = fem_references(&bench, &params, options.steps)?;
+    let equilibrium = fem_hanging(&bench, &params)?;
     let fields: [Arc<dyn SkinningField>; 3] = [
         learned,
         Arc::new(bench.eigen().truncated(modes)),
         Arc::new(refined.field),
     ];
     let mut errors = Vec::new();
+    let mut statics = Vec::new();
     for field in fields {
+        statics.push(field_statics(
+            &bench,
+            field.clone(),
+            &cubature,
+            &params,
+            &equilibrium,
+        )?);
         errors.push(field_errors(
             &bench,
             &references,
@@ -330,6 +396,13 @@ fn simulate_both(
             &params,
         )?);
     }
+    let per_field = |i: usize| PerField {
+        learned: statics[0][i],
+        eigen: statics[1][i],
+        refined: statics[2][i],
+    };
+    row.static_error_pct = per_field(0);
+    row.frequency_ratio = per_field(1);
     let mut sums = [0.0; 3];
     for (i, scenario) in Scenario::ALL.iter().enumerate() {
         for (sum, field) in sums.iter_mut().zip(&errors) {
@@ -344,6 +417,26 @@ fn simulate_both(
     row.eigen_error_pct = sums[1] / count;
     row.refined_error_pct = sums[2] / count;
     Ok(())
+}
+
+/// `field`'s hanging equilibrium (quasi-Newton, on `cubature`) against the FEM's,
+/// `equilibrium`: [static error %, frequency ratio].
+fn field_statics(
+    bench: &BenchShape,
+    field: Arc<dyn SkinningField>,
+    cubature: &Cubature,
+    params: &SimParams,
+    equilibrium: &Equilibrium,
+) -> Result<[f64; 2]> {
+    let subspace = Arc::new(Subspace::build(
+        field,
+        bench.eigen_normalization(),
+        cubature,
+        params.density,
+    ));
+    let (error, ratio) =
+        reduced_against(bench, params, &subspace, Solver::QuasiNewton, equilibrium)?;
+    Ok([error, ratio])
 }
 
 /// The FEM's trajectory of every scenario ([`Scenario::ALL`]), `steps` steps each.

@@ -168,4 +168,10 @@ fn print_table(report: &EvalReport) {
         "whitened (the product's weights): kappa_log {:.4}, h_spec {:.5}",
         m.whitened_kappa_log, m.whitened_h_spec
     );
+    let (s, f) = (&m.static_error_pct, &m.frequency_ratio);
+    println!(
+        "hanging, solved statically, against the FEM: error learned {:.3} %, eigenmodes {:.3} %, \
+         refined {:.3} %; lowest frequency x{:.3}, x{:.3}, x{:.3}",
+        s.learned, s.eigen, s.refined, f.learned, f.eigen, f.refined
+    );
 }
