@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::fields::{fem_references, field_errors};
+use super::fields::{fem_references, field_errors, field_subspace};
 use super::input::prepare_input;
 use super::plot::{scatter_svg, Series};
 use super::sim::{prepare_shape, scenario_params, BenchShape};
@@ -197,13 +197,8 @@ impl<'a> Runs<'a> {
 
     /// Mean over the scenarios of the field's error against the FEM, %.
     fn error(&self, field: Arc<dyn SkinningField>) -> Result<f64> {
-        let errors = field_errors(
-            self.bench,
-            &self.references,
-            field,
-            &self.cubature,
-            &self.params,
-        )?;
+        let subspace = field_subspace(self.bench, field, &self.cubature, &self.params);
+        let errors = field_errors(self.bench, &self.references, &subspace, &self.params)?;
         Ok(errors.iter().sum::<f64>() / errors.len() as f64)
     }
 }

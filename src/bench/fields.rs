@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use super::input::prepare_input;
 use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, BenchShape, Scenario};
-use super::statics::{fem_hanging, reduced_against, Equilibrium};
+use super::statics::{fem_hanging, reduced_against};
 use crate::geometry::TetMesh;
 use crate::geometry::{Cubature, Shape, VoxelGrid};
 use crate::physics::{SimParams, Solver, Subspace};
@@ -174,22 +174,6 @@ impl PerField {
         eigen: f64::NAN,
         refined: f64::NAN,
     };
-
-    fn mean(values: impl Iterator<Item = Self>) -> Self {
-        let (mut sum, mut n) = (Self::default(), 0.0);
-        for v in values {
-            sum.learned += v.learned;
-            sum.eigen += v.eigen;
-            sum.refined += v.refined;
-            n += 1.0;
-        }
-        let n = f64::max(n, 1.0);
-        Self {
-            learned: sum.learned / n,
-            eigen: sum.eigen / n,
-            refined: sum.refined / n,
-        }
-    }
 }
 
 /// What `eval` reports (serialized for `--json`).
@@ -235,6 +219,11 @@ pub fn evaluate_fields(
     }
     let n = rows.len().max(1) as f64;
     let mean_of = |f: &dyn Fn(&ShapeEval) -> f64| rows.iter().map(f).sum::<f64>() / n;
+    let per_field_mean = |f: &dyn Fn(&ShapeEval) -> PerField| PerField {
+        learned: mean_of(&|r| f(r).learned),
+        eigen: mean_of(&|r| f(r).eigen),
+        refined: mean_of(&|r| f(r).refined),
+    };
     let mean = EvalMean {
         omega_orth: mean_of(&|r| r.omega_orth),
         kappa_log: mean_of(&|r| r.kappa_log),
@@ -255,8 +244,8 @@ pub fn evaluate_fields(
             .fold(f64::NAN, f64::max),
         refine_ms: mean_of(&|r| r.refine_ms),
         build_ms: mean_of(&|r| r.build_ms),
-        static_error_pct: PerField::mean(rows.iter().map(|r| r.static_error_pct)),
-        frequency_ratio: PerField::mean(rows.iter().map(|r| r.frequency_ratio)),
+        static_error_pct: per_field_mean(&|r| r.static_error_pct),
+        frequency_ratio: per_field_mean(&|r| r.frequency_ratio),
     };
     Ok(EvalReport { shapes: rows, mean })
 }
@@ -381,20 +370,16 @@ fn simulate_both(
     let mut errors = Vec::new();
     let mut statics = Vec::new();
     for field in fields {
-        statics.push(field_statics(
+        let subspace = field_subspace(&bench, field, &cubature, &params);
+        let (error, ratio) = reduced_against(
             &bench,
-            field.clone(),
-            &cubature,
             &params,
+            &subspace,
+            Solver::QuasiNewton,
             &equilibrium,
-        )?);
-        errors.push(field_errors(
-            &bench,
-            &references,
-            field,
-            &cubature,
-            &params,
-        )?);
+        )?;
+        statics.push([error, ratio]);
+        errors.push(field_errors(&bench, &references, &subspace, &params)?);
     }
     let per_field = |i: usize| PerField {
         learned: statics[0][i],
@@ -419,26 +404,6 @@ fn simulate_both(
     Ok(())
 }
 
-/// `field`'s hanging equilibrium (quasi-Newton, on `cubature`) against the FEM's,
-/// `equilibrium`: [static error %, frequency ratio].
-fn field_statics(
-    bench: &BenchShape,
-    field: Arc<dyn SkinningField>,
-    cubature: &Cubature,
-    params: &SimParams,
-    equilibrium: &Equilibrium,
-) -> Result<[f64; 2]> {
-    let subspace = Arc::new(Subspace::build(
-        field,
-        bench.eigen_normalization(),
-        cubature,
-        params.density,
-    ));
-    let (error, ratio) =
-        reduced_against(bench, params, &subspace, Solver::QuasiNewton, equilibrium)?;
-    Ok([error, ratio])
-}
-
 /// The FEM's trajectory of every scenario ([`Scenario::ALL`]), `steps` steps each.
 pub(crate) fn fem_references(
     bench: &BenchShape,
@@ -451,21 +416,29 @@ pub(crate) fn fem_references(
         .collect()
 }
 
-/// The error against the FEM, % of the diagonal, of `field`'s reduced simulation of every
-/// scenario (quasi-Newton, on `cubature`), against `references` ([`fem_references`]).
-pub(crate) fn field_errors(
+/// `field`'s subspace on `cubature`, in the frame of `bench`'s eigenmodes.
+pub(crate) fn field_subspace(
     bench: &BenchShape,
-    references: &[Vec<Vec<f64>>],
     field: Arc<dyn SkinningField>,
     cubature: &Cubature,
     params: &SimParams,
-) -> Result<Vec<f64>> {
-    let subspace = Arc::new(Subspace::build(
+) -> Arc<Subspace> {
+    Arc::new(Subspace::build(
         field,
         bench.eigen_normalization(),
         cubature,
         params.density,
-    ));
+    ))
+}
+
+/// The error against the FEM, % of the diagonal, of the reduced simulation of every scenario
+/// in `subspace` ([`field_subspace`]; quasi-Newton), against `references` ([`fem_references`]).
+pub(crate) fn field_errors(
+    bench: &BenchShape,
+    references: &[Vec<Vec<f64>>],
+    subspace: &Arc<Subspace>,
+    params: &SimParams,
+) -> Result<Vec<f64>> {
     Scenario::ALL
         .iter()
         .zip(references)
@@ -474,7 +447,7 @@ pub(crate) fn field_errors(
                 bench,
                 scenario,
                 params,
-                &subspace,
+                subspace,
                 Solver::QuasiNewton,
                 reference,
             )?;
