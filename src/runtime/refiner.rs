@@ -89,6 +89,7 @@ pub fn run_refiner(
                     outputs.report(Status::WARN, job.id, "refine_failed", message);
                 }
             }
+            super::builder::release_freed_memory();
         }
     }
 }
