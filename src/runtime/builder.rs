@@ -497,18 +497,6 @@ pub(crate) fn yield_to_stepping() {
     }
 }
 
-/// Hands the heap a build or a refinement freed back to the system. glibc keeps freed pages in
-/// the arena of the thread that freed them, and a build frees tens of megabytes across the
-/// inference pool's arenas: without this the node's resident memory grew in steps of about
-/// 5 MB at each large build over a long stream (`bench soak`), though nothing leaked.
-pub(crate) fn release_freed_memory() {
-    // SAFETY: malloc_trim only returns free pages of the allocator's own arenas to the
-    // system; it touches no memory the program holds.
-    unsafe {
-        libc::malloc_trim(0);
-    }
-}
-
 /// The body of a request's geometry under `params` (see [`build_seen`]).
 fn build_body(
     request: &BuildRequest,
@@ -626,7 +614,7 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
                     return;
                 }
                 announcement.publish(&cx.outputs);
-                release_freed_memory();
+                super::refiner::release_freed_memory();
                 if let Some(plan) = plan {
                     let job = RefineJob {
                         id,
