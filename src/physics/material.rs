@@ -55,6 +55,22 @@ impl Material {
         }
     }
 
+    /// The material split in two: the part integrated point by point and the bulk modulus
+    /// of the term `physics::bulk` projects, kappa/2 (J - 1)^2 (lambda/2 tr(eps)^2 for the
+    /// small-strain model). The point part keeps kappa = mu for the Neo-Hookean forms, where
+    /// it makes the rest Hessian definite; the reference Neo-Hookean gives up lambda - mu.
+    pub(crate) fn split_bulk(&self) -> (Self, f64) {
+        let kept = match self.model {
+            MaterialModel::NeoHookean => self.mu.min(self.lambda),
+            _ => 0.0,
+        };
+        let point = Self {
+            lambda: kept,
+            ..*self
+        };
+        (point, self.lambda - kept)
+    }
+
     /// Energy density `Psi(F)`; zero at rest for every model.
     pub fn energy_density(&self, f: &Matrix3<f64>) -> f64 {
         self.energy_and_first_piola(f).0
@@ -68,7 +84,15 @@ impl Material {
     /// sum_p v_p Psi(F_p) over a run of points given entry by entry (`f[3 d + e][p]`), each
     /// F overwritten with v_p P(F_p): `energy_and_first_piola` written out per entry, so that
     /// the loop over points vectorizes (point by point, as 3 x 3 matrices, it did not).
-    pub(crate) fn weigh_stresses(&self, f: &mut [Vec<f64>; 9], volumes: &[f64]) -> f64 {
+    /// `pressures`, where given, are added to each point's dPsi/dJ (for the small-strain model,
+    /// to dPsi/d tr F): the bulk term averaged over regions (`physics::bulk`), whose energy
+    /// the caller adds.
+    pub(crate) fn weigh_stresses(
+        &self,
+        f: &mut [Vec<f64>; 9],
+        volumes: &[f64],
+        pressures: Option<&[f64]>,
+    ) -> f64 {
         let mut total = 0.0;
         // A run at a time, its energies on the stack: this runs for every block of points in
         // every force evaluation, and a small body's evaluation takes microseconds.
@@ -79,9 +103,10 @@ impl Material {
             let energies = &mut energies[..run_volumes.len()];
             for (p, energy) in energies.iter_mut().enumerate() {
                 let a: [f64; 9] = std::array::from_fn(|k| entries[k][p]);
+                let pressure = pressures.map_or(0.0, |q| q[points.start + p]);
                 let (psi, stress) = match self.form() {
-                    Form::SmallStrain(m) => m.entrywise(&a),
-                    Form::NeoHookean(m) => m.entrywise(&a),
+                    Form::SmallStrain(m) => m.entrywise(&a, pressure),
+                    Form::NeoHookean(m) => m.entrywise(&a, pressure),
                 };
                 *energy = run_volumes[p] * psi;
                 for (entry, s) in entries.iter_mut().zip(stress) {
@@ -162,15 +187,21 @@ impl SmallStrain {
         (energy, stress)
     }
 
-    /// `energy_and_first_piola` on F's entries, row by row (`a[3 d + e]`).
-    fn entrywise(self, a: &[f64; 9]) -> (f64, [f64; 9]) {
+    /// `energy_and_first_piola` on F's entries, row by row (`a[3 d + e]`), `pressure` added
+    /// to dPsi/d tr F.
+    fn entrywise(self, a: &[f64; 9], pressure: f64) -> (f64, [f64; 9]) {
         let eps: [f64; 9] =
             std::array::from_fn(|k| 0.5 * (a[k] + a[3 * (k % 3) + k / 3]) - f64::from(k % 4 == 0));
         let trace = eps[0] + eps[4] + eps[8];
         let norm: f64 = eps.iter().map(|e| e * e).sum();
         let energy = self.mu * norm + 0.5 * self.lambda * trace * trace;
         let stress = std::array::from_fn(|k| {
-            2.0 * self.mu * eps[k] + if k % 4 == 0 { self.lambda * trace } else { 0.0 }
+            2.0 * self.mu * eps[k]
+                + if k % 4 == 0 {
+                    self.lambda * trace + pressure
+                } else {
+                    0.0
+                }
         });
         (energy, stress)
     }
@@ -213,8 +244,9 @@ impl NeoHookeanForm {
         (energy, f * self.mu + cof * self.d_energy_d_j(j))
     }
 
-    /// `energy_and_first_piola` on F's entries, row by row (`a[3 d + e]`).
-    fn entrywise(self, a: &[f64; 9]) -> (f64, [f64; 9]) {
+    /// `energy_and_first_piola` on F's entries, row by row (`a[3 d + e]`), `pressure` added
+    /// to dPsi/dJ.
+    fn entrywise(self, a: &[f64; 9], pressure: f64) -> (f64, [f64; 9]) {
         let [f00, f01, f02, f10, f11, f12, f20, f21, f22] = *a;
         // cof F, row by row: column e is the cross product of F's other two columns.
         let cof = [
@@ -232,7 +264,7 @@ impl NeoHookeanForm {
         let norm: f64 = a.iter().map(|x| x * x).sum();
         let energy = 0.5 * self.mu * (norm - 3.0) - self.mu * (j - 1.0)
             + 0.5 * self.kappa * (j - 1.0) * (j - 1.0);
-        let h = self.d_energy_d_j(j);
+        let h = self.d_energy_d_j(j) + pressure;
         (energy, std::array::from_fn(|k| self.mu * a[k] + h * cof[k]))
     }
 
@@ -306,7 +338,7 @@ fn add_clamped_mode(h: &mut Matrix9, eigenvalue: f64, q: &Matrix3<f64>) {
 
 /// `cof(F) = J F^{-T}`, written with cross products of the columns of `F` so that it stays
 /// defined (and smooth) for singular `F`.
-fn cofactor(f: &Matrix3<f64>) -> Matrix3<f64> {
+pub(crate) fn cofactor(f: &Matrix3<f64>) -> Matrix3<f64> {
     let [f0, f1, f2] = columns(f);
     Matrix3::from_columns(&[f1.cross(&f2), f2.cross(&f0), f0.cross(&f1)])
 }
@@ -320,7 +352,7 @@ fn cofactor(f: &Matrix3<f64>) -> Matrix3<f64> {
 /// [  [f2]x     0     -[f0]x ]
 /// [ -[f1]x   [f0]x     0    ]
 /// ```
-fn cofactor_derivative(f: &Matrix3<f64>) -> Matrix9 {
+pub(crate) fn cofactor_derivative(f: &Matrix3<f64>) -> Matrix9 {
     let cross = columns(f).map(|c| c.cross_matrix());
     let mut h = Matrix9::zeros();
     for a in 0..3 {
@@ -532,7 +564,7 @@ mod tests {
             let mut entries: [Vec<f64>; 9] =
                 std::array::from_fn(|k| cases.iter().map(|(_, f)| f[(k / 3, k % 3)]).collect());
             let volumes: Vec<f64> = (0..cases.len()).map(|p| 1.0 + p as f64).collect();
-            let energy = m.weigh_stresses(&mut entries, &volumes);
+            let energy = m.weigh_stresses(&mut entries, &volumes, None);
             let mut expected = 0.0;
             for (p, (name, f)) in cases.iter().enumerate() {
                 let (psi, piola) = m.energy_and_first_piola(f);

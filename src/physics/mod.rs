@@ -2,6 +2,7 @@
 //! the full-space FEM reference.
 
 mod assembly;
+mod bulk;
 mod fem;
 mod helper;
 mod hull;

@@ -11,10 +11,11 @@
 //! rod's poke took 0.126 ms on one thread, from the samples 0.072 ms (printed, `bench sim
 //! --quick`).
 
-use nalgebra::{DMatrix, Matrix3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 use wide::f64x8;
 
-use super::material::Material;
+use super::bulk::volume_change;
+use super::material::{Material, MaterialModel};
 
 /// Points a force evaluation takes at a time: their F and stresses (9 x 8 x 128 bytes) stay in
 /// the L1 cache while every handle's samples pass over them.
@@ -154,11 +155,14 @@ impl FieldSamples {
 
     /// The elastic energy and its gradient (3 x 4K) over the points `points`, [`BLOCK`]
     /// points at a time: F, then v P over F, then the gradient, all in the L1 cache.
+    /// `pressures` (one per point of the whole cubature), where given, are added to each
+    /// point's dPsi/dJ (see `Material::weigh_stresses`).
     pub(crate) fn forces(
         &self,
         z: &DMatrix<f64>,
         material: &Material,
         points: std::ops::Range<usize>,
+        pressures: Option<&[f64]>,
     ) -> (f64, DMatrix<f64>) {
         let mut gradient = DMatrix::zeros(3, 4 * self.handles);
         let mut energy = 0.0;
@@ -170,13 +174,62 @@ impl FieldSamples {
         for start in points.clone().step_by(BLOCK) {
             let block = start..(start + BLOCK).min(points.end);
             self.deformation_into(z, block.clone(), &mut stress);
-            energy += material.weigh_stresses(&mut stress, &self.volumes[block.clone()]);
+            let block_pressures = pressures.map(|q| &q[block.clone()]);
+            energy +=
+                material.weigh_stresses(&mut stress, &self.volumes[block.clone()], block_pressures);
             for entry in stress.iter_mut() {
                 entry[block.len()..].fill(0.0);
             }
             self.add_stress_gradient(&stress, block, &mut gradient);
         }
         (energy, gradient)
+    }
+
+    /// Each point's volume change (see `bulk::volume_change`) at the points `points`.
+    pub(crate) fn volume_changes(
+        &self,
+        z: &DMatrix<f64>,
+        model: MaterialModel,
+        points: std::ops::Range<usize>,
+    ) -> Vec<f64> {
+        let f = self.deformation(z, points.clone());
+        (0..points.len())
+            .map(|p| volume_change(model, &Matrix3::from_fn(|d, e| f[3 * d + e][p])).0)
+            .collect()
+    }
+
+    /// Point p's de/dZ = (de/dF) G_p^T (3 x 4K) at its deformation gradient `f`, into `out`
+    /// (zeroed), written out per handle as `add_stress_gradient` does.
+    pub(crate) fn volume_change_gradient(
+        &self,
+        p: usize,
+        f: &Matrix3<f64>,
+        model: MaterialModel,
+        out: &mut DMatrix<f64>,
+    ) {
+        let c = volume_change(model, f).1;
+        let x = [
+            self.positions[0][p],
+            self.positions[1][p],
+            self.positions[2][p],
+            1.0,
+        ];
+        for i in 0..self.handles {
+            let at = i * self.stride + p;
+            let w = self.weights[at];
+            let g = Vector3::new(
+                self.gradients[0][at],
+                self.gradients[1][at],
+                self.gradients[2][at],
+            );
+            for d in 0..3 {
+                let q = c.row(d).transpose().dot(&g);
+                for (col, xc) in x.iter().enumerate() {
+                    let identity = if col < 3 { c[(d, col)] * w } else { 0.0 };
+                    out[(d, 4 * i + col)] = identity + q * xc;
+                }
+            }
+        }
     }
 
     /// Adds sum_p S_p G_p^T (3 x 4K) for S = v P at the points `points` (the first
@@ -225,8 +278,6 @@ fn lanes_at(v: &[f64], at: usize) -> f64x8 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::MaterialModel;
-    use nalgebra::Vector3;
 
     /// 300 points (two whole blocks, a partial one, a partial lane) of a made-up 3-handle
     /// field, and a large state.
@@ -265,7 +316,7 @@ mod tests {
     fn forces_match_the_sums_over_g() {
         let (s, z) = samples();
         let material = Material::from_young_poisson(MaterialModel::StableNeoHookean, 1e5, 0.4);
-        let (energy, gradient) = s.forces(&z, &material, 0..s.len());
+        let (energy, gradient) = s.forces(&z, &material, 0..s.len(), None);
         let (mut expected_energy, mut expected) = (0.0, DMatrix::zeros(3, 4 * s.handles));
         for (p, f) in s.deformation_gradients(&z).iter().enumerate() {
             let g = g_of(&s, p);
@@ -278,8 +329,8 @@ mod tests {
         assert!((energy - expected_energy).abs() < 1e-12 * expected_energy.abs());
         assert!((&gradient - &expected).amax() < 1e-12 * expected.amax());
         // Split anywhere, the shares add up to the whole.
-        let (e1, g1) = s.forces(&z, &material, 0..131);
-        let (e2, g2) = s.forces(&z, &material, 131..s.len());
+        let (e1, g1) = s.forces(&z, &material, 0..131, None);
+        let (e2, g2) = s.forces(&z, &material, 131..s.len(), None);
         assert!((e1 + e2 - energy).abs() < 1e-12 * energy.abs());
         assert!((g1 + g2 - &gradient).amax() < 1e-12 * gradient.amax());
     }

@@ -13,6 +13,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::assembly::HessianAssembly;
+use super::bulk::{pressure_derivative, volume_change, BulkRegions};
 use super::material::{polar_rotation, Material, Matrix9};
 use super::shares::shared_out;
 use super::strain::FieldSamples;
@@ -35,12 +36,24 @@ const FORCES_PARALLEL_WORK: usize = 32_768;
 /// 2.778 ms (`bench real`, printed): its thin limbs keep too few points.
 const PRECONDITIONER_POINTS: usize = 512;
 
+/// Regions the bulk term of a subspace of `handles` handles (the constant one included) is
+/// projected over, four pressures each (see `physics::bulk`): two a handle. On `bench sim`'s
+/// hanging shapes at 16 handles and 1024 points (printed), point by point the creature (quick
+/// mesh) had a static error of 9.835 % and the rod 0.792 %; two regions a handle 8.627 and
+/// 0.303 %; one a handle 6.550 and 0.409 %, but a 0.3 m block of 9 handles and 128 points
+/// (`tests/scene.rs`) then let a rigid plate 3.4 cm into its top.
+fn bulk_regions(handles: usize) -> usize {
+    2 * handles
+}
+
 /// The field sampled at a cubature set: its deformation gradients and forces, and its elastic
 /// Hessian's assembly. A subspace holds one for its cubature and, for the quasi-Newton
 /// preconditioner, one for a coarser cubature (see [`CubatureTerms::coarser`]).
 struct CubatureTerms {
     samples: FieldSamples,
     assembly: HessianAssembly,
+    /// The regions the bulk term is averaged over (see `physics::bulk`).
+    bulk: BulkRegions,
 }
 
 impl CubatureTerms {
@@ -52,12 +65,52 @@ impl CubatureTerms {
         gradients: &[Vector3<f64>],
         cubature: &Cubature,
         g_all: Vec<f64>,
+        bulk: BulkRegions,
     ) -> Self {
         let (points, volumes) = (&cubature.points, &cubature.volumes);
         Self {
             samples: FieldSamples::new(k, weights, gradients, points, volumes),
             assembly: HessianAssembly::new(4 * k, volumes.clone(), g_all, points),
+            bulk,
         }
+    }
+
+    /// The bulk term's Gauss-Newton Hessian (see `BulkRegions::add_hessian`) at these
+    /// points' deformation `gradients`, added to `hessian`.
+    fn add_bulk_hessian(
+        &self,
+        hessian: &mut DMatrix<f64>,
+        gradients: &[Matrix3<f64>],
+        material: &Material,
+    ) {
+        let bulk = material.split_bulk().1;
+        if bulk == 0.0 {
+            return;
+        }
+        let (samples, model) = (&self.samples, material.model);
+        let gradient_at = |p: usize, out: &mut DMatrix<f64>| {
+            samples.volume_change_gradient(p, &gradients[p], model, out);
+        };
+        self.bulk
+            .add_hessian(hessian, samples.volumes(), bulk, gradient_at);
+    }
+
+    /// Each point's pressure (see `BulkRegions::energy_and_pressures`) at these points'
+    /// deformation `gradients`; None where the material has no bulk term.
+    fn pressures(&self, gradients: &[Matrix3<f64>], material: &Material) -> Option<Vec<f64>> {
+        let bulk = material.split_bulk().1;
+        if bulk == 0.0 {
+            return None;
+        }
+        let changes: Vec<f64> = gradients
+            .iter()
+            .map(|f| volume_change(material.model, f).0)
+            .collect();
+        Some(
+            self.bulk
+                .energy_and_pressures(&changes, self.samples.volumes(), bulk)
+                .1,
+        )
     }
 
     /// The terms at a coarser cubature, on which the quasi-Newton solver reassembles its held
@@ -71,6 +124,7 @@ impl CubatureTerms {
         weights: &[f64],
         gradients: &[Vector3<f64>],
         cubature: &Cubature,
+        bulk: &BulkRegions,
     ) -> Option<Self> {
         let stride = cubature.len() / PRECONDITIONER_POINTS;
         if stride < 2 {
@@ -80,7 +134,8 @@ impl CubatureTerms {
         let weights = gather_points(&kept, k, weights);
         let gradients = gather_points(&kept, k, gradients);
         let g_all = g_all_of(k, &weights, &gradients, &coarse.points);
-        Some(Self::new(k, &weights, &gradients, &coarse, g_all))
+        let bulk = bulk.gathered(&kept, &coarse.points, &coarse.volumes);
+        Some(Self::new(k, &weights, &gradients, &coarse, g_all, bulk))
     }
 }
 
@@ -137,10 +192,11 @@ impl Subspace {
             mass_moment.axpy(m, &phi, 1.0);
         }
         let mean_gradient = mean_gradient(&g_all, &cubature.volumes, 4 * k);
+        let bulk = BulkRegions::new(&cubature.points, &cubature.volumes, bulk_regions(k));
         Self {
             mean_gradient,
-            coarse: CubatureTerms::coarser(k, &weights, &gradients, cubature),
-            all: CubatureTerms::new(k, &weights, &gradients, cubature, g_all),
+            coarse: CubatureTerms::coarser(k, &weights, &gradients, cubature, &bulk),
+            all: CubatureTerms::new(k, &weights, &gradients, cubature, g_all, bulk),
             field,
             handles: k,
             normalization,
@@ -161,8 +217,14 @@ impl Subspace {
         if let Some((_, hessian)) = kept.as_ref().filter(|(m, _)| m == material) {
             return hessian.clone();
         }
-        let h = material.stress_derivative(&Matrix3::identity(), true);
-        let hessian = Arc::new(self.elastic_hessian(&vec![h; self.cubature_len()]));
+        let h = material
+            .split_bulk()
+            .0
+            .stress_derivative(&Matrix3::identity(), true);
+        let mut hessian = self.elastic_hessian(&vec![h; self.cubature_len()]);
+        let rest = vec![Matrix3::identity(); self.cubature_len()];
+        self.all.add_bulk_hessian(&mut hessian, &rest, material);
+        let hessian = Arc::new(hessian);
         *kept = Some((*material, hessian.clone()));
         hessian
     }
@@ -278,19 +340,95 @@ impl Subspace {
             .preconditioning_hessian(hessians)
     }
 
-    /// Elastic energy sum_p v_p Psi(F_p) and its gradient sum_p v_p P_p G_p^T (3 x 4K).
-    /// One pass, split over threads for large cubatures (see `FORCES_PARALLEL_WORK`): each
-    /// thread takes a run of cubature points, forms their F, their stresses, and its share of
-    /// the gradient; the shares are summed.
+    /// Each point's pressure at the deformation `gradients` of every point (`coarse`: of the
+    /// coarser cubature's), which the exact Hessian's point-by-point part needs (see
+    /// `bulk::pressure_derivative`); None where the material has no bulk term.
+    pub(crate) fn bulk_pressures(
+        &self,
+        gradients: &[Matrix3<f64>],
+        material: &Material,
+        coarse: bool,
+    ) -> Option<Vec<f64>> {
+        let terms = if coarse {
+            self.coarse_or_all()
+        } else {
+            &self.all
+        };
+        terms.pressures(gradients, material)
+    }
+
+    /// The exact elastic Hessian (12K x 12K) at `z`: point by point for the material's point
+    /// part with each point's pressure, and the bulk term's (see `physics::bulk`).
+    pub fn elastic_hessian_at(&self, z: &DMatrix<f64>, material: &Material) -> DMatrix<f64> {
+        let gradients = self.deformation_gradients(z);
+        let pressures = self.bulk_pressures(&gradients, material, false);
+        let point = material.split_bulk().0;
+        let hessians: Vec<Matrix9> = (gradients.iter().enumerate())
+            .map(|(p, f)| {
+                let q = pressures.as_ref().map_or(0.0, |q| q[p]);
+                point.stress_derivative(f, false) + pressure_derivative(material.model, f, q)
+            })
+            .collect();
+        let mut hessian = self.elastic_hessian(&hessians);
+        self.add_bulk_hessian(&mut hessian, &gradients, material, false);
+        hessian
+    }
+
+    /// The bulk term's Gauss-Newton Hessian at the deformation `gradients` of every point
+    /// (`coarse`: of the coarser cubature's, see [`Subspace::coarse_gradients`]) added to
+    /// `hessian`, which holds the point-by-point part for `material.split_bulk().0`.
+    pub(crate) fn add_bulk_hessian(
+        &self,
+        hessian: &mut DMatrix<f64>,
+        gradients: &[Matrix3<f64>],
+        material: &Material,
+        coarse: bool,
+    ) {
+        let terms = if coarse {
+            self.coarse_or_all()
+        } else {
+            &self.all
+        };
+        terms.add_bulk_hessian(hessian, gradients, material);
+    }
+
+    /// Elastic energy and its gradient (3 x 4K): the shear part sum_p v_p Psi(F_p) for the
+    /// material without its bulk term, and the bulk term averaged over regions (see
+    /// `physics::bulk`), whose pressures enter the same pass as each point's stress. Split
+    /// over threads for large cubatures (see `FORCES_PARALLEL_WORK`): each thread takes a run
+    /// of cubature points, forms their F, their stresses, and its share of the gradient; the
+    /// shares are summed.
     pub fn elastic_forces(&self, z: &DMatrix<f64>, material: &Material) -> (f64, DMatrix<f64>) {
         let np = self.cubature_len();
-        if np * 4 * self.handles < FORCES_PARALLEL_WORK {
-            return self.all.samples.forces(z, material, 0..np);
-        }
-        let mut shares =
-            shared_out(np, |points| self.all.samples.forces(z, material, points)).into_iter();
-        let first = shares.next().expect("at least one cubature point");
-        shares.fold(first, |(ea, ga), (eb, gb)| (ea + eb, ga + gb))
+        let samples = &self.all.samples;
+        let parallel = np * 4 * self.handles >= FORCES_PARALLEL_WORK;
+        let (point, bulk) = material.split_bulk();
+        let (bulk_energy, pressures) = if bulk > 0.0 {
+            let model = material.model;
+            let changes = if parallel {
+                shared_out(np, |points| samples.volume_changes(z, model, points)).concat()
+            } else {
+                samples.volume_changes(z, model, 0..np)
+            };
+            let (energy, pressures) =
+                self.all
+                    .bulk
+                    .energy_and_pressures(&changes, samples.volumes(), bulk);
+            (energy, Some(pressures))
+        } else {
+            (0.0, None)
+        };
+        let (material, pressures) = (point, pressures.as_deref());
+        let (energy, gradient) = if parallel {
+            let mut shares =
+                shared_out(np, |points| samples.forces(z, &material, points, pressures))
+                    .into_iter();
+            let first = shares.next().expect("at least one cubature point");
+            shares.fold(first, |(ea, ga), (eb, gb)| (ea + eb, ga + gb))
+        } else {
+            samples.forces(z, &material, 0..np, pressures)
+        };
+        (energy + bulk_energy, gradient)
     }
 }
 

@@ -6,6 +6,7 @@ use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
+use crate::physics::bulk::pressure_derivative;
 use crate::physics::material::Matrix9;
 use crate::physics::shares::shared_out;
 
@@ -155,8 +156,23 @@ impl ReducedSim {
         project: bool,
         usage: HessianUse,
     ) -> DMatrix<f64> {
-        let material = self.material;
-        let hessian_of = |f: &Matrix3<f64>| material.stress_derivative(f, project);
+        // The bulk term is projected over regions (`physics::bulk`): point by point, the rest,
+        // and in the exact Hessian each point's pressure times its volume change's curvature.
+        let (point, model) = (self.material.split_bulk().0, self.material.model);
+        let coarse = matches!(usage, HessianUse::Refresh);
+        let pressures = (!project)
+            .then(|| {
+                self.subspace
+                    .bulk_pressures(gradients, &self.material, coarse)
+            })
+            .flatten();
+        let hessian_at = |p: usize, f: &Matrix3<f64>| {
+            let h = point.stress_derivative(f, project);
+            match &pressures {
+                Some(q) => h + pressure_derivative(model, f, q[p]),
+                None => h,
+            }
+        };
         let parallel_from = if project {
             PARALLEL_PROJECTED_DERIVATIVES
         } else {
@@ -164,17 +180,22 @@ impl ReducedSim {
         };
         let hessians: Vec<Matrix9> = if gradients.len() >= parallel_from {
             let run_of = |run: std::ops::Range<usize>| -> Vec<Matrix9> {
-                gradients[run].iter().map(hessian_of).collect()
+                run.map(|p| hessian_at(p, &gradients[p])).collect()
             };
             shared_out(gradients.len(), run_of).concat()
         } else {
-            gradients.iter().map(hessian_of).collect()
+            (gradients.iter().enumerate())
+                .map(|(p, f)| hessian_at(p, f))
+                .collect()
         };
-        match usage {
+        let mut hessian = match usage {
             HessianUse::Newton => self.subspace.elastic_hessian(&hessians),
             HessianUse::Preconditioner => self.subspace.preconditioning_hessian(&hessians),
             HessianUse::Refresh => self.subspace.coarse_preconditioning_hessian(&hessians),
-        }
+        };
+        self.subspace
+            .add_bulk_hessian(&mut hessian, gradients, &self.material, coarse);
+        hessian
     }
 
     /// -H^-1 g, falling back to the preconditioner (or steepest descent) if H is not positive
