@@ -19,8 +19,8 @@
 #   replay-minute      replay a minute of bench track's poked ball (written first, 2 minutes)
 #   transport          bench transport, private namespace     (iceoryx2 against DDS)
 #   scene              bench scene                            (only what a scene needs)
-#   sim-bulk           bench sim, plate and rod, 16 handles     (6 min)
-#   sim-bulk-quick     bench sim --quick, 16 handles, 3 scenarios (1 min)
+#   sim-bulk           bench sim, plate and rod, 16 handles, both bulk terms (6 min)
+#   sim-bulk-quick     bench sim --quick, 16 handles, 3 scenarios, both bulk terms (1 min)
 #   eval               eval                                   (the learned field on 15 shapes, 4 min)
 #   basis              bench basis                            (error against time to a basis, 4 shapes)
 #   peer               bench peer                             (the soft block in MuJoCo and physskin)
@@ -56,11 +56,12 @@ for name in "${names[@]}"; do
         views) benches/record.sh views $bin bench views --json ;;
         sim-bulk)
             benches/record.sh sim-bulk $bin bench sim --shape plate,rod --handles 16 \
-                --cubature 256,1024 --solver quasi-newton --json --plot target/bench/sim-bulk.svg ;;
+                --cubature 256,1024 --solver quasi-newton --bulk points,regions --json \
+                --plot target/bench/sim-bulk.svg ;;
         sim-bulk-quick)
             benches/record.sh sim-bulk-quick $bin bench sim --quick --scenario hanging,drop,poke \
-                --handles 16 --cubature 256,1024 --solver quasi-newton --json \
-                --plot target/bench/sim-bulk-quick.svg ;;
+                --handles 16 --cubature 256,1024 --solver quasi-newton --bulk points,regions \
+                --json --plot target/bench/sim-bulk-quick.svg ;;
         sim-solver-quick)
             benches/record.sh sim-solver-quick $bin bench sim --quick --json \
                 --scenario hanging,drop,poke --handles 16 --cubature 1024 \

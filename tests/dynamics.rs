@@ -601,17 +601,22 @@ fn subspace_field_and_lifting_agree_with_the_field() {
 #[test]
 fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
     use nalgebra::DVector;
-    use physskin::physics::Material;
+    use physskin::physics::{BulkIntegration, Material};
     let f = bar();
     let k = f.subspace.handles();
     // A large, non-symmetric deformation, so every term of J_F matters.
     let z = DMatrix::from_fn(3, 4 * k, |d, a| 0.08 * ((5 * d + 3 * a) as f64).sin());
-    for model in [
+    let models = [
         MaterialModel::Linear,
         MaterialModel::NeoHookean,
         MaterialModel::StableNeoHookean,
-    ] {
-        let material = Material::from_young_poisson(model, 1e5, 0.45);
+    ];
+    let bulks = [BulkIntegration::Points, BulkIntegration::Regions];
+    for (model, bulk) in models.into_iter().flat_map(|m| bulks.map(|b| (m, b))) {
+        let material = Material {
+            bulk,
+            ..Material::from_young_poisson(model, 1e5, 0.45)
+        };
         let (_, gradient) = f.subspace.elastic_forces(&z, &material);
         let hessian = f.subspace.elastic_hessian_at(&z, &material);
         for trial in 0..4 {
@@ -629,13 +634,16 @@ fn reduced_elastic_gradient_and_hessian_match_finite_differences() {
             let analytic = gradient.dot(&direction);
             assert!(
                 (fd - analytic).abs() <= 1e-6 * analytic.abs().max(1.0),
-                "{model:?} gradient: {fd} vs {analytic}"
+                "{model:?} {bulk:?} gradient: {fd} vs {analytic}"
             );
             let fd_hessian =
                 DVector::from_column_slice(((g_plus - g_minus) / (2.0 * eps)).as_slice());
             let analytic_hessian = &hessian * DVector::from_column_slice(direction.as_slice());
             let error = (&fd_hessian - &analytic_hessian).norm() / analytic_hessian.norm();
-            assert!(error < 1e-6, "{model:?} Hessian: relative error {error}");
+            assert!(
+                error < 1e-6,
+                "{model:?} {bulk:?} Hessian: relative error {error}"
+            );
         }
     }
 }

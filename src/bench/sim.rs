@@ -9,7 +9,9 @@ use serde::Serialize;
 use super::stats::{median, quantile};
 use crate::error::{Error, Result};
 use crate::geometry::{stratified_subset, Shape, TetMesh, VoxelGrid};
-use crate::physics::{FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace};
+use crate::physics::{
+    BulkIntegration, FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace,
+};
 use crate::skinning::{EigenmodeField, EigenmodeOptions};
 
 /// What to run.
@@ -30,6 +32,8 @@ pub struct SimBenchOptions {
     pub cubatures: Vec<usize>,
     /// Only these solvers; empty: Newton and quasi-Newton.
     pub solvers: Vec<Solver>,
+    /// How the reduced bodies integrate the bulk term, each in turn; empty: points.
+    pub bulks: Vec<BulkIntegration>,
 }
 
 /// The bench's bundled shapes.
@@ -64,6 +68,15 @@ impl SimBenchOptions {
         } else {
             chosen.to_vec()
         }
+    }
+
+    /// Each solver with each way of integrating the bulk term, as chosen.
+    pub(super) fn variants(&self) -> Vec<(Solver, BulkIntegration)> {
+        let solvers = Self::pick(&[Solver::Newton, Solver::QuasiNewton], &self.solvers);
+        let bulks = Self::pick(&[BulkIntegration::Points], &self.bulks);
+        (solvers.iter())
+            .flat_map(|&solver| bulks.iter().map(move |&bulk| (solver, bulk)))
+            .collect()
     }
 
     pub(super) fn check(&self) -> Result<()> {
@@ -111,6 +124,8 @@ pub struct SimRow {
     pub cubature: usize,
     /// `newton` or `quasi_newton`.
     pub solver: String,
+    /// How the reduced body integrates the bulk term: `points` or `regions`.
+    pub bulk: BulkIntegration,
     /// Median reduced step, ms.
     pub step_ms: f64,
     /// Mean reduced step, ms (shows the cost of the slow steps the median hides).
@@ -457,6 +472,7 @@ pub(crate) fn run_reduced(
         handles: 0,
         cubature: 0,
         solver: String::new(),
+        bulk: params.bulk,
         step_ms: median(&times) * 1e3,
         step_mean_ms: times.iter().sum::<f64>() / times.len() as f64 * 1e3,
         step_p99_ms: quantile(&times, 0.99) * 1e3,

@@ -15,7 +15,7 @@ use super::statics::{fem_hanging, reduced_against};
 use super::stats::median;
 use crate::error::Result;
 use crate::geometry::{bundled, sample_surface, Cubature, SurfaceSampling, VoxelGrid};
-use crate::physics::{Lifter, Solver, Subspace};
+use crate::physics::{Lifter, SimParams, Subspace};
 use crate::skinning::{EigenmodeField, SkinningField};
 
 /// Runs the bench; `progress` receives a line per finished piece of work.
@@ -30,7 +30,7 @@ pub fn run_sim_bench(
         &options.handles,
     );
     let cubatures = SimBenchOptions::pick(&[256, 1024], &options.cubatures);
-    let solvers = SimBenchOptions::pick(&[Solver::Newton, Solver::QuasiNewton], &options.solvers);
+    let variants = options.variants();
     let default_scenarios: &[Scenario] = if quick {
         &[Scenario::Hanging, Scenario::Drop]
     } else {
@@ -96,7 +96,11 @@ pub fn run_sim_bench(
                         &cubature,
                         params.density,
                     ));
-                    for &solver in &solvers {
+                    for &(solver, bulk) in &variants {
+                        let params = SimParams {
+                            bulk,
+                            ..params.clone()
+                        };
                         let (row, _) =
                             run_reduced(&shape, scenario, &params, &subspace, solver, &reference)?;
                         let (static_error_pct, frequency_ratio) =
@@ -116,8 +120,8 @@ pub fn run_sim_bench(
                             ..row
                         };
                         progress(&format!(
-                            "  m={m:<2} cubature={:<5} {:<12} step {:>8.3} ms  error {:.3}%  static {:.3}%  frequency {:.3}x",
-                            row.cubature, row.solver, row.step_ms, row.error_pct, static_error_pct, frequency_ratio
+                            "  m={m:<2} cubature={:<5} {:<12} {:<7?} step {:>8.3} ms  error {:.3}%  static {:.3}%  frequency {:.3}x",
+                            row.cubature, row.solver, bulk, row.step_ms, row.error_pct, static_error_pct, frequency_ratio
                         ));
                         rows.push(row);
                     }

@@ -200,6 +200,9 @@ enum BenchCommand {
         /// Only these solvers.
         #[arg(long, value_delimiter = ',', value_enum)]
         solver: Vec<crate::cli::simulate::SolverArg>,
+        /// How the reduced bodies integrate the bulk term, each in turn (default: points).
+        #[arg(long, value_delimiter = ',', value_enum)]
+        bulk: Vec<crate::cli::simulate::BulkArg>,
     },
 }
 
@@ -276,6 +279,7 @@ pub fn main() -> ExitCode {
             handles: Vec::new(),
             cubature: Vec::new(),
             solver: Vec::new(),
+            bulk: Vec::new(),
         }) {
             BenchCommand::Sim {
                 quick,
@@ -286,6 +290,7 @@ pub fn main() -> ExitCode {
                 handles,
                 cubature,
                 solver,
+                bulk,
             } => {
                 let options = SimBenchOptions {
                     quick,
@@ -294,6 +299,7 @@ pub fn main() -> ExitCode {
                     handles,
                     cubatures: cubature,
                     solvers: solver.into_iter().map(Into::into).collect(),
+                    bulks: bulk.into_iter().map(Into::into).collect(),
                 };
                 run_bench_sim(&options, json, &plot)
             }

@@ -76,6 +76,21 @@ impl From<SolverArg> for Solver {
     }
 }
 
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum BulkArg {
+    Points,
+    Regions,
+}
+
+impl From<BulkArg> for crate::physics::BulkIntegration {
+    fn from(arg: BulkArg) -> Self {
+        match arg {
+            BulkArg::Points => Self::Points,
+            BulkArg::Regions => Self::Regions,
+        }
+    }
+}
+
 /// `x,y,z` as a point.
 pub(super) fn parse_point(text: &str) -> std::result::Result<Vector3<f64>, String> {
     let values: Vec<f64> = text

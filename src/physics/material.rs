@@ -31,6 +31,17 @@ pub enum MaterialModel {
     StableNeoHookean,
 }
 
+/// How a reduced body integrates its material's bulk term.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BulkIntegration {
+    /// At every cubature point, as the rest of the energy.
+    #[default]
+    Points,
+    /// Projected onto a pressure linear within each of 2K regions (`physics::bulk`).
+    Regions,
+}
+
 /// A constitutive model with its Lamé parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
@@ -40,6 +51,8 @@ pub struct Material {
     pub mu: f64,
     /// Lamé's first parameter lambda, Pa.
     pub lambda: f64,
+    /// How a reduced body integrates the bulk term (the FEM: at every element).
+    pub bulk: BulkIntegration,
 }
 
 /// Points whose energies `Material::weigh_stresses` holds at a time.
@@ -52,23 +65,8 @@ impl Material {
             model,
             mu: young / (2.0 * (1.0 + poisson)),
             lambda: young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)),
+            bulk: BulkIntegration::Points,
         }
-    }
-
-    /// The material split in two: the part integrated point by point and the bulk modulus
-    /// of the term `physics::bulk` projects, kappa/2 (J - 1)^2 (lambda/2 tr(eps)^2 for the
-    /// small-strain model). The point part keeps kappa = mu for the Neo-Hookean forms, where
-    /// it makes the rest Hessian definite; the reference Neo-Hookean gives up lambda - mu.
-    pub(crate) fn split_bulk(&self) -> (Self, f64) {
-        let kept = match self.model {
-            MaterialModel::NeoHookean => self.mu.min(self.lambda),
-            _ => 0.0,
-        };
-        let point = Self {
-            lambda: kept,
-            ..*self
-        };
-        (point, self.lambda - kept)
     }
 
     /// Energy density `Psi(F)`; zero at rest for every model.

@@ -18,7 +18,7 @@ mod subspace;
 
 pub use fem::FemSim;
 pub use lift::Lifter;
-pub use material::{Material, MaterialModel};
+pub use material::{BulkIntegration, Material, MaterialModel};
 pub use obstacle::Obstacle;
 pub(crate) use obstacle::Penetration;
 pub(crate) use reduced::{state_projection, SimSetup};

@@ -18,6 +18,10 @@ pub struct SimParams {
     pub density: f64,
     /// Constitutive model. Default stable Neo-Hookean.
     pub model: MaterialModel,
+    /// How the reduced body integrates the bulk term: `points` (default) or `regions`
+    /// (see `physics::bulk`).
+    #[serde(default)]
+    pub bulk: super::material::BulkIntegration,
     /// Time step, s. Default 1/60.
     pub dt: f64,
     /// Gravity, m/s^2. Default (0, 0, -9.81).
@@ -56,6 +60,7 @@ impl Default for SimParams {
             poisson: 0.45,
             density: 1000.0,
             model: MaterialModel::StableNeoHookean,
+            bulk: Default::default(),
             dt: 1.0 / 60.0,
             gravity: Vector3::new(0.0, 0.0, -9.81),
             damping: 0.0,
@@ -145,7 +150,10 @@ impl SimParams {
 
     /// The material of `model`, `young` and `poisson`.
     pub fn material(&self) -> super::material::Material {
-        super::material::Material::from_young_poisson(self.model, self.young, self.poisson)
+        super::material::Material {
+            bulk: self.bulk,
+            ..super::material::Material::from_young_poisson(self.model, self.young, self.poisson)
+        }
     }
 }
 

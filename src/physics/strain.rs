@@ -156,13 +156,16 @@ impl FieldSamples {
     /// The elastic energy and its gradient (3 x 4K) over the points `points`, [`BLOCK`]
     /// points at a time: F, then v P over F, then the gradient, all in the L1 cache.
     /// `pressures` (one per point of the whole cubature), where given, are added to each
-    /// point's dPsi/dJ (see `Material::weigh_stresses`).
+    /// point's dPsi/dJ (see `Material::weigh_stresses`); `deformations`, where given, are F at
+    /// the points from its offset on (covering `points`), formed once for the pressures and
+    /// not again.
     pub(crate) fn forces(
         &self,
         z: &DMatrix<f64>,
         material: &Material,
         points: std::ops::Range<usize>,
         pressures: Option<&[f64]>,
+        deformations: Option<(&PointMatrices, usize)>,
     ) -> (f64, DMatrix<f64>) {
         let mut gradient = DMatrix::zeros(3, 4 * self.handles);
         let mut energy = 0.0;
@@ -173,7 +176,15 @@ impl FieldSamples {
         let mut stress: PointMatrices = std::array::from_fn(|_| vec![0.0; width]);
         for start in points.clone().step_by(BLOCK) {
             let block = start..(start + BLOCK).min(points.end);
-            self.deformation_into(z, block.clone(), &mut stress);
+            match deformations {
+                Some((f, offset)) => {
+                    for (entry, held) in stress.iter_mut().zip(f) {
+                        let at = block.start - offset..block.end - offset;
+                        entry[..block.len()].copy_from_slice(&held[at]);
+                    }
+                }
+                None => self.deformation_into(z, block.clone(), &mut stress),
+            }
             let block_pressures = pressures.map(|q| &q[block.clone()]);
             energy +=
                 material.weigh_stresses(&mut stress, &self.volumes[block.clone()], block_pressures);
@@ -185,27 +196,22 @@ impl FieldSamples {
         (energy, gradient)
     }
 
-    /// Each point's volume change (see `bulk::volume_change`) at the points `points`.
-    pub(crate) fn volume_changes(
-        &self,
-        z: &DMatrix<f64>,
-        model: MaterialModel,
-        points: std::ops::Range<usize>,
-    ) -> Vec<f64> {
-        let f = self.deformation(z, points.clone());
-        (0..points.len())
+    /// Each point's volume change (see `bulk::volume_change`) for the deformation gradients
+    /// `f` of the points (entry by entry).
+    pub(crate) fn volume_changes(f: &PointMatrices, model: MaterialModel) -> Vec<f64> {
+        (0..f[0].len())
             .map(|p| volume_change(model, &Matrix3::from_fn(|d, e| f[3 * d + e][p])).0)
             .collect()
     }
 
-    /// Point p's de/dZ = (de/dF) G_p^T (3 x 4K) at its deformation gradient `f`, into `out`
-    /// (zeroed), written out per handle as `add_stress_gradient` does.
+    /// Point p's de/dZ = (de/dF) G_p^T (3 x 4K, column-major as the state) at its deformation
+    /// gradient `f`, into `out`, written out per handle as `add_stress_gradient` does.
     pub(crate) fn volume_change_gradient(
         &self,
         p: usize,
         f: &Matrix3<f64>,
         model: MaterialModel,
-        out: &mut DMatrix<f64>,
+        out: &mut [f64],
     ) {
         let c = volume_change(model, f).1;
         let x = [
@@ -226,7 +232,7 @@ impl FieldSamples {
                 let q = c.row(d).transpose().dot(&g);
                 for (col, xc) in x.iter().enumerate() {
                     let identity = if col < 3 { c[(d, col)] * w } else { 0.0 };
-                    out[(d, 4 * i + col)] = identity + q * xc;
+                    out[3 * (4 * i + col) + d] = identity + q * xc;
                 }
             }
         }
@@ -316,7 +322,7 @@ mod tests {
     fn forces_match_the_sums_over_g() {
         let (s, z) = samples();
         let material = Material::from_young_poisson(MaterialModel::StableNeoHookean, 1e5, 0.4);
-        let (energy, gradient) = s.forces(&z, &material, 0..s.len(), None);
+        let (energy, gradient) = s.forces(&z, &material, 0..s.len(), None, None);
         let (mut expected_energy, mut expected) = (0.0, DMatrix::zeros(3, 4 * s.handles));
         for (p, f) in s.deformation_gradients(&z).iter().enumerate() {
             let g = g_of(&s, p);
@@ -329,8 +335,8 @@ mod tests {
         assert!((energy - expected_energy).abs() < 1e-12 * expected_energy.abs());
         assert!((&gradient - &expected).amax() < 1e-12 * expected.amax());
         // Split anywhere, the shares add up to the whole.
-        let (e1, g1) = s.forces(&z, &material, 0..131, None);
-        let (e2, g2) = s.forces(&z, &material, 131..s.len(), None);
+        let (e1, g1) = s.forces(&z, &material, 0..131, None, None);
+        let (e2, g2) = s.forces(&z, &material, 131..s.len(), None, None);
         assert!((e1 + e2 - energy).abs() < 1e-12 * energy.abs());
         assert!((g1 + g2 - &gradient).amax() < 1e-12 * gradient.amax());
     }

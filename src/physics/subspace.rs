@@ -7,13 +7,14 @@
 //! so each handle owns 12 consecutive numbers. The deformation gradient is F = I + Z G(X) with
 //! G = d phi / dX (4K x 3): row 4i + c of G is w_i e_c^T + X~_c grad w_i^T.
 
+use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::assembly::HessianAssembly;
-use super::bulk::{pressure_derivative, volume_change, BulkRegions};
+use super::bulk::{pressure_derivative, split, volume_change, BulkRegions};
 use super::material::{polar_rotation, Material, Matrix9};
 use super::shares::shared_out;
 use super::strain::FieldSamples;
@@ -37,11 +38,11 @@ const FORCES_PARALLEL_WORK: usize = 32_768;
 const PRECONDITIONER_POINTS: usize = 512;
 
 /// Regions the bulk term of a subspace of `handles` handles (the constant one included) is
-/// projected over, four pressures each (see `physics::bulk`): two a handle. On `bench sim`'s
-/// hanging shapes at 16 handles and 1024 points (printed), point by point the creature (quick
-/// mesh) had a static error of 9.835 % and the rod 0.792 %; two regions a handle 8.627 and
-/// 0.303 %; one a handle 6.550 and 0.409 %, but a 0.3 m block of 9 handles and 128 points
-/// (`tests/scene.rs`) then let a rigid plate 3.4 cm into its top.
+/// projected over with `BulkIntegration::Regions`, four pressures each (see `physics::bulk`):
+/// two a handle. On `bench sim`'s hanging shapes at 16 handles and 1024 points (printed),
+/// point by point the creature (quick mesh) had a static error of 9.835 % and the rod 0.792 %;
+/// two regions a handle 8.627 and 0.303 %; one a handle 6.550 and 0.409 %, but a 0.3 m block
+/// of 9 handles and 128 points (`tests/scene.rs`) then let a rigid plate 3.4 cm into its top.
 fn bulk_regions(handles: usize) -> usize {
     2 * handles
 }
@@ -83,12 +84,12 @@ impl CubatureTerms {
         gradients: &[Matrix3<f64>],
         material: &Material,
     ) {
-        let bulk = material.split_bulk().1;
+        let bulk = split(material).1;
         if bulk == 0.0 {
             return;
         }
         let (samples, model) = (&self.samples, material.model);
-        let gradient_at = |p: usize, out: &mut DMatrix<f64>| {
+        let gradient_at = |p: usize, out: &mut [f64]| {
             samples.volume_change_gradient(p, &gradients[p], model, out);
         };
         self.bulk
@@ -98,7 +99,7 @@ impl CubatureTerms {
     /// Each point's pressure (see `BulkRegions::energy_and_pressures`) at these points'
     /// deformation `gradients`; None where the material has no bulk term.
     fn pressures(&self, gradients: &[Matrix3<f64>], material: &Material) -> Option<Vec<f64>> {
-        let bulk = material.split_bulk().1;
+        let bulk = split(material).1;
         if bulk == 0.0 {
             return None;
         }
@@ -217,8 +218,7 @@ impl Subspace {
         if let Some((_, hessian)) = kept.as_ref().filter(|(m, _)| m == material) {
             return hessian.clone();
         }
-        let h = material
-            .split_bulk()
+        let h = split(material)
             .0
             .stress_derivative(&Matrix3::identity(), true);
         let mut hessian = self.elastic_hessian(&vec![h; self.cubature_len()]);
@@ -362,7 +362,7 @@ impl Subspace {
     pub fn elastic_hessian_at(&self, z: &DMatrix<f64>, material: &Material) -> DMatrix<f64> {
         let gradients = self.deformation_gradients(z);
         let pressures = self.bulk_pressures(&gradients, material, false);
-        let point = material.split_bulk().0;
+        let point = split(material).0;
         let hessians: Vec<Matrix9> = (gradients.iter().enumerate())
             .map(|(p, f)| {
                 let q = pressures.as_ref().map_or(0.0, |q| q[p]);
@@ -376,7 +376,7 @@ impl Subspace {
 
     /// The bulk term's Gauss-Newton Hessian at the deformation `gradients` of every point
     /// (`coarse`: of the coarser cubature's, see [`Subspace::coarse_gradients`]) added to
-    /// `hessian`, which holds the point-by-point part for `material.split_bulk().0`.
+    /// `hessian`, which holds the point-by-point part for `split(material).0`.
     pub(crate) fn add_bulk_hessian(
         &self,
         hessian: &mut DMatrix<f64>,
@@ -402,32 +402,41 @@ impl Subspace {
         let np = self.cubature_len();
         let samples = &self.all.samples;
         let parallel = np * 4 * self.handles >= FORCES_PARALLEL_WORK;
-        let (point, bulk) = material.split_bulk();
-        let (bulk_energy, pressures) = if bulk > 0.0 {
-            let model = material.model;
-            let changes = if parallel {
-                shared_out(np, |points| samples.volume_changes(z, model, points)).concat()
-            } else {
-                samples.volume_changes(z, model, 0..np)
-            };
-            let (energy, pressures) =
-                self.all
-                    .bulk
-                    .energy_and_pressures(&changes, samples.volumes(), bulk);
-            (energy, Some(pressures))
-        } else {
-            (0.0, None)
-        };
-        let (material, pressures) = (point, pressures.as_deref());
-        let (energy, gradient) = if parallel {
-            let mut shares =
-                shared_out(np, |points| samples.forces(z, &material, points, pressures))
-                    .into_iter();
+        let (point, bulk) = split(material);
+        let share_out = |share: &(dyn Fn(Range<usize>) -> (f64, DMatrix<f64>) + Sync)| {
+            if !parallel {
+                return share(0..np);
+            }
+            let mut shares = shared_out(np, share).into_iter();
             let first = shares.next().expect("at least one cubature point");
             shares.fold(first, |(ea, ga), (eb, gb)| (ea + eb, ga + gb))
-        } else {
-            samples.forces(z, &material, 0..np, pressures)
         };
+        if bulk == 0.0 {
+            return share_out(&|points| samples.forces(z, &point, points, None, None));
+        }
+        // Two passes: F and each point's volume change, then, with the regions' pressures,
+        // the stresses and the gradient from the same F. Each pass split as the forces are.
+        let deformations = |points: Range<usize>| (points.start, samples.deformation(z, points));
+        let held = if parallel {
+            shared_out(np, deformations)
+        } else {
+            vec![deformations(0..np)]
+        };
+        let changes: Vec<f64> = (held.iter())
+            .flat_map(|(_, f)| FieldSamples::volume_changes(f, material.model))
+            .collect();
+        let (bulk_energy, pressures) =
+            self.all
+                .bulk
+                .energy_and_pressures(&changes, samples.volumes(), bulk);
+        let (energy, gradient) = share_out(&|points: Range<usize>| {
+            let (offset, f) = held
+                .iter()
+                .find(|(start, _)| *start == points.start)
+                .expect("the same split as the first pass");
+            let deformations = Some((f, *offset));
+            samples.forces(z, &point, points, Some(&pressures), deformations)
+        });
         (energy + bulk_energy, gradient)
     }
 }

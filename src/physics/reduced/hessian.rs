@@ -6,7 +6,7 @@ use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
-use crate::physics::bulk::pressure_derivative;
+use crate::physics::bulk::{self, pressure_derivative};
 use crate::physics::material::Matrix9;
 use crate::physics::shares::shared_out;
 
@@ -158,7 +158,7 @@ impl ReducedSim {
     ) -> DMatrix<f64> {
         // The bulk term is projected over regions (`physics::bulk`): point by point, the rest,
         // and in the exact Hessian each point's pressure times its volume change's curvature.
-        let (point, model) = (self.material.split_bulk().0, self.material.model);
+        let (point, model) = (bulk::split(&self.material).0, self.material.model);
         let coarse = matches!(usage, HessianUse::Refresh);
         let pressures = (!project)
             .then(|| {
