@@ -614,7 +614,6 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
                     return;
                 }
                 announcement.publish(&cx.outputs);
-                super::refiner::release_freed_memory();
                 if let Some(plan) = plan {
                     let job = RefineJob {
                         id,

@@ -89,20 +89,7 @@ pub fn run_refiner(
                     outputs.report(Status::WARN, job.id, "refine_failed", message);
                 }
             }
-            release_freed_memory();
         }
-    }
-}
-
-/// Hands the heap a build or a refinement freed back to the system. glibc keeps freed pages in
-/// the arena of the thread that freed them, and a build frees tens of megabytes across the
-/// inference pool's arenas: without this the node's resident memory grew in steps of about
-/// 5 MB at each large build over a long stream (`bench soak`), though nothing leaked.
-pub(crate) fn release_freed_memory() {
-    // SAFETY: malloc_trim only returns free pages of the allocator's own arenas to the
-    // system; it touches no memory the program holds.
-    unsafe {
-        libc::malloc_trim(0);
     }
 }
 
