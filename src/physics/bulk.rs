@@ -163,9 +163,9 @@ impl BulkRegions {
     /// Adds the bulk term's Gauss-Newton Hessian B^T W B to `hessian` (12K x 12K, the state's
     /// column-major order): B (4R x 12K) has for region r the rows sum_p v_p y~_k de_p/dz,
     /// with each point's volume change's gradient de_p/dz (12K, `point_gradient(p)`), and W is
-    /// lambda A_r^+ block by block. One product: a rank-4 update a region took 2 to 3 ms of a
-    /// poked rod's Hessian refresh at 34 regions (p99 4.759 ms, `bench sim`, printed). The
-    /// term in the second derivatives of e it leaves out is zero at rest.
+    /// lambda A_r^+ block by block, taken in one matrix product rather than as a rank-4 update
+    /// a region. The term in the second derivatives of e it leaves out is zero at rest (the
+    /// exact Hessian adds it point by point, see [`pressure_derivative`]).
     pub(crate) fn add_hessian(
         &self,
         hessian: &mut DMatrix<f64>,

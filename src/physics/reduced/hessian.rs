@@ -156,8 +156,8 @@ impl ReducedSim {
         project: bool,
         usage: HessianUse,
     ) -> DMatrix<f64> {
-        // The bulk term is projected over regions (`physics::bulk`): point by point, the rest,
-        // and in the exact Hessian each point's pressure times its volume change's curvature.
+        // Where the bulk term is projected (`physics::bulk`), only the rest is point by point,
+        // and the exact Hessian adds each point's pressure times its volume change's curvature.
         let (point, model) = (bulk::split(&self.material).0, self.material.model);
         let coarse = matches!(usage, HessianUse::Refresh);
         let pressures = (!project)
