@@ -8,7 +8,7 @@
 //! G = d phi / dX (4K x 3): row 4i + c of G is w_i e_c^T + X~_c grad w_i^T.
 
 use std::ops::Range;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
@@ -53,8 +53,14 @@ fn bulk_regions(handles: usize) -> usize {
 struct CubatureTerms {
     samples: FieldSamples,
     assembly: HessianAssembly,
-    /// The regions the bulk term is averaged over (see `physics::bulk`).
-    bulk: BulkRegions,
+    /// The points, where the bulk term's regions are formed.
+    points: Vec<Vector3<f64>>,
+    /// For a coarser cubature, the points of the whole one it keeps (see
+    /// [`CubatureTerms::coarser`]); empty for the whole one.
+    kept: Vec<usize>,
+    /// The regions the bulk term is projected over (see `physics::bulk`), formed on first
+    /// use: a body whose bulk term is integrated point by point never needs them.
+    bulk: OnceLock<BulkRegions>,
 }
 
 impl CubatureTerms {
@@ -66,13 +72,15 @@ impl CubatureTerms {
         gradients: &[Vector3<f64>],
         cubature: &Cubature,
         g_all: Vec<f64>,
-        bulk: BulkRegions,
+        kept: Vec<usize>,
     ) -> Self {
         let (points, volumes) = (&cubature.points, &cubature.volumes);
         Self {
             samples: FieldSamples::new(k, weights, gradients, points, volumes),
             assembly: HessianAssembly::new(4 * k, volumes.clone(), g_all, points),
-            bulk,
+            points: points.clone(),
+            kept,
+            bulk: OnceLock::new(),
         }
     }
 
@@ -80,6 +88,7 @@ impl CubatureTerms {
     /// points' deformation `gradients`, added to `hessian`.
     fn add_bulk_hessian(
         &self,
+        regions: &BulkRegions,
         hessian: &mut DMatrix<f64>,
         gradients: &[Matrix3<f64>],
         material: &Material,
@@ -92,13 +101,17 @@ impl CubatureTerms {
         let gradient_at = |p: usize, out: &mut [f64]| {
             samples.volume_change_gradient(p, &gradients[p], model, out);
         };
-        self.bulk
-            .add_hessian(hessian, samples.volumes(), bulk, gradient_at);
+        regions.add_hessian(hessian, samples.volumes(), bulk, gradient_at);
     }
 
     /// Each point's pressure (see `BulkRegions::energy_and_pressures`) at these points'
     /// deformation `gradients`; None where the material has no bulk term.
-    fn pressures(&self, gradients: &[Matrix3<f64>], material: &Material) -> Option<Vec<f64>> {
+    fn pressures(
+        &self,
+        regions: &BulkRegions,
+        gradients: &[Matrix3<f64>],
+        material: &Material,
+    ) -> Option<Vec<f64>> {
         let bulk = split(material).1;
         if bulk == 0.0 {
             return None;
@@ -107,11 +120,8 @@ impl CubatureTerms {
             .iter()
             .map(|f| volume_change(material.model, f).0)
             .collect();
-        Some(
-            self.bulk
-                .energy_and_pressures(&changes, self.samples.volumes(), bulk)
-                .1,
-        )
+        let volumes = self.samples.volumes();
+        Some(regions.energy_and_pressures(&changes, volumes, bulk).1)
     }
 
     /// The terms at a coarser cubature, on which the quasi-Newton solver reassembles its held
@@ -125,7 +135,6 @@ impl CubatureTerms {
         weights: &[f64],
         gradients: &[Vector3<f64>],
         cubature: &Cubature,
-        bulk: &BulkRegions,
     ) -> Option<Self> {
         let stride = cubature.len() / PRECONDITIONER_POINTS;
         if stride < 2 {
@@ -135,8 +144,7 @@ impl CubatureTerms {
         let weights = gather_points(&kept, k, weights);
         let gradients = gather_points(&kept, k, gradients);
         let g_all = g_all_of(k, &weights, &gradients, &coarse.points);
-        let bulk = bulk.gathered(&kept, &coarse.points, &coarse.volumes);
-        Some(Self::new(k, &weights, &gradients, &coarse, g_all, bulk))
+        Some(Self::new(k, &weights, &gradients, &coarse, g_all, kept))
     }
 }
 
@@ -193,11 +201,10 @@ impl Subspace {
             mass_moment.axpy(m, &phi, 1.0);
         }
         let mean_gradient = mean_gradient(&g_all, &cubature.volumes, 4 * k);
-        let bulk = BulkRegions::new(&cubature.points, &cubature.volumes, bulk_regions(k));
         Self {
             mean_gradient,
-            coarse: CubatureTerms::coarser(k, &weights, &gradients, cubature, &bulk),
-            all: CubatureTerms::new(k, &weights, &gradients, cubature, g_all, bulk),
+            coarse: CubatureTerms::coarser(k, &weights, &gradients, cubature),
+            all: CubatureTerms::new(k, &weights, &gradients, cubature, g_all, Vec::new()),
             field,
             handles: k,
             normalization,
@@ -223,7 +230,7 @@ impl Subspace {
             .stress_derivative(&Matrix3::identity(), true);
         let mut hessian = self.elastic_hessian(&vec![h; self.cubature_len()]);
         let rest = vec![Matrix3::identity(); self.cubature_len()];
-        self.all.add_bulk_hessian(&mut hessian, &rest, material);
+        self.add_bulk_hessian(&mut hessian, &rest, material, false);
         let hessian = Arc::new(hessian);
         *kept = Some((*material, hessian.clone()));
         hessian
@@ -349,12 +356,8 @@ impl Subspace {
         material: &Material,
         coarse: bool,
     ) -> Option<Vec<f64>> {
-        let terms = if coarse {
-            self.coarse_or_all()
-        } else {
-            &self.all
-        };
-        terms.pressures(gradients, material)
+        let (terms, regions) = self.bulk_terms(coarse);
+        terms.pressures(regions, gradients, material)
     }
 
     /// The exact elastic Hessian (12K x 12K) at `z`: point by point for the material's point
@@ -384,20 +387,35 @@ impl Subspace {
         material: &Material,
         coarse: bool,
     ) {
-        let terms = if coarse {
-            self.coarse_or_all()
-        } else {
-            &self.all
-        };
-        terms.add_bulk_hessian(hessian, gradients, material);
+        let (terms, regions) = self.bulk_terms(coarse);
+        terms.add_bulk_hessian(regions, hessian, gradients, material);
     }
 
-    /// Elastic energy and its gradient (3 x 4K): the shear part sum_p v_p Psi(F_p) for the
-    /// material without its bulk term, and the bulk term averaged over regions (see
-    /// `physics::bulk`), whose pressures enter the same pass as each point's stress. Split
-    /// over threads for large cubatures (see `FORCES_PARALLEL_WORK`): each thread takes a run
-    /// of cubature points, forms their F, their stresses, and its share of the gradient; the
-    /// shares are summed.
+    /// The terms of the whole cubature, or of the coarser one (all points where there is
+    /// none), with the regions of their points: the whole cubature's formed on first use,
+    /// the coarser one's the same regions restricted to the points it keeps.
+    fn bulk_terms(&self, coarse: bool) -> (&CubatureTerms, &BulkRegions) {
+        let all = &self.all;
+        let count = bulk_regions(self.handles);
+        let whole = all
+            .bulk
+            .get_or_init(|| BulkRegions::new(&all.points, all.samples.volumes(), count));
+        match self.coarse.as_ref().filter(|_| coarse) {
+            Some(terms) => {
+                let volumes = terms.samples.volumes();
+                let gathered = || whole.gathered(&terms.kept, &terms.points, volumes);
+                (terms, terms.bulk.get_or_init(gathered))
+            }
+            None => (all, whole),
+        }
+    }
+
+    /// Elastic energy and its gradient (3 x 4K): sum_p v_p Psi(F_p) point by point, of the
+    /// whole material or, where its bulk term is projected over regions (`physics::bulk`), of
+    /// the rest, the projected term's pressures entering the same pass as each point's
+    /// stress. Split over threads for large cubatures (see `FORCES_PARALLEL_WORK`): each
+    /// thread takes a run of cubature points, forms their F, their stresses, and its share of
+    /// the gradient; the shares are summed.
     pub fn elastic_forces(&self, z: &DMatrix<f64>, material: &Material) -> (f64, DMatrix<f64>) {
         let np = self.cubature_len();
         let samples = &self.all.samples;
@@ -425,10 +443,9 @@ impl Subspace {
         let changes: Vec<f64> = (held.iter())
             .flat_map(|(_, f)| FieldSamples::volume_changes(f, material.model))
             .collect();
+        let regions = self.bulk_terms(false).1;
         let (bulk_energy, pressures) =
-            self.all
-                .bulk
-                .energy_and_pressures(&changes, samples.volumes(), bulk);
+            regions.energy_and_pressures(&changes, samples.volumes(), bulk);
         let (energy, gradient) = share_out(&|points: Range<usize>| {
             let (offset, f) = held
                 .iter()
