@@ -83,7 +83,7 @@ impl Material {
     /// F overwritten with v_p P(F_p): `energy_and_first_piola` written out per entry, so that
     /// the loop over points vectorizes (point by point, as 3 x 3 matrices, it did not).
     /// `pressures`, where given, are added to each point's dPsi/dJ (for the small-strain model,
-    /// to dPsi/d tr F): the bulk term averaged over regions (`physics::bulk`), whose energy
+    /// to dPsi/d tr F): the bulk term projected over regions (`physics::bulk`), whose energy
     /// the caller adds.
     pub(crate) fn weigh_stresses(
         &self,

@@ -90,6 +90,13 @@ impl FieldSamples {
         &self.volumes
     }
 
+    /// The points, m.
+    pub(crate) fn points(&self) -> Vec<Vector3<f64>> {
+        (0..self.len())
+            .map(|p| Vector3::from_fn(|e, _| self.positions[e][p]))
+            .collect()
+    }
+
     /// F = I + Z G at the points `points`, entry by entry.
     pub(crate) fn deformation(
         &self,

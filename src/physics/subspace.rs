@@ -53,8 +53,6 @@ fn bulk_regions(handles: usize) -> usize {
 struct CubatureTerms {
     samples: FieldSamples,
     assembly: HessianAssembly,
-    /// The points, where the bulk term's regions are formed.
-    points: Vec<Vector3<f64>>,
     /// For a coarser cubature, the points of the whole one it keeps (see
     /// [`CubatureTerms::coarser`]); empty for the whole one.
     kept: Vec<usize>,
@@ -78,7 +76,6 @@ impl CubatureTerms {
         Self {
             samples: FieldSamples::new(k, weights, gradients, points, volumes),
             assembly: HessianAssembly::new(4 * k, volumes.clone(), g_all, points),
-            points: points.clone(),
             kept,
             bulk: OnceLock::new(),
         }
@@ -350,7 +347,7 @@ impl Subspace {
     /// Each point's pressure at the deformation `gradients` of every point (`coarse`: of the
     /// coarser cubature's), which the exact Hessian's point-by-point part needs (see
     /// `bulk::pressure_derivative`); None where the material has no bulk term.
-    pub(crate) fn bulk_pressures(
+    fn bulk_pressures(
         &self,
         gradients: &[Matrix3<f64>],
         material: &Material,
@@ -360,17 +357,38 @@ impl Subspace {
         terms.pressures(regions, gradients, material)
     }
 
+    /// dP/dF of point p at its deformation gradient, for the point-by-point part of
+    /// `material` (see `bulk::split`), `project`ed or not; unprojected, with the point's
+    /// pressure times its volume change's curvature (see `bulk::pressure_derivative`), the
+    /// exact Hessian's point-by-point part. `gradients` are every point's (`coarse`: of the
+    /// coarser cubature's), whose pressures it needs.
+    pub(crate) fn stress_derivatives(
+        &self,
+        gradients: &[Matrix3<f64>],
+        material: &Material,
+        project: bool,
+        coarse: bool,
+    ) -> impl Fn(usize, &Matrix3<f64>) -> Matrix9 + Sync {
+        let (point, model) = (split(material).0, material.model);
+        let pressures = (!project)
+            .then(|| self.bulk_pressures(gradients, material, coarse))
+            .flatten();
+        move |p, f| {
+            let h = point.stress_derivative(f, project);
+            match &pressures {
+                Some(q) => h + pressure_derivative(model, f, q[p]),
+                None => h,
+            }
+        }
+    }
+
     /// The exact elastic Hessian (12K x 12K) at `z`: point by point for the material's point
     /// part with each point's pressure, and the bulk term's (see `physics::bulk`).
     pub fn elastic_hessian_at(&self, z: &DMatrix<f64>, material: &Material) -> DMatrix<f64> {
         let gradients = self.deformation_gradients(z);
-        let pressures = self.bulk_pressures(&gradients, material, false);
-        let point = split(material).0;
+        let hessian_at = self.stress_derivatives(&gradients, material, false, false);
         let hessians: Vec<Matrix9> = (gradients.iter().enumerate())
-            .map(|(p, f)| {
-                let q = pressures.as_ref().map_or(0.0, |q| q[p]);
-                point.stress_derivative(f, false) + pressure_derivative(material.model, f, q)
-            })
+            .map(|(p, f)| hessian_at(p, f))
             .collect();
         let mut hessian = self.elastic_hessian(&hessians);
         self.add_bulk_hessian(&mut hessian, &gradients, material, false);
@@ -399,11 +417,11 @@ impl Subspace {
         let count = bulk_regions(self.handles);
         let whole = all
             .bulk
-            .get_or_init(|| BulkRegions::new(&all.points, all.samples.volumes(), count));
+            .get_or_init(|| BulkRegions::new(&all.samples.points(), all.samples.volumes(), count));
         match self.coarse.as_ref().filter(|_| coarse) {
             Some(terms) => {
                 let volumes = terms.samples.volumes();
-                let gathered = || whole.gathered(&terms.kept, &terms.points, volumes);
+                let gathered = || whole.gathered(&terms.kept, &terms.samples.points(), volumes);
                 (terms, terms.bulk.get_or_init(gathered))
             }
             None => (all, whole),

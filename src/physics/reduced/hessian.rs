@@ -6,7 +6,6 @@ use nalgebra::{DMatrix, DVector, Matrix3};
 
 use super::{add_kron_identity, ReducedSim};
 use crate::linalg::DenseCholesky;
-use crate::physics::bulk::{self, pressure_derivative};
 use crate::physics::material::Matrix9;
 use crate::physics::shares::shared_out;
 
@@ -156,23 +155,10 @@ impl ReducedSim {
         project: bool,
         usage: HessianUse,
     ) -> DMatrix<f64> {
-        // Where the bulk term is projected (`physics::bulk`), only the rest is point by point,
-        // and the exact Hessian adds each point's pressure times its volume change's curvature.
-        let (point, model) = (bulk::split(&self.material).0, self.material.model);
         let coarse = matches!(usage, HessianUse::Refresh);
-        let pressures = (!project)
-            .then(|| {
-                self.subspace
-                    .bulk_pressures(gradients, &self.material, coarse)
-            })
-            .flatten();
-        let hessian_at = |p: usize, f: &Matrix3<f64>| {
-            let h = point.stress_derivative(f, project);
-            match &pressures {
-                Some(q) => h + pressure_derivative(model, f, q[p]),
-                None => h,
-            }
-        };
+        let hessian_at =
+            self.subspace
+                .stress_derivatives(gradients, &self.material, project, coarse);
         let parallel_from = if project {
             PARALLEL_PROJECTED_DERIVATIVES
         } else {
