@@ -243,7 +243,7 @@ impl SoftBody {
         let NetworkInput {
             map,
             grid,
-            contact,
+            mut contact,
             voxelize_ms,
             ..
         } = input;
@@ -272,13 +272,7 @@ impl SoftBody {
             options.solver,
             (hi - lo).norm(),
         )?;
-        apply_support(
-            &mut sim,
-            options,
-            &cubature,
-            &contact.points,
-            &contact.areas,
-        );
+        apply_support(&mut sim, options, &cubature, &mut contact, 0.5 * grid.cell);
         sim.prepare();
         timings.subspace_ms = ms(t);
 
