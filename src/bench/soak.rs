@@ -39,6 +39,10 @@ pub struct MemorySample {
     pub at_s: f64,
     /// Resident memory of this process (node and client), MiB; NaN when unreadable.
     pub rss_mb: f64,
+    /// What the allocator's heaps have handed out and not taken back, MiB (glibc's
+    /// `mallinfo2`; NaN elsewhere). Growth here is data kept; growth of the resident memory
+    /// alone is free space the heaps keep (the binary keeps it: `keep_freed_memory`).
+    pub heap_in_use_mb: f64,
 }
 
 /// What `bench soak` reports (serialized for `--json`).
@@ -79,6 +83,8 @@ pub struct SoakReport {
     pub rss_max_mb: f64,
     /// Least-squares slope over the last three quarters, MiB per minute.
     pub rss_growth_mb_per_min: f64,
+    /// The same slope of the memory the allocator has handed out, MiB per minute.
+    pub heap_growth_mb_per_min: f64,
     /// Every memory sample, one a second.
     pub memory: Vec<MemorySample>,
     /// The recording's files, read back with the strict reader, and their messages per topic.
@@ -88,6 +94,20 @@ pub struct SoakReport {
     pub recording_complete: bool,
     /// Messages per topic in the recording's files.
     pub recorded: BTreeMap<String, usize>,
+}
+
+/// Bytes the allocator's heaps have handed out and not taken back, MiB. Blocks mapped on
+/// their own (over the 32 MB threshold) go back to the system when freed and are not counted.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn heap_in_use_mb() -> f64 {
+    // SAFETY: mallinfo2 only reads the allocator's counters (under its own locks).
+    let info = unsafe { libc::mallinfo2() };
+    info.uordblks as f64 / (1024.0 * 1024.0)
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn heap_in_use_mb() -> f64 {
+    f64::NAN
 }
 
 fn rss_mb() -> f64 {
@@ -171,6 +191,7 @@ pub fn run_soak(options: &SoakOptions, log: impl Fn(&str)) -> Result<SoakReport>
         rss_end_mb: 0.0,
         rss_max_mb: 0.0,
         rss_growth_mb_per_min: 0.0,
+        heap_growth_mb_per_min: 0.0,
         memory: Vec::new(),
         recording_files: 0,
         recording_complete: false,
@@ -410,14 +431,16 @@ fn sample_memory(report: &mut SoakReport, t: f64, log: &dyn Fn(&str)) {
     report.memory.push(MemorySample {
         at_s: t,
         rss_mb: rss_mb(),
+        heap_in_use_mb: heap_in_use_mb(),
     });
     if report.memory.len() % 60 == 0 {
         log(&format!(
-            "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB",
+            "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB, heap in use {:.1} MB",
             report.shapes_sent,
             report.pokes_sent,
             report.states_received,
-            rss_mb()
+            rss_mb(),
+            heap_in_use_mb()
         ));
     }
 }
@@ -451,17 +474,25 @@ fn summarize_memory(report: &mut SoakReport) {
     report.rss_warm_mb = warm.first().map_or(f64::NAN, |s| s.rss_mb);
     report.rss_end_mb = last.rss_mb;
     report.rss_max_mb = samples.iter().map(|s| s.rss_mb).fold(0.0, f64::max);
-    let n = warm.len() as f64;
-    let (mt, mr) = (
-        warm.iter().map(|s| s.at_s).sum::<f64>() / n,
-        warm.iter().map(|s| s.rss_mb).sum::<f64>() / n,
-    );
+    report.rss_growth_mb_per_min = slope_per_minute(&warm, |s| s.rss_mb);
+    report.heap_growth_mb_per_min = slope_per_minute(&warm, |s| s.heap_in_use_mb);
+}
+
+/// The least-squares slope of `value` over `samples`' times, per minute.
+fn slope_per_minute(samples: &[&MemorySample], value: impl Fn(&MemorySample) -> f64) -> f64 {
+    let n = samples.len() as f64;
+    let mt = samples.iter().map(|s| s.at_s).sum::<f64>() / n;
+    let mv = samples.iter().map(|s| value(s)).sum::<f64>() / n;
     let (mut sxy, mut sxx) = (0.0, 0.0);
-    for s in &warm {
-        sxy += (s.at_s - mt) * (s.rss_mb - mr);
+    for s in samples {
+        sxy += (s.at_s - mt) * (value(s) - mv);
         sxx += (s.at_s - mt) * (s.at_s - mt);
     }
-    report.rss_growth_mb_per_min = if sxx > 0.0 { 60.0 * sxy / sxx } else { 0.0 };
+    if sxx > 0.0 {
+        60.0 * sxy / sxx
+    } else {
+        0.0
+    }
 }
 
 /// The files of a split recording whose first file is `first` (`<stem>.mcap`, `<stem>_1.mcap`, ...).

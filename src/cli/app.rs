@@ -399,8 +399,12 @@ fn run_bench_soak(json: bool, seconds: f64, domain_id: u16, record: PathBuf) -> 
         r.states_received, r.non_finite_states
     );
     println!(
-        "RSS warm {:.1} MB, end {:.1} MB, max {:.1} MB, growth {:+.3} MB/min",
-        r.rss_warm_mb, r.rss_end_mb, r.rss_max_mb, r.rss_growth_mb_per_min
+        "RSS warm {:.1} MB, end {:.1} MB, max {:.1} MB, growth {:+.3} MB/min (heap in use {:+.3})",
+        r.rss_warm_mb,
+        r.rss_end_mb,
+        r.rss_max_mb,
+        r.rss_growth_mb_per_min,
+        r.heap_growth_mb_per_min
     );
     println!("statuses {:?}", r.statuses);
     println!(
