@@ -159,7 +159,11 @@ fn record_overhead(
 
 fn poke(stage: &mut Stage, outputs: &Outputs, i: usize) {
     use crate::msg::{Header, Interaction, Point, Vector3 as RosVector3};
-    let side = if (i / 60) % 2 == 0 { 1.0 } else { -1.0 };
+    let side = if (i / 60).is_multiple_of(2) {
+        1.0
+    } else {
+        -1.0
+    };
     let force = Vector3::new(0.0, 200.0 * side, 0.0);
     stage.interact(
         &Interaction {

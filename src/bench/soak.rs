@@ -350,7 +350,10 @@ fn scheduled_poke(k: usize) -> Interaction {
     let (kind, x) = match k % 30 {
         0 => (Interaction::PIN, 0.0),
         15 => (Interaction::RELEASE, 0.0),
-        _ => (Interaction::FORCE, if k % 2 == 0 { 3.0 } else { -3.0 }),
+        _ => (
+            Interaction::FORCE,
+            if k.is_multiple_of(2) { 3.0 } else { -3.0 },
+        ),
     };
     poke(frame, kind, x)
 }
@@ -415,7 +418,7 @@ fn send_stream_frame(
 /// Sends the `k`th bad input; `send` logs a cloud that failed to go out.
 fn send_bad_input(client: &Client, k: usize, send: &dyn Fn(&str, bool)) {
     // Alternately a cloud without z and a poke with a NaN force.
-    if k % 2 == 0 {
+    if k.is_multiple_of(2) {
         let mut cloud = sample_cloud("sphere", 500, "soak_bad", 1);
         cloud.fields.retain(|f| f.name != "z");
         send("a bad cloud", client.points.publish(cloud).is_ok());

@@ -103,7 +103,6 @@ struct Frame {
     clean: Vec<Vector3<f64>>,
 }
 
-/// Runs every sequence in every mode.
 /// Which sequences and modes `run_track_bench` runs.
 #[derive(Clone, Debug)]
 pub struct TrackBenchOptions {

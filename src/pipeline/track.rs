@@ -20,7 +20,7 @@ use serde::Serialize;
 
 use super::SoftBody;
 use crate::geometry::{least_spread_direction, PointIndex};
-use crate::linalg::product;
+use crate::linalg::{add_product_transposed, product};
 use crate::physics::{ObservationTerm, UnmodelledForce};
 use crate::Result;
 
@@ -221,17 +221,13 @@ impl Tracker {
         if self.options.force_gain <= 0.0 || pairs.misses.is_empty() {
             return None;
         }
-        let each = self.options.force_gain * pull / pairs.misses.len() as f64;
+        let misses = &pairs.misses;
+        let each = self.options.force_gain * pull / misses.len() as f64;
         let rows = self.phis.nrows();
+        let pushes = DMatrix::from_fn(3, misses.len(), |d, i| misses[i].1[d] * each);
+        let phis = DMatrix::from_fn(rows, misses.len(), |a, i| self.phis[(a, misses[i].0)]);
         let mut force = DMatrix::zeros(3, rows);
-        for (s, miss) in &pairs.misses {
-            for a in 0..rows {
-                let share = self.phis[(a, *s)] * each;
-                for d in 0..3 {
-                    force[(d, a)] += miss[d] * share;
-                }
-            }
-        }
+        add_product_transposed(&mut force, &pushes, &phis);
         Some(UnmodelledForce {
             force,
             memory_s: self.options.force_memory_s,
