@@ -86,6 +86,21 @@ pub(super) fn refine_on_solid(
 }
 
 impl BasisPlan {
+    /// Where the state is carried over, with weights: the cubature points by mass (the body's
+    /// volume, its physics) and the body's own points with as much weight again, shared evenly
+    /// (what a consumer sees). Fitted on the cubature points alone, the points on the surface,
+    /// which the interior cubature does not reach, were left to the new field's extrapolation:
+    /// a soft creature sagging 60 to 170 mm jumped 51 to 66 mm at the switch, 1.9 to 4.1 mm
+    /// fitted on both (printed).
+    fn fit_samples(&self, density: f64) -> (Vec<Vector3<f64>>, Vec<f64>) {
+        let mut points = self.cubature.points.clone();
+        let mut weights: Vec<f64> = self.cubature.volumes.iter().map(|v| density * v).collect();
+        let each = weights.iter().sum::<f64>() / self.points.len().max(1) as f64;
+        points.extend_from_slice(&self.points);
+        weights.resize(points.len(), each);
+        (points, weights)
+    }
+
     /// The body's field refined toward the skinning eigenmodes on the solid's tet mesh
     /// ([`REFINE_RESOLUTION`]), then sampled.
     pub fn refined(&self, options: &RefineOptions) -> Result<PreparedBasis> {
@@ -120,13 +135,13 @@ impl BasisPlan {
             density,
         ));
         let twin = ReducedSim::prepared_twin(subspace.clone(), &self.setup)?;
-        let masses: Vec<f64> = self.cubature.volumes.iter().map(|v| density * v).collect();
+        let (fit_points, fit_weights) = self.fit_samples(density);
         let projection = state_projection(
             self.field.as_ref(),
             field.as_ref(),
             &self.map,
-            &self.cubature.points,
-            &masses,
+            &fit_points,
+            &fit_weights,
         )?;
         let (weights, _) = sample(field.as_ref(), &self.map, &self.points, false);
         Ok(PreparedBasis {
