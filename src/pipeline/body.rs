@@ -326,8 +326,9 @@ impl SoftBody {
 
     /// Continues in the prepared field's subspace from where the body is now (call it between
     /// two steps): the state is fitted by least squares on the cubature points and the body's
-    /// points (`BasisPlan`) and the points are lifted anew; reports how far the farthest point moved at the switch. Refused when
-    /// the basis was prepared from another body or an earlier build of this one.
+    /// points (`BasisPlan`), and the points are lifted anew; reports how far the farthest point
+    /// moved at the switch. Refused when the basis was prepared from another body or an
+    /// earlier build of this one.
     pub fn switch_to(&mut self, prepared: PreparedBasis) -> Result<SwitchReport> {
         if !Arc::ptr_eq(&self.field, &prepared.from) {
             return Err(crate::Error::InvalidParameter {
