@@ -339,6 +339,25 @@ mod tests {
         })
     }
 
+    /// The regions' k-means runs only for a body whose bulk term is projected: point by point,
+    /// its rest Hessian, forces and exact Hessian never form them.
+    #[test]
+    fn regions_are_formed_only_for_a_projected_bulk_term() {
+        for bulk in [BulkIntegration::Points, BulkIntegration::Regions] {
+            let subspace = small_box();
+            let material = Material {
+                bulk,
+                ..Material::from_young_poisson(MaterialModel::StableNeoHookean, 1e5, 0.45)
+            };
+            let z = bent(&subspace);
+            subspace.rest_elastic_hessian(&material);
+            subspace.elastic_forces(&z, &material);
+            subspace.elastic_hessian_at(&z, &material);
+            let projected = bulk == BulkIntegration::Regions;
+            assert_eq!(subspace.formed_bulk_regions(), projected, "{bulk:?}");
+        }
+    }
+
     #[test]
     fn the_elastic_gradient_is_the_energys_with_the_bulk_averaged_over_regions() {
         let subspace = small_box();

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 use super::assembly::HessianAssembly;
 use super::bulk::{pressure_derivative, split, volume_change, BulkRegions};
-use super::material::{polar_rotation, Material, Matrix9};
+use super::material::{polar_rotation, Material, MaterialModel, Matrix9};
 use super::shares::shared_out;
 use super::strain::FieldSamples;
 
@@ -81,44 +81,38 @@ impl CubatureTerms {
         }
     }
 
-    /// The bulk term's Gauss-Newton Hessian (see `BulkRegions::add_hessian`) at these
-    /// points' deformation `gradients`, added to `hessian`.
+    /// The Gauss-Newton Hessian of a projected bulk term of modulus `bulk` (see
+    /// `BulkRegions::add_hessian`) at these points' deformation `gradients`, added to
+    /// `hessian`.
     fn add_bulk_hessian(
         &self,
         regions: &BulkRegions,
         hessian: &mut DMatrix<f64>,
         gradients: &[Matrix3<f64>],
-        material: &Material,
+        model: MaterialModel,
+        bulk: f64,
     ) {
-        let bulk = split(material).1;
-        if bulk == 0.0 {
-            return;
-        }
-        let (samples, model) = (&self.samples, material.model);
+        let samples = &self.samples;
         let gradient_at = |p: usize, out: &mut [f64]| {
             samples.volume_change_gradient(p, &gradients[p], model, out);
         };
         regions.add_hessian(hessian, samples.volumes(), bulk, gradient_at);
     }
 
-    /// Each point's pressure (see `BulkRegions::energy_and_pressures`) at these points'
-    /// deformation `gradients`; None where the material has no bulk term.
+    /// Each point's pressure under a projected bulk term of modulus `bulk` (see
+    /// `BulkRegions::energy_and_pressures`) at these points' deformation `gradients`.
     fn pressures(
         &self,
         regions: &BulkRegions,
         gradients: &[Matrix3<f64>],
-        material: &Material,
-    ) -> Option<Vec<f64>> {
-        let bulk = split(material).1;
-        if bulk == 0.0 {
-            return None;
-        }
-        let changes: Vec<f64> = gradients
-            .iter()
-            .map(|f| volume_change(material.model, f).0)
+        model: MaterialModel,
+        bulk: f64,
+    ) -> Vec<f64> {
+        let changes: Vec<f64> = (gradients.iter())
+            .map(|f| volume_change(model, f).0)
             .collect();
         let volumes = self.samples.volumes();
-        Some(regions.energy_and_pressures(&changes, volumes, bulk).1)
+        regions.energy_and_pressures(&changes, volumes, bulk).1
     }
 
     /// The terms at a coarser cubature, on which the quasi-Newton solver reassembles its held
@@ -353,8 +347,12 @@ impl Subspace {
         material: &Material,
         coarse: bool,
     ) -> Option<Vec<f64>> {
+        let bulk = split(material).1;
+        if bulk == 0.0 {
+            return None;
+        }
         let (terms, regions) = self.bulk_terms(coarse);
-        terms.pressures(regions, gradients, material)
+        Some(terms.pressures(regions, gradients, material.model, bulk))
     }
 
     /// dP/dF of point p at its deformation gradient, for the point-by-point part of
@@ -405,12 +403,22 @@ impl Subspace {
         material: &Material,
         coarse: bool,
     ) {
+        let bulk = split(material).1;
+        if bulk == 0.0 {
+            return;
+        }
         let (terms, regions) = self.bulk_terms(coarse);
-        terms.add_bulk_hessian(regions, hessian, gradients, material);
+        terms.add_bulk_hessian(regions, hessian, gradients, material.model, bulk);
+    }
+
+    /// Whether the whole cubature's bulk regions were formed.
+    #[cfg(test)]
+    pub(crate) fn formed_bulk_regions(&self) -> bool {
+        self.all.bulk.get().is_some()
     }
 
     /// The terms of the whole cubature, or of the coarser one (all points where there is
-    /// none), with the regions of their points: the whole cubature's formed on first use,
+    /// none), with the regions of their points (only for a projected bulk term): the whole cubature's formed on first use,
     /// the coarser one's the same regions restricted to the points it keeps.
     fn bulk_terms(&self, coarse: bool) -> (&CubatureTerms, &BulkRegions) {
         let all = &self.all;
