@@ -100,6 +100,11 @@ pub struct Tracker {
     phis: DMatrix<f64>,
     /// `phis` transposed (S x 4K), for placing the samples.
     phis_by_sample: DMatrix<f64>,
+    /// Each sample's skinning weights (K x S; phi's every fourth row, kept apart: gathered
+    /// from phi they cost a tenth of the correction in cache misses).
+    weights: DMatrix<f64>,
+    /// Each sample's unit normal at rest (its sign is of no use: a pull is projected on it).
+    rest_normals: Vec<Vector3<f64>>,
     /// Typical distance between neighbouring samples, m.
     spacing: f64,
     diagonal: f64,
@@ -113,27 +118,36 @@ impl Tracker {
         let own = body.lifter().rest_points();
         let half = (options.samples / 2).max(1);
         let mut points: Vec<Vector3<f64>> = strided(&own, half);
+        let surface = &body.surface_samples().points;
         let area: f64 = body.surface_samples().areas.iter().sum();
         let spacing = (area / options.samples.max(1) as f64).sqrt().max(1e-6);
         // The rest of the surface, where the body's own points are not: a completed view's
         // samples of the side the camera saw lie a voxel off the points it saw, and matched
         // beside them they would pull the body that far.
         let index = PointIndex::new(&points, 2.0 * spacing);
-        let hidden: Vec<Vector3<f64>> = (body.surface_samples().points.iter())
+        let hidden: Vec<Vector3<f64>> = (surface.iter())
             .filter(|p| index.closest(p).is_none_or(|(_, d)| d > 2.0 * spacing))
             .copied()
             .collect();
-        points.extend(strided(&hidden, half));
+        let hidden = strided(&hidden, half);
+        // Normals from the densest points at hand: all of the body's own for its own
+        // samples, all surface samples for the others.
+        let mut rest_normals = plane_normals(&own, &points);
+        rest_normals.extend(plane_normals(surface, &hidden));
+        points.extend(hidden);
         let subspace = body.subspace();
         let phis = subspace.phis(&points);
         let rows = 4 * subspace.handles();
         let phis = DMatrix::from_fn(rows, points.len(), |a, i| phis[i][a]);
+        let weights = DMatrix::from_fn(rows / 4, points.len(), |j, i| phis[(4 * j + 3, i)]);
         let (lo, hi) = body.rest_bounds();
         Self {
             options: options.clone(),
             rests: DMatrix::from_fn(3, points.len(), |d, i| points[i][d]),
             phis_by_sample: phis.transpose(),
             phis,
+            weights,
+            rest_normals,
             spacing,
             diagonal: (hi - lo).norm(),
             expires: None,
@@ -158,9 +172,14 @@ impl Tracker {
         viewpoint: &Vector3<f64>,
     ) -> Result<FrameFit> {
         let started = Instant::now();
-        let placed = self.placed(body);
+        let state = body.predicted_state();
+        let placed = self.placed(&state);
         let visible = visible_from(&placed, viewpoint, self.spacing);
-        let seen: Vec<Vector3<f64>> = visible.iter().map(|&s| placed[s]).collect();
+        let seen = Seen {
+            points: visible.iter().map(|&s| placed[s]).collect(),
+            normals: self.normals_of(&state, &visible),
+            samples: visible,
+        };
         let mut fit = FrameFit {
             observed: points.len(),
             ..Default::default()
@@ -168,7 +187,7 @@ impl Tracker {
         let allowed = 1.0 - self.options.unexplained_share;
         let mut matched = None;
         for (widen, first) in [(1.0, true), (RELOCK_GATE, false)] {
-            let pairs = self.match_both_ways(&seen, &visible, points, viewpoint, widen);
+            let pairs = self.match_both_ways(&seen, points, viewpoint, widen);
             let explained = pairs.explained as f64 / points.len().max(1) as f64;
             if first {
                 fit.explained = pairs.explained;
@@ -234,6 +253,35 @@ impl Tracker {
         })
     }
 
+    /// The normals of the `visible` samples where `state` puts them: each rest normal carried
+    /// by the state's local linear map F (by its cofactor matrix, det F times its inverse
+    /// transpose; the weights' own gradient is left out). From the body, not the frame: a
+    /// plane through each observed point's neighbours cost a third of the correction, and
+    /// the frame's few hundred points are noisier than the body's surface.
+    fn normals_of(&self, state: &DMatrix<f64>, visible: &[usize]) -> Vec<Vector3<f64>> {
+        let handles = self.weights.nrows();
+        // sum_j w_j(s) Z_j for every sample at once: (samples x K) (K x 9), each row the
+        // 3 x 3 map's columns one after another.
+        let mut weights = DMatrix::zeros(visible.len(), handles);
+        for (i, &s) in visible.iter().enumerate() {
+            weights.row_mut(i).tr_copy_from(&self.weights.column(s));
+        }
+        let blocks = DMatrix::from_fn(handles, 9, |j, m| state[12 * j + m]);
+        let maps = product(&weights, &blocks);
+        visible
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| {
+                let column =
+                    |c: usize| Vector3::from_fn(|d, _| maps[(i, 3 * c + d)]) + Vector3::ith(c, 1.0);
+                let (a, b, c) = (column(0), column(1), column(2));
+                let rest = self.rest_normals[s];
+                let normal = b.cross(&c) * rest.x + c.cross(&a) * rest.y + a.cross(&b) * rest.z;
+                normal.try_normalize(1e-12).unwrap_or(rest)
+            })
+            .collect()
+    }
+
     /// Per-kg spring stiffness: `stiffness` over h^2.
     fn stiffness(&self, body: &SoftBody) -> f64 {
         let h = body.dt();
@@ -243,10 +291,10 @@ impl Tracker {
     /// The samples where the body will be at its next step if it keeps its velocity: where
     /// the frame, taken after its last step, sees them (a falling body moves 2.5 cm a step
     /// at 1.5 m/s, more than the gate).
-    fn placed(&self, body: &SoftBody) -> Vec<Vector3<f64>> {
+    fn placed(&self, state: &DMatrix<f64>) -> Vec<Vector3<f64>> {
         // phi^T z^T (S x 3), a tall product: faer's kernels take it faster than the wide
         // z phi (3 x S).
-        let moved = product(&self.phis_by_sample, &body.predicted_state().transpose());
+        let moved = product(&self.phis_by_sample, &state.transpose());
         (0..moved.nrows())
             .map(|i| {
                 let rest = self.rests.column(i);
@@ -269,39 +317,36 @@ impl Tracker {
     /// Cloud to model and model to cloud, within `widen` times the gate.
     fn match_both_ways(
         &self,
-        seen: &[Vector3<f64>],
-        visible: &[usize],
+        seen: &Seen,
         points: &[Vector3<f64>],
         viewpoint: &Vector3<f64>,
         widen: f64,
     ) -> Pairs {
         let mut pairs = Pairs::default();
-        if seen.is_empty() || points.is_empty() {
+        if seen.points.is_empty() || points.is_empty() {
             return pairs;
         }
         let cloud = PointIndex::for_surface(points);
         let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
-        let mut normals = Normals::new(&cloud, points);
-        let aligned = rigidly_aligned(seen, &mut normals, &gate);
+        let aligned = rigidly_aligned(seen, &cloud, points, &gate);
         let model = PointIndex::new(&aligned, 2.0 * self.spacing);
         let mut squared = 0.0;
-        for (i, y) in points.iter().enumerate() {
-            let Some((s, d)) = model.closest(y) else {
+        for y in points {
+            let Some((k, d)) = model.closest(y) else {
                 break;
             };
             if d <= gate(y) {
-                pairs.to_model.push((visible[s], *y));
+                let (s, n) = (seen.samples[k], seen.normals[k]);
+                pairs.to_model.push((s, *y));
                 squared += d * d;
                 // Where the frame saw it against where the body will be, not against the
                 // aligned sample: the alignment's motion is part of the miss.
-                if let Some(n) = normals.known(i) {
-                    pairs.misses.push((visible[s], n * n.dot(&(y - seen[s]))));
-                }
+                pairs.misses.push((s, n * n.dot(&(y - seen.points[k]))));
             }
         }
         pairs.explained = pairs.to_model.len();
         pairs.residual_m = (squared / pairs.explained.max(1) as f64).sqrt();
-        for (s, x) in visible.iter().zip(&aligned) {
+        for (s, x) in seen.samples.iter().zip(&aligned) {
             if let Some((i, d)) = cloud.closest(x) {
                 if d <= gate(&points[i]) {
                     pairs.to_cloud.push((*s, points[i]));
@@ -310,6 +355,14 @@ impl Tracker {
         }
         pairs
     }
+}
+
+/// The samples a frame can see: their indices, where the next step puts them and their
+/// normals there.
+struct Seen {
+    samples: Vec<usize>,
+    points: Vec<Vector3<f64>>,
+    normals: Vec<Vector3<f64>>,
 }
 
 /// Rigid ICP iterations that align the visible samples with a frame before they are matched.
@@ -334,24 +387,21 @@ const UNSEEN_TURN: f64 = 0.05;
 /// points 2.8315 % of its diagonal off when poked, 14.1236 % when dropped, while its surface
 /// stayed within 0.97 and 1.04 %; measured along the normals, 2.0969 % and 1.4812 %, printed).
 fn rigidly_aligned(
-    seen: &[Vector3<f64>],
-    normals: &mut Normals<'_>,
+    seen: &Seen,
+    cloud: &PointIndex,
+    points: &[Vector3<f64>],
     gate: &dyn Fn(&Vector3<f64>) -> f64,
 ) -> Vec<Vector3<f64>> {
-    let (cloud, points) = (normals.cloud, normals.points);
-    let mut aligned = seen.to_vec();
-    // Every fourth sample: the motion of a few hundred is as well determined, and each pair
-    // needs its observed point's normal.
+    let mut aligned = seen.points.clone();
+    let mut turned = nalgebra::UnitQuaternion::identity();
+    // Every fourth sample: the motion of a few hundred is as well determined.
     for _ in 0..ALIGN_ITERATIONS {
-        let pairs: Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> = aligned
-            .iter()
+        let pairs: Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> = (aligned.iter())
+            .zip(&seen.normals)
             .step_by(ICP_STRIDE)
-            .filter_map(|x| {
+            .filter_map(|(x, n)| {
                 let (i, d) = cloud.closest(x)?;
-                if d > gate(&points[i]) {
-                    return None;
-                }
-                Some((*x, points[i], normals.at(i)))
+                (d <= gate(&points[i])).then(|| (*x, points[i], turned * n))
             })
             .collect();
         let Some(motion) = motion_along_normals(&pairs) else {
@@ -360,44 +410,34 @@ fn rigidly_aligned(
         aligned
             .iter_mut()
             .for_each(|x| *x = motion.transform_point(&(*x).into()).coords);
+        turned = motion.rotation * turned;
     }
     aligned
 }
 
-/// The observed points (and their index) with their normals, each found when first asked
-/// for.
-struct Normals<'a> {
-    cloud: &'a PointIndex<'a>,
-    points: &'a [Vector3<f64>],
-    found: Vec<Option<Vector3<f64>>>,
+/// At each of `at`, the unit normal of the plane through its nearest points of `points`.
+fn plane_normals(points: &[Vector3<f64>], at: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+    if points.is_empty() {
+        return vec![Vector3::z(); at.len()];
+    }
+    let index = PointIndex::for_surface(points);
+    at.iter()
+        .map(|x| {
+            let near: Vec<Vector3<f64>> = (index.nearest(x, NORMAL_NEIGHBOURS + 2, None))
+                .into_iter()
+                .map(|j| points[j])
+                .collect();
+            plane_through(&near)
+        })
+        .collect()
 }
 
-impl<'a> Normals<'a> {
-    fn new(cloud: &'a PointIndex<'a>, points: &'a [Vector3<f64>]) -> Self {
-        Self {
-            cloud,
-            points,
-            found: vec![None; points.len()],
-        }
-    }
-
-    fn at(&mut self, i: usize) -> Vector3<f64> {
-        *self.found[i].get_or_insert_with(|| normal_at(self.cloud, self.points, i))
-    }
-
-    /// The normal at `i` if it was asked for already.
-    fn known(&self, i: usize) -> Option<Vector3<f64>> {
-        self.found[i]
-    }
-}
-
-/// The unit normal of the plane through observed point `i` and its nearest neighbours.
-fn normal_at(cloud: &PointIndex, points: &[Vector3<f64>], i: usize) -> Vector3<f64> {
-    let near = cloud.nearest(&points[i], NORMAL_NEIGHBOURS, None);
-    let mean = near.iter().map(|&j| points[j]).sum::<Vector3<f64>>() / near.len().max(1) as f64;
+/// The unit normal of the plane that fits `near` best.
+fn plane_through(near: &[Vector3<f64>]) -> Vector3<f64> {
+    let mean = near.iter().sum::<Vector3<f64>>() / near.len().max(1) as f64;
     let covariance: nalgebra::Matrix3<f64> = near
         .iter()
-        .map(|&j| (points[j] - mean) * (points[j] - mean).transpose())
+        .map(|p| (p - mean) * (p - mean).transpose())
         .sum();
     least_spread_direction(&covariance)
 }
