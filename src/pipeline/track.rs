@@ -233,8 +233,8 @@ impl Tracker {
     }
 
     /// The frame's share of the force nothing modelled: `force_gain` of a pull of the body's
-    /// whole mass on springs of `pull` (N/m), spread over the sampled misses, each only along
-    /// its observed point's normal: along the surface a miss is the matching's noise (nearest
+    /// whole mass on springs of `pull` (N/m), spread over the misses, each only along its
+    /// sample's normal: along the surface a miss is the matching's noise (nearest
     /// samples a spacing apart), and kept as a force it spun a tracked ball up (`bench track`).
     fn unmodelled_force(&self, pairs: &Pairs, pull: f64) -> Option<UnmodelledForce> {
         if self.options.force_gain <= 0.0 || pairs.misses.is_empty() {
@@ -369,19 +369,18 @@ struct Seen {
 const ALIGN_ITERATIONS: usize = 3;
 /// Every this many visible samples is paired in the alignment.
 const ICP_STRIDE: usize = 4;
-/// Neighbours of an observed point whose plane gives its normal.
-const NORMAL_NEIGHBOURS: usize = 6;
+/// Neighbours of a sample's point at rest whose plane gives its normal.
+const NORMAL_NEIGHBOURS: usize = 8;
 /// A rotation the frame pins down less than this share of what it pins a turn of the seen
 /// patch by (its spread squared per pair) is damped away: see `motion_along_normals`.
 const UNSEEN_TURN: f64 = 0.05;
 
 /// The visible samples `seen` moved by the rigid motion that best lays them on the frame's
-/// points, those `normals` are of (a few ICP iterations, each pair within `gate` of its
-/// observed point). Nearest
+/// `points` (a few ICP iterations, each pair within `gate` of its observed point). Nearest
 /// points alone hardly pull a flat face along itself: a block pushed into a spin was matched
 /// to its own trailing positions, 7 to 9 % of its diagonal behind (`bench track`); matched
 /// after the alignment, each sample is pulled toward where the face's motion took it. The
-/// motion is measured along the frame's normals, so that a turn the surface does not show (a
+/// motion is measured along the surface's normals, so that a turn the surface does not show (a
 /// ball about its centre) is not made up from noise: point to point (Kabsch), a seen ball's cap
 /// was turned by each frame's noise, and the ball with it (`bench track`, 2.5 s: its material
 /// points 2.8315 % of its diagonal off when poked, 14.1236 % when dropped, while its surface
@@ -423,7 +422,7 @@ fn plane_normals(points: &[Vector3<f64>], at: &[Vector3<f64>]) -> Vec<Vector3<f6
     let index = PointIndex::for_surface(points);
     at.iter()
         .map(|x| {
-            let near: Vec<Vector3<f64>> = (index.nearest(x, NORMAL_NEIGHBOURS + 2, None))
+            let near: Vec<Vector3<f64>> = (index.nearest(x, NORMAL_NEIGHBOURS, None))
                 .into_iter()
                 .map(|j| points[j])
                 .collect();
@@ -485,10 +484,8 @@ fn motion_along_normals(
 /// A gate this many times wider pulls back a body the gate no longer explains.
 const RELOCK_GATE: f64 = 4.0;
 
-/// A frame's correspondences: (sample, observed point) each way, and, for the cloud-to-model
-/// pairs whose observed point the alignment found the normal of (a few hundred spread over the
-/// frame; a normal for every point cost a tenth of a millisecond more), the sample's miss along
-/// it.
+/// A frame's correspondences: (sample, observed point) each way, and, for each cloud-to-model
+/// pair, the sample's miss along its normal.
 #[derive(Default)]
 struct Pairs {
     to_model: Vec<(usize, Vector3<f64>)>,
