@@ -98,10 +98,7 @@ pub struct Tracker {
     /// Rest positions (3 x S) and subspace samples (4K x S) of the surface samples.
     rests: DMatrix<f64>,
     phis: DMatrix<f64>,
-    /// `phis` transposed (S x 4K), for placing the samples.
-    phis_by_sample: DMatrix<f64>,
-    /// Each sample's skinning weights (K x S; phi's every fourth row, kept apart: gathered
-    /// from phi they cost a tenth of the correction in cache misses).
+    /// Each sample's skinning weights (S x K; phi is w (x) [X; 1]).
     weights: DMatrix<f64>,
     /// Each sample's unit normal at rest (its sign is of no use: a pull is projected on it).
     rest_normals: Vec<Vector3<f64>>,
@@ -139,12 +136,11 @@ impl Tracker {
         let phis = subspace.phis(&points);
         let rows = 4 * subspace.handles();
         let phis = DMatrix::from_fn(rows, points.len(), |a, i| phis[i][a]);
-        let weights = DMatrix::from_fn(rows / 4, points.len(), |j, i| phis[(4 * j + 3, i)]);
+        let weights = DMatrix::from_fn(points.len(), rows / 4, |i, j| phis[(4 * j + 3, i)]);
         let (lo, hi) = body.rest_bounds();
         Self {
             options: options.clone(),
             rests: DMatrix::from_fn(3, points.len(), |d, i| points[i][d]),
-            phis_by_sample: phis.transpose(),
             phis,
             weights,
             rest_normals,
@@ -172,12 +168,12 @@ impl Tracker {
         viewpoint: &Vector3<f64>,
     ) -> Result<FrameFit> {
         let started = Instant::now();
-        let state = body.predicted_state();
-        let placed = self.placed(&state);
+        let maps = self.maps(&body.predicted_state());
+        let placed = self.placed(&maps);
         let visible = visible_from(&placed, viewpoint, self.spacing);
         let seen = Seen {
             points: visible.iter().map(|&s| placed[s]).collect(),
-            normals: self.normals_of(&state, &visible),
+            normals: self.normals_of(&maps, &visible),
             samples: visible,
         };
         let mut fit = FrameFit {
@@ -202,12 +198,11 @@ impl Tracker {
         }
         if let Some(pairs) = matched {
             let stiffness = self.stiffness(body);
-            let mut term =
-                pairs
-                    .pulls(placed.len(), body.mass())
-                    .term(&self.rests, &self.phis, stiffness);
+            let pulls = pairs.pulls(placed.len(), body.mass());
+            let (mut term, pulled) = pulls.term(&self.rests, &self.phis, stiffness);
             if !fit.relocked {
-                term.unmodelled = self.unmodelled_force(&pairs, body.mass() * stiffness);
+                let pull = body.mass() * stiffness;
+                term.unmodelled = self.unmodelled_force(&pairs, &pulled, &term.phis, pull);
             }
             fit.correspondences = term.weights.len();
             body.observe(&term)?;
@@ -236,44 +231,50 @@ impl Tracker {
     /// whole mass on springs of `pull` (N/m), spread over the misses, each only along its
     /// sample's normal: along the surface a miss is the matching's noise (nearest
     /// samples a spacing apart), and kept as a force it spun a tracked ball up (`bench track`).
-    fn unmodelled_force(&self, pairs: &Pairs, pull: f64) -> Option<UnmodelledForce> {
+    /// `pulled` are the samples the term pulls (every miss's among them), `phis` theirs.
+    fn unmodelled_force(
+        &self,
+        pairs: &Pairs,
+        pulled: &[usize],
+        phis: &DMatrix<f64>,
+        pull: f64,
+    ) -> Option<UnmodelledForce> {
         if self.options.force_gain <= 0.0 || pairs.misses.is_empty() {
             return None;
         }
-        let misses = &pairs.misses;
-        let each = self.options.force_gain * pull / misses.len() as f64;
-        let rows = self.phis.nrows();
-        let pushes = DMatrix::from_fn(3, misses.len(), |d, i| misses[i].1[d] * each);
-        let phis = DMatrix::from_fn(rows, misses.len(), |a, i| self.phis[(a, misses[i].0)]);
-        let mut force = DMatrix::zeros(3, rows);
-        add_product_transposed(&mut force, &pushes, &phis);
+        let each = self.options.force_gain * pull / pairs.misses.len() as f64;
+        let mut per_sample = vec![Vector3::zeros(); self.rests.ncols()];
+        for (s, miss) in &pairs.misses {
+            per_sample[*s] += miss * each;
+        }
+        let pushes = DMatrix::from_fn(3, pulled.len(), |d, i| per_sample[pulled[i]][d]);
+        let mut force = DMatrix::zeros(3, phis.nrows());
+        add_product_transposed(&mut force, &pushes, phis);
         Some(UnmodelledForce {
             force,
             memory_s: self.options.force_memory_s,
         })
     }
 
-    /// The normals of the `visible` samples where `state` puts them: each rest normal carried
-    /// by the state's local linear map F (by its cofactor matrix, det F times its inverse
+    /// Each sample's affine map where `state` (3 x 4K) puts it, sum_j w_j Z_j (S x 12, a
+    /// row the 3 x 4 map's columns one after another): the displacement z phi is that map of
+    /// [X; 1]. One product with the weights (S x K) instead of one with phi (S x 4K).
+    fn maps(&self, state: &DMatrix<f64>) -> DMatrix<f64> {
+        let blocks = DMatrix::from_fn(self.weights.ncols(), 12, |j, m| state[12 * j + m]);
+        product(&self.weights, &blocks)
+    }
+
+    /// The normals of the `visible` samples under their `maps`: each rest normal carried by
+    /// the local linear map F = I + A (by its cofactor matrix, det F times its inverse
     /// transpose; the weights' own gradient is left out). From the body, not the frame: a
     /// plane through each observed point's neighbours cost a third of the correction, and
     /// the frame's few hundred points are noisier than the body's surface.
-    fn normals_of(&self, state: &DMatrix<f64>, visible: &[usize]) -> Vec<Vector3<f64>> {
-        let handles = self.weights.nrows();
-        // sum_j w_j(s) Z_j for every sample at once: (samples x K) (K x 9), each row the
-        // 3 x 3 map's columns one after another.
-        let mut weights = DMatrix::zeros(visible.len(), handles);
-        for (i, &s) in visible.iter().enumerate() {
-            weights.row_mut(i).tr_copy_from(&self.weights.column(s));
-        }
-        let blocks = DMatrix::from_fn(handles, 9, |j, m| state[12 * j + m]);
-        let maps = product(&weights, &blocks);
+    fn normals_of(&self, maps: &DMatrix<f64>, visible: &[usize]) -> Vec<Vector3<f64>> {
         visible
             .iter()
-            .enumerate()
-            .map(|(i, &s)| {
+            .map(|&s| {
                 let column =
-                    |c: usize| Vector3::from_fn(|d, _| maps[(i, 3 * c + d)]) + Vector3::ith(c, 1.0);
+                    |c: usize| Vector3::from_fn(|d, _| maps[(s, 3 * c + d)]) + Vector3::ith(c, 1.0);
                 let (a, b, c) = (column(0), column(1), column(2));
                 let rest = self.rest_normals[s];
                 let normal = b.cross(&c) * rest.x + c.cross(&a) * rest.y + a.cross(&b) * rest.z;
@@ -291,18 +292,17 @@ impl Tracker {
     /// The samples where the body will be at its next step if it keeps its velocity: where
     /// the frame, taken after its last step, sees them (a falling body moves 2.5 cm a step
     /// at 1.5 m/s, more than the gate).
-    fn placed(&self, state: &DMatrix<f64>) -> Vec<Vector3<f64>> {
-        // phi^T z^T (S x 3), a tall product: faer's kernels take it faster than the wide
-        // z phi (3 x S).
-        let moved = product(&self.phis_by_sample, &state.transpose());
-        (0..moved.nrows())
-            .map(|i| {
-                let rest = self.rests.column(i);
-                Vector3::new(
-                    rest[0] + moved[(i, 0)],
-                    rest[1] + moved[(i, 1)],
-                    rest[2] + moved[(i, 2)],
-                )
+    fn placed(&self, maps: &DMatrix<f64>) -> Vec<Vector3<f64>> {
+        (0..maps.nrows())
+            .map(|s| {
+                let rest = Vector3::new(self.rests[(0, s)], self.rests[(1, s)], self.rests[(2, s)]);
+                let map = |d: usize| {
+                    maps[(s, d)] * rest.x
+                        + maps[(s, 3 + d)] * rest.y
+                        + maps[(s, 6 + d)] * rest.z
+                        + maps[(s, 9 + d)]
+                };
+                rest + Vector3::new(map(0), map(1), map(2))
             })
             .collect()
     }
@@ -529,22 +529,28 @@ impl Pulls {
     }
 
     /// One spring per pulled sample, to the weighted mean of its targets: the same quadratic
-    /// term, up to a constant, as one spring per correspondence.
-    fn term(&self, rests: &DMatrix<f64>, phis: &DMatrix<f64>, stiffness: f64) -> ObservationTerm {
+    /// term, up to a constant, as one spring per correspondence. Also the samples pulled.
+    fn term(
+        &self,
+        rests: &DMatrix<f64>,
+        phis: &DMatrix<f64>,
+        stiffness: f64,
+    ) -> (ObservationTerm, Vec<usize>) {
         let pulled: Vec<usize> = (0..self.weight.len())
             .filter(|&s| self.weight[s] > 0.0)
             .collect();
         let n = pulled.len();
-        ObservationTerm {
-            phis: DMatrix::from_fn(phis.nrows(), n, |a, i| phis[(a, pulled[i])]),
-            rests: DMatrix::from_fn(3, n, |d, i| rests[(d, pulled[i])]),
+        let term = ObservationTerm {
+            phis: phis.select_columns(&pulled),
+            rests: rests.select_columns(&pulled),
             targets: DMatrix::from_fn(3, n, |d, i| {
                 self.toward[pulled[i]][d] / self.weight[pulled[i]]
             }),
             weights: pulled.iter().map(|&s| self.weight[s]).collect(),
             stiffness,
             unmodelled: None,
-        }
+        };
+        (term, pulled)
     }
 }
 

@@ -97,9 +97,10 @@ impl ReducedSim {
     pub fn observe(&mut self, term: &ObservationTerm) -> Result<()> {
         term.check(4 * self.subspace.handles())?;
         let k = term.stiffness;
-        let weighted = DMatrix::from_fn(term.phis.nrows(), term.phis.ncols(), |a, i| {
-            term.phis[(a, i)] * term.weights[i] * k
-        });
+        let mut weighted = term.phis.clone();
+        for (mut column, w) in weighted.column_iter_mut().zip(&term.weights) {
+            column *= w * k;
+        }
         // Symmetric, so half the product: a frame's few hundred springs made it a fifth of the
         // correction's time.
         let quadratic = symmetric_product(&weighted, &term.phis);
