@@ -41,8 +41,12 @@ pub struct MemorySample {
     pub rss_mb: f64,
     /// What the allocator's heaps have handed out and not taken back, MiB (glibc's
     /// `mallinfo2`; NaN elsewhere). Growth here is data kept; growth of the resident memory
-    /// alone is free space the heaps keep (the binary keeps it: `keep_freed_memory`).
+    /// alone is free space the heaps keep (the binary keeps it between builds:
+    /// `keep_freed_memory`, `runtime::heap`).
     pub heap_in_use_mb: f64,
+    /// Of the resident memory, the pages of shared memory mapped (iceoryx2's segments, the
+    /// DDS transport's), MiB: they count once touched, whatever the heaps do.
+    pub rss_shared_mb: f64,
 }
 
 /// What `bench soak` reports (serialized for `--json`).
@@ -111,10 +115,15 @@ fn heap_in_use_mb() -> f64 {
 }
 
 fn rss_mb() -> f64 {
+    status_mb("VmRSS:")
+}
+
+/// A memory line of /proc/self/status, MiB (NaN when unreadable).
+fn status_mb(key: &str) -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .unwrap_or_default()
         .lines()
-        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .find_map(|l| l.strip_prefix(key))
         .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
         .map_or(f64::NAN, |kb| kb / 1024.0)
 }
@@ -435,14 +444,17 @@ fn sample_memory(report: &mut SoakReport, t: f64, log: &dyn Fn(&str)) {
         at_s: t,
         rss_mb: rss_mb(),
         heap_in_use_mb: heap_in_use_mb(),
+        rss_shared_mb: status_mb("RssShmem:"),
     });
-    if report.memory.len() % 60 == 0 {
+    if report.memory.len().is_multiple_of(60) {
         log(&format!(
-            "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB, heap in use {:.1} MB",
+            "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB (shared {:.1}), heap in use \
+             {:.1} MB",
             report.shapes_sent,
             report.pokes_sent,
             report.states_received,
             rss_mb(),
+            status_mb("RssShmem:"),
             heap_in_use_mb()
         ));
     }
