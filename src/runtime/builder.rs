@@ -625,6 +625,7 @@ pub fn run_builder(requests: Receiver<BuildRequest>, ready: Sender<Built>, cx: B
                         return;
                     }
                 }
+                super::heap::release_free_heap();
             }
         }
     }

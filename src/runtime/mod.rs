@@ -7,6 +7,7 @@ pub(crate) mod builder;
 pub(crate) mod clock;
 pub(crate) mod cloud_objects;
 pub(crate) mod diagnostics;
+pub(crate) mod heap;
 pub(crate) mod inputs;
 pub(crate) mod markers;
 pub(crate) mod names;
