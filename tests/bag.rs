@@ -150,7 +150,7 @@ fn golden_subset(messages: Vec<BagMessage>) -> Vec<BagMessage> {
             let state: SubspaceState = from_cdr(&m.data).unwrap();
             let n = seen.entry(state.shape_id).or_default();
             *n += 1;
-            (*n - 1) % 30 == 0
+            (*n - 1).is_multiple_of(30)
         })
         .collect()
 }

@@ -200,7 +200,7 @@ fn the_official_client_sees_the_node_and_pushes_an_object() {
         .iter()
         .filter(|c| c["stampNs"].as_str().unwrap().parse::<u128>().unwrap() < pushed)
         .map(y)
-        .last()
+        .next_back()
         .unwrap();
     let after = clouds.iter().map(y).fold(f64::MIN, f64::max);
     assert!(

@@ -263,8 +263,7 @@ fn objects_of_one_cloud_rest_on_each_other() {
         .iter()
         .filter(|m| m.topic == "/physskin/deformed_points")
         .map(|m| from_cdr::<PointCloud2>(&m.data).unwrap())
-        .filter(|c| u16::from_le_bytes(c.data[12..14].try_into().unwrap()) == 2)
-        .last()
+        .rfind(|c| u16::from_le_bytes(c.data[12..14].try_into().unwrap()) == 2)
         .map(|c| {
             (0..c.width as usize)
                 .map(|i| f32::from_le_bytes(c.data[i * 16 + 8..i * 16 + 12].try_into().unwrap()))

@@ -77,7 +77,7 @@ impl Capture {
 
     /// After a tick of the replay: captures a frame if one is due.
     pub(crate) fn observe(&mut self, tick: &Tick) {
-        if !self.due.first().is_some_and(|&d| tick.time_ns >= d - 1) {
+        if self.due.first().is_none_or(|&d| tick.time_ns < d - 1) {
             return;
         }
         self.due.remove(0);

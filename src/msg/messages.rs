@@ -634,7 +634,7 @@ struct CdrWriter {
 
 impl CdrWriter {
     fn align(&mut self, n: usize) {
-        while (self.bytes.len() - 4) % n != 0 {
+        while !(self.bytes.len() - 4).is_multiple_of(n) {
             self.bytes.push(0);
         }
     }

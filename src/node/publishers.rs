@@ -79,7 +79,7 @@ impl Publishers {
     /// then every 100th.
     fn refused<D>(&self, topic: &str, e: &ros2_client::ros2::WriteError<D>) {
         let n = self.dropped.fetch_add(1, Ordering::Relaxed);
-        if n % 100 == 0 {
+        if n.is_multiple_of(100) {
             // Display, not Debug: the Debug form carries the whole message.
             log::warn!(
                 "{topic} not published ({e}: a reader is behind); {} publications dropped so far",

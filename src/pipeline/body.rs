@@ -376,7 +376,7 @@ impl SoftBody {
         triangles: &[[u32; 3]],
         options: &BodyOptions,
     ) -> Result<Self> {
-        if points.len() % 3 != 0 {
+        if !points.len().is_multiple_of(3) {
             return Err(crate::Error::Geometry(format!(
                 "{} coordinates are not x, y, z triples",
                 points.len()

@@ -71,7 +71,7 @@ impl NetworkConfig {
     /// that does not.
     pub fn validate(&self) -> Result<()> {
         ensure(
-            self.width > 0 && self.heads > 0 && self.width % self.heads == 0,
+            self.width > 0 && self.heads > 0 && self.width.is_multiple_of(self.heads),
             "width",
             || {
                 format!(
