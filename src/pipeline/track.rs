@@ -100,7 +100,7 @@ pub struct Tracker {
     phis: DMatrix<f64>,
     /// Each sample's skinning weights (S x K; phi is w (x) [X; 1]).
     weights: DMatrix<f64>,
-    /// Each sample's unit normal at rest (its sign is of no use: a pull is projected on it).
+    /// Each sample's unit normal at rest (of either sign: only the projection on it counts).
     rest_normals: Vec<Vector3<f64>>,
     /// Typical distance between neighbouring samples, m.
     spacing: f64,
