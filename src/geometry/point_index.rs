@@ -258,57 +258,6 @@ pub(crate) fn neighbourhood_plane(
     })
 }
 
-/// The unit direction of least spread of a symmetric 3 x 3 `scatter` (of either sign), in
-/// closed form: the smallest eigenvalue by the trigonometric formula, its eigenvector as the
-/// largest cross product of two rows of `scatter - lambda I`. A tracker takes a few hundred
-/// normals a frame; nalgebra's iterative eigensolver cost half of its correction's budget.
-pub(crate) fn least_spread_direction(scatter: &Matrix3<f64>) -> Vector3<f64> {
-    let a = scatter;
-    let off = a[(0, 1)].powi(2) + a[(0, 2)].powi(2) + a[(1, 2)].powi(2);
-    let mean = a.trace() / 3.0;
-    let deviation = (0..3).map(|i| (a[(i, i)] - mean).powi(2)).sum::<f64>() + 2.0 * off;
-    let p = (deviation / 6.0).sqrt();
-    if p.is_nan() || p <= 0.0 {
-        // A multiple of the identity (or nothing): every direction spreads alike.
-        return Vector3::z();
-    }
-    let shifted = (a - Matrix3::identity() * mean) / p;
-    let half_det = (shifted.determinant() / 2.0).clamp(-1.0, 1.0);
-    let angle = half_det.acos() / 3.0;
-    let least = mean + 2.0 * p * (angle + 2.0 * std::f64::consts::FRAC_PI_3).cos();
-    let m = a - Matrix3::identity() * least;
-    let rows = [
-        m.row(0).transpose(),
-        m.row(1).transpose(),
-        m.row(2).transpose(),
-    ];
-    let crosses = [
-        rows[0].cross(&rows[1]),
-        rows[0].cross(&rows[2]),
-        rows[1].cross(&rows[2]),
-    ];
-    let widest = crosses
-        .iter()
-        .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))
-        .expect("three crosses");
-    let norm = widest.norm();
-    if norm > 0.0 {
-        widest / norm
-    } else {
-        // Two least eigenvalues alike (a line of points): any direction across the line.
-        let line = rows
-            .iter()
-            .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()));
-        let line = line.expect("three rows").normalize();
-        let helper = if line.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        line.cross(&helper).normalize()
-    }
-}
-
 fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
     let first = points.first().copied().unwrap_or_else(Vector3::zeros);
     points
@@ -320,43 +269,6 @@ fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
-
-    /// The closed-form direction of least spread finds the thin axis of turned scatters, flat
-    /// ones and nearly round ones, and a direction across a line.
-    #[test]
-    fn least_spread_direction_finds_the_thin_axis() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
-        for case in 0..500 {
-            let spreads = [
-                1e-6 * rng.random::<f64>(),
-                1e-4 * (0.1 + rng.random::<f64>()),
-                1e-4 * (0.1 + rng.random::<f64>()),
-            ];
-            let flatness = if case % 2 == 0 { 1e-3 } else { 0.3 };
-            let turn = nalgebra::Rotation3::from_scaled_axis(Vector3::new(
-                rng.random::<f64>() * 3.0,
-                rng.random::<f64>() * 3.0,
-                rng.random::<f64>() * 3.0,
-            ));
-            let diagonal = Matrix3::from_diagonal(&Vector3::new(
-                spreads[0] * flatness,
-                spreads[1],
-                spreads[2],
-            ));
-            let scatter = turn.matrix() * diagonal * turn.matrix().transpose();
-            let expected = turn.matrix().column(0).into_owned();
-            let found = least_spread_direction(&scatter);
-            assert!((found.norm() - 1.0).abs() < 1e-9);
-            assert!(
-                found.dot(&expected).abs() > 1.0 - 1e-6,
-                "case {case}: {found} vs {expected}"
-            );
-        }
-        assert_eq!(least_spread_direction(&Matrix3::identity()).norm(), 1.0);
-        let line = Vector3::new(1.0, 2.0, 2.0) / 3.0;
-        let across = least_spread_direction(&(line * line.transpose()));
-        assert!(across.dot(&line).abs() < 1e-9);
-    }
 
     /// Against a brute-force search, on clumpy points with far outliers and queries outside.
     #[test]

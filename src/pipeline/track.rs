@@ -19,7 +19,7 @@ use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
 
 use super::SoftBody;
-use crate::geometry::{least_spread_direction, PointIndex};
+use crate::geometry::{neighbourhood_plane, PointIndex};
 use crate::linalg::{add_product_transposed, product};
 use crate::physics::{ObservationTerm, UnmodelledForce};
 use crate::Result;
@@ -422,23 +422,10 @@ fn plane_normals(points: &[Vector3<f64>], at: &[Vector3<f64>]) -> Vec<Vector3<f6
     let index = PointIndex::for_surface(points);
     at.iter()
         .map(|x| {
-            let near: Vec<Vector3<f64>> = (index.nearest(x, NORMAL_NEIGHBOURS, None))
-                .into_iter()
-                .map(|j| points[j])
-                .collect();
-            plane_through(&near)
+            let near = index.nearest(x, NORMAL_NEIGHBOURS, None);
+            neighbourhood_plane(points, &near).map_or(Vector3::z(), |plane| plane.normal)
         })
         .collect()
-}
-
-/// The unit normal of the plane that fits `near` best.
-fn plane_through(near: &[Vector3<f64>]) -> Vector3<f64> {
-    let mean = near.iter().sum::<Vector3<f64>>() / near.len().max(1) as f64;
-    let covariance: nalgebra::Matrix3<f64> = near
-        .iter()
-        .map(|p| (p - mean) * (p - mean).transpose())
-        .sum();
-    least_spread_direction(&covariance)
 }
 
 /// The small rotation and translation that best move each pair's first point onto the plane
