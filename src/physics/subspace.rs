@@ -347,11 +347,7 @@ impl Subspace {
         material: &Material,
         coarse: bool,
     ) -> Option<Vec<f64>> {
-        let bulk = split(material).1;
-        if bulk == 0.0 {
-            return None;
-        }
-        let (terms, regions) = self.bulk_terms(coarse);
+        let (terms, regions, bulk) = self.projected_bulk(material, coarse)?;
         Some(terms.pressures(regions, gradients, material.model, bulk))
     }
 
@@ -403,12 +399,9 @@ impl Subspace {
         material: &Material,
         coarse: bool,
     ) {
-        let bulk = split(material).1;
-        if bulk == 0.0 {
-            return;
+        if let Some((terms, regions, bulk)) = self.projected_bulk(material, coarse) {
+            terms.add_bulk_hessian(regions, hessian, gradients, material.model, bulk);
         }
-        let (terms, regions) = self.bulk_terms(coarse);
-        terms.add_bulk_hessian(regions, hessian, gradients, material.model, bulk);
     }
 
     /// Whether the whole cubature's bulk regions were formed.
@@ -417,8 +410,23 @@ impl Subspace {
         self.all.bulk.get().is_some()
     }
 
+    /// The modulus of `material`'s projected bulk term with the terms of the whole cubature,
+    /// or of the coarser one (`coarse`), and the regions of their points; None where the bulk
+    /// term is integrated point by point, which forms no regions (their k-means is not free).
+    fn projected_bulk(
+        &self,
+        material: &Material,
+        coarse: bool,
+    ) -> Option<(&CubatureTerms, &BulkRegions, f64)> {
+        let bulk = split(material).1;
+        (bulk != 0.0).then(|| {
+            let (terms, regions) = self.bulk_terms(coarse);
+            (terms, regions, bulk)
+        })
+    }
+
     /// The terms of the whole cubature, or of the coarser one (all points where there is
-    /// none), with the regions of their points (only for a projected bulk term): the whole cubature's formed on first use,
+    /// none), with the regions of their points: the whole cubature's formed on first use,
     /// the coarser one's the same regions restricted to the points it keeps.
     fn bulk_terms(&self, coarse: bool) -> (&CubatureTerms, &BulkRegions) {
         let all = &self.all;
@@ -446,7 +454,7 @@ impl Subspace {
         let np = self.cubature_len();
         let samples = &self.all.samples;
         let parallel = np * 4 * self.handles >= FORCES_PARALLEL_WORK;
-        let (point, bulk) = split(material);
+        let point = split(material).0;
         let share_out = |share: &(dyn Fn(Range<usize>) -> (f64, DMatrix<f64>) + Sync)| {
             if !parallel {
                 return share(0..np);
@@ -455,9 +463,9 @@ impl Subspace {
             let first = shares.next().expect("at least one cubature point");
             shares.fold(first, |(ea, ga), (eb, gb)| (ea + eb, ga + gb))
         };
-        if bulk == 0.0 {
+        let Some((_, regions, bulk)) = self.projected_bulk(material, false) else {
             return share_out(&|points| samples.forces(z, &point, points, None, None));
-        }
+        };
         // Two passes: F and each point's volume change, then, with the regions' pressures,
         // the stresses and the gradient from the same F. Each pass split as the forces are.
         let deformations = |points: Range<usize>| (points.start, samples.deformation(z, points));
@@ -469,7 +477,6 @@ impl Subspace {
         let changes: Vec<f64> = (held.iter())
             .flat_map(|(_, f)| FieldSamples::volume_changes(f, material.model))
             .collect();
-        let regions = self.bulk_terms(false).1;
         let (bulk_energy, pressures) =
             regions.energy_and_pressures(&changes, samples.volumes(), bulk);
         let (energy, gradient) = share_out(&|points: Range<usize>| {
