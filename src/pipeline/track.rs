@@ -100,8 +100,10 @@ pub struct Tracker {
     phis: DMatrix<f64>,
     /// Each sample's skinning weights (S x K; phi is w (x) [X; 1]).
     weights: DMatrix<f64>,
-    /// Each sample's unit normal at rest (of either sign: only the projection on it counts).
+    /// Each sample's unit normal at rest, outward where the solid tells the sides apart.
     rest_normals: Vec<Vector3<f64>>,
+    /// Whether each normal is known to point out of the body (see `outward`).
+    oriented: Vec<bool>,
     /// Typical distance between neighbouring samples, m.
     spacing: f64,
     diagonal: f64,
@@ -132,6 +134,9 @@ impl Tracker {
         let mut rest_normals = plane_normals(&own, &points);
         rest_normals.extend(plane_normals(surface, &hidden));
         points.extend(hidden);
+        let oriented = (points.iter().zip(rest_normals.iter_mut()))
+            .map(|(p, n)| outward(body.solid(), p, n))
+            .collect();
         let subspace = body.subspace();
         let phis = subspace.phis(&points);
         let rows = 4 * subspace.handles();
@@ -144,6 +149,7 @@ impl Tracker {
             phis,
             weights,
             rest_normals,
+            oriented,
             spacing,
             diagonal: (hi - lo).norm(),
             expires: None,
@@ -170,12 +176,7 @@ impl Tracker {
         let started = Instant::now();
         let maps = self.maps(&body.predicted_state());
         let placed = self.placed(&maps);
-        let visible = visible_from(&placed, viewpoint, self.spacing);
-        let seen = Seen {
-            points: visible.iter().map(|&s| placed[s]).collect(),
-            normals: self.normals_of(&maps, &visible),
-            samples: visible,
-        };
+        let seen = self.seen(&maps, &placed, viewpoint);
         let mut fit = FrameFit {
             observed: points.len(),
             ..Default::default()
@@ -281,6 +282,33 @@ impl Tracker {
                 normal.try_normalize(1e-12).unwrap_or(rest)
             })
             .collect()
+    }
+
+    /// The samples `viewpoint` sees where they are `placed` (by their `maps`): in front in
+    /// the z-buffer and facing it. A sample on the far side just past the silhouette passes
+    /// the z-buffer (its bin's front lies within a spacing): matched to the seen points beside
+    /// it, it pulled a tracked ball's rim round (`bench track`, ball poked 0.3641 % without
+    /// this test, 0.2893 % with it).
+    fn seen(&self, maps: &DMatrix<f64>, placed: &[Vector3<f64>], viewpoint: &Vector3<f64>) -> Seen {
+        let in_front = visible_from(placed, viewpoint, self.spacing);
+        let normals = self.normals_of(maps, &in_front);
+        let facing =
+            |s: usize, n: &Vector3<f64>| !self.oriented[s] || n.dot(&(viewpoint - placed[s])) > 0.0;
+        let mut seen = Seen {
+            samples: Vec::with_capacity(in_front.len()),
+            points: Vec::with_capacity(in_front.len()),
+            normals: Vec::with_capacity(in_front.len()),
+        };
+        for (s, n) in in_front
+            .into_iter()
+            .zip(normals)
+            .filter(|(s, n)| facing(*s, n))
+        {
+            seen.samples.push(s);
+            seen.points.push(placed[s]);
+            seen.normals.push(n);
+        }
+        seen
     }
 
     /// Per-kg spring stiffness: `stiffness` over h^2.
@@ -412,6 +440,25 @@ fn rigidly_aligned(
         turned = motion.rotation * turned;
     }
     aligned
+}
+
+/// Turns `normal` at the surface point `p` to point out of `solid`, when the solid is inside
+/// on one side of `p` and outside on the other (two cells along the normal); whether it did
+/// (a thin part, or a point a cell off the surface, may show no side).
+fn outward(
+    solid: &crate::geometry::VoxelGrid,
+    p: &Vector3<f64>,
+    normal: &mut Vector3<f64>,
+) -> bool {
+    let step = *normal * 2.0 * solid.cell;
+    match (solid.contains(&(p + step)), solid.contains(&(p - step))) {
+        (false, true) => true,
+        (true, false) => {
+            *normal = -*normal;
+            true
+        }
+        _ => false,
+    }
 }
 
 /// At each of `at`, the unit normal of the plane through its nearest points of `points`.
