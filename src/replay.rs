@@ -386,7 +386,7 @@ impl<'a> Run<'a> {
             .tf
             .read()
             .map_err(|_| "the tf buffer is poisoned".to_string())
-            .and_then(|buffer| request.into_fixed_frame(params, &buffer));
+            .and_then(|buffer| request.move_to_fixed_frame(params, &buffer));
         let outcome = match placed {
             Ok(()) => {
                 self.stage.seen(&request.key(), outputs);

@@ -142,9 +142,12 @@ fn variants() -> Vec<(&'static str, Shape)> {
     ]
 }
 
+/// A signed distance function, m.
+type SignedDistance = Box<dyn Fn(&Vector3<f64>) -> f64>;
+
 /// The signed distance (to first order) of an ellipsoid with semi-axes `radii`, turned by the
 /// Euler angles `turn`.
-fn ellipsoid(radii: Vector3<f64>, turn: (f64, f64, f64)) -> Box<dyn Fn(&Vector3<f64>) -> f64> {
+fn ellipsoid(radii: Vector3<f64>, turn: (f64, f64, f64)) -> SignedDistance {
     let turned = Rotation3::from_euler_angles(turn.0, turn.1, turn.2).inverse();
     let smallest = radii.min();
     Box::new(move |p| ((turned * p).component_div(&radii).norm() - 1.0) * smallest)

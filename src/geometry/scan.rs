@@ -91,13 +91,16 @@ pub fn scan(shape: &Shape, camera: &Camera) -> Result<Vec<Option<Vector3<f64>>>>
     Ok(image.into_iter().map(|hit| hit.map(|(p, _)| p)).collect())
 }
 
+/// Per pixel, where its ray met a triangle and which triangle: None where it met none.
+pub type FaceHits = Vec<Option<(Vector3<f64>, usize)>>;
+
 /// `scan` of a triangle soup, each hit with the index of the triangle it lies on: what a
 /// benchmark needs to know which material point each pixel saw.
 pub fn scan_faces(
     positions: &[Vector3<f64>],
     triangles: &[[u32; 3]],
     camera: &Camera,
-) -> Result<Vec<Option<(Vector3<f64>, usize)>>> {
+) -> Result<FaceHits> {
     let vertices = positions
         .iter()
         .map(|p| Vector::new(p.x as f32, p.y as f32, p.z as f32))

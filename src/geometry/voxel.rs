@@ -43,12 +43,12 @@ impl Stretch {
     }
 
     /// A grid-frame point in the world.
-    pub fn to_world(&self, p: &Vector3<f64>) -> Vector3<f64> {
+    pub fn to_world(self, p: &Vector3<f64>) -> Vector3<f64> {
         self.anchor + (p - self.anchor).component_mul(&self.scale)
     }
 
     /// A world point in the grid frame.
-    pub fn to_grid(&self, p: &Vector3<f64>) -> Vector3<f64> {
+    pub fn to_grid(self, p: &Vector3<f64>) -> Vector3<f64> {
         self.anchor + (p - self.anchor).component_div(&self.scale)
     }
 }

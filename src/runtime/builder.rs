@@ -192,8 +192,13 @@ impl BuildRequest {
         self.fixed_frame = Some(fixed.into());
     }
 
-    /// Into the parameters' fixed frame (when one is set) through `tf`, or why not.
-    pub fn into_fixed_frame(&mut self, params: &NodeParams, tf: &TfBuffer) -> Result<(), String> {
+    /// Moves it into the parameters' fixed frame (when one is set) through `tf`, or says why
+    /// not.
+    pub fn move_to_fixed_frame(
+        &mut self,
+        params: &NodeParams,
+        tf: &TfBuffer,
+    ) -> Result<(), String> {
         if params.fixed_frame.is_empty() {
             return Ok(());
         }
@@ -644,7 +649,7 @@ fn wait_for_fixed_frame(
         let buffer = tf
             .read()
             .map_err(|_| "the tf buffer is poisoned".to_string())?;
-        match request.into_fixed_frame(params, &buffer) {
+        match request.move_to_fixed_frame(params, &buffer) {
             Ok(()) => return Ok(()),
             Err(problem) if std::time::Instant::now() >= deadline => return Err(problem),
             Err(_) => {}

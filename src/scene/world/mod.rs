@@ -59,6 +59,9 @@ impl Default for SceneOptions {
     }
 }
 
+/// A cut or refined field's key: geometry hash, handles, refinement budget.
+type TruncatedKey = (u64, usize, RefineBudget);
+
 /// Inferred fields and budget choices by geometry content, shared by every scene and build of
 /// a process: identical geometry (the same file twice, or the same primitive at two places) is
 /// inferred once.
@@ -67,7 +70,7 @@ pub struct FieldCache {
     fields: Mutex<HashMap<u64, Arc<dyn SkinningField>>>,
     /// Fields cut to a handle count, or refined when they keep all their handles, by
     /// (geometry, handles, refinement budget): scenes built with other budgets share the cache.
-    truncated: Mutex<HashMap<(u64, usize, RefineBudget), Arc<dyn SkinningField>>>,
+    truncated: Mutex<HashMap<TruncatedKey, Arc<dyn SkinningField>>>,
     choices: Mutex<HashMap<u64, Choice>>,
     /// Inferences saved and done.
     pub hits: std::sync::atomic::AtomicUsize,
