@@ -689,6 +689,27 @@ impl BinGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::{sdf_mesh, VoxelGrid};
+
+    /// On a voxelized ball, a normal given inward is turned out and one given outward kept;
+    /// a point deep inside (no side to tell) leaves its normal as it was.
+    #[test]
+    fn normals_are_turned_out_of_the_solid() {
+        let ball = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 28);
+        let solid = VoxelGrid::from_shape(&ball, 64, None);
+        for direction in [Vector3::x(), Vector3::new(0.3, -0.5, 0.8).normalize()] {
+            let p = direction * 0.1;
+            let mut inward = -direction;
+            assert!(outward(&solid, &p, &mut inward));
+            assert!((inward - direction).norm() < 1e-12, "turned to {inward:?}");
+            let mut out = direction;
+            assert!(outward(&solid, &p, &mut out));
+            assert!((out - direction).norm() < 1e-12);
+        }
+        let mut deep = -Vector3::z();
+        assert!(!outward(&solid, &Vector3::zeros(), &mut deep));
+        assert_eq!(deep, -Vector3::z());
+    }
 
     /// Pairs of points of a surface (`surface` maps a direction to a point and its normal)
     /// with their places after the rigid `motion`.
