@@ -545,3 +545,22 @@ fn fem_convergence_bench_settles_and_converges_from_the_stiff_side() {
         assert_eq!(of.last().unwrap()["sag_off_finest_pct"], 0.0);
     }
 }
+
+/// `bench fem --fitted`: the meshes tile each shape's bounds, so the plate (a box) keeps its
+/// volume exactly at every resolution, where `bench sim`'s meshes hold more than it.
+#[test]
+fn fem_convergence_on_fitted_meshes_keeps_the_plates_volume() {
+    let args = [
+        "bench", "fem", "--quick", "--fitted", "--shapes", "plate", "--json",
+    ];
+    let out = succeeded(physskin().args(args));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let rows = report["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 3, "the plate at three resolutions");
+    for row in rows {
+        assert_eq!(row["mesh"], "fitted", "{row}");
+        assert_eq!(row["settled"], true, "{row}");
+        let ratio = row["volume_ratio"].as_f64().unwrap();
+        assert!((ratio - 1.0).abs() < 1e-6, "{row}");
+    }
+}

@@ -5,6 +5,7 @@
 //! largest displacement, and Rayleigh's estimate of the lowest frequency from the sag (see
 //! `statics`).
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -15,13 +16,27 @@ use super::sim::{
 };
 use super::statics::{fem_hanging, rayleigh_hz, sag_and_largest};
 use crate::error::{Error, Result};
-use crate::geometry::{bundled, VoxelGrid};
+use crate::geometry::{bundled, Shape, TetMesh, VoxelGrid};
+
+/// Which voxel mesh the study solves on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FemMesh {
+    /// `bench sim`'s: every cell the surface cuts is kept, so the mesh reaches past the
+    /// surface by up to a cell on every side.
+    CutCells,
+    /// Cells that tile the shape's bounds exactly (each axis stretched a little), a cell solid
+    /// when half of it is: the demo's reference (`geometry::reference_mesh`).
+    Fitted,
+}
 
 /// One shape at one resolution.
 #[derive(Clone, Debug, Serialize)]
 pub struct FemConvergenceRow {
     /// The bench shape.
     pub shape: String,
+    /// The voxel mesh solved on.
+    pub mesh: FemMesh,
     /// Voxel cells across the longest side.
     pub resolution: usize,
     /// Whether `bench sim` uses this resolution.
@@ -76,6 +91,7 @@ fn resolutions(i: usize, quick: bool) -> (Vec<usize>, usize) {
 pub fn run_fem_convergence(
     shapes: &[String],
     quick: bool,
+    mesh: FemMesh,
     mut progress: impl FnMut(&str),
 ) -> Result<FemConvergenceReport> {
     let mut rows = Vec::new();
@@ -86,8 +102,13 @@ pub fn run_fem_convergence(
         let (list, bench) = resolutions(i, quick);
         let mut of_shape = Vec::new();
         for resolution in list {
-            let shape = prepare_shape(bundled(name).expect("bundled"), young, resolution, 0, 0)?;
-            let row = hanging_equilibrium(name, &shape, resolution, resolution == bench)?;
+            let source = bundled(name).expect("bundled");
+            let shape = match mesh {
+                FemMesh::CutCells => prepare_shape(source, young, resolution, 0, 0)?,
+                FemMesh::Fitted => fitted_shape(source, young, resolution)?,
+            };
+            let mut row = hanging_equilibrium(name, &shape, resolution, resolution == bench)?;
+            row.mesh = mesh;
             progress(&format!(
                 "{name} at {resolution}: {} vertices, sag {:.6} m, max {:.6} m, Rayleigh {:.4} Hz, {} steps ({:.1} s)",
                 row.vertices, row.sag_m, row.max_displacement_m, row.rayleigh_hz, row.steps, row.solve_s
@@ -124,6 +145,7 @@ fn hanging_equilibrium(
     let (sag_m, max_displacement_m) = sag_and_largest(shape, &params, &equilibrium.positions);
     Ok(FemConvergenceRow {
         shape: name.into(),
+        mesh: FemMesh::CutCells,
         resolution,
         bench,
         vertices: shape.mesh.vertices.len(),
@@ -137,5 +159,23 @@ fn hanging_equilibrium(
         steps: equilibrium.steps,
         settled: equilibrium.settled,
         solve_s,
+    })
+}
+
+/// `shape` on a mesh whose cells tile its bounds at `resolution` cells across its longest side
+/// (see [`FemMesh::Fitted`]), without eigenmodes: the study solves the FEM only.
+fn fitted_shape(source: Shape, young: f64, resolution: usize) -> Result<BenchShape> {
+    let fine = VoxelGrid::from_shape(&source, 128, None);
+    let (lo, hi) = source.bounds();
+    let (grid, stretch) = fine.resample_fitted_half_cut(lo, hi, resolution);
+    let mesh = TetMesh::from_fitted_grid(&grid, stretch);
+    let (lo, hi) = mesh.bounds();
+    Ok(BenchShape {
+        source,
+        mesh: Arc::new(mesh),
+        grid,
+        eigen: None,
+        diagonal: (hi - lo).norm(),
+        young,
     })
 }

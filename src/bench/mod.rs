@@ -27,7 +27,7 @@ mod views;
 
 pub use basis::{basis_plot, run_basis_bench, BasisOptions, BasisReport};
 pub use contact::run_contact_bench;
-pub use fem_convergence::run_fem_convergence;
+pub use fem_convergence::{run_fem_convergence, FemMesh};
 pub use fields::{evaluate_fields, EvalOptions, EvalReport};
 pub use input::prepare_input;
 pub use latency::run_latency_bench;

@@ -152,6 +152,10 @@ enum BenchCommand {
         /// Only these shapes (plate, rod, creature); all when absent.
         #[arg(long, value_delimiter = ',')]
         shapes: Vec<String>,
+        /// Meshes whose cells tile each shape's bounds, a cell solid when half of it is (the
+        /// demo's reference), instead of `bench sim`'s, which keep every cell the surface cuts.
+        #[arg(long)]
+        fitted: bool,
     },
     /// The same soft block in MuJoCo (flexcomp: full, trilinear and quadratic dofs) and in
     /// physskin, dropped and poked, each against our FEM: step time next to error.
@@ -322,7 +326,8 @@ pub fn main() -> ExitCode {
                 json,
                 quick,
                 shapes,
-            } => run_bench_fem(json, quick, &shapes),
+                fitted,
+            } => run_bench_fem(json, quick, fitted, &shapes),
             BenchCommand::Track(args) => crate::cli::track::run(args),
             BenchCommand::Peer {
                 json,
@@ -436,8 +441,13 @@ fn run_bench_real(json: bool) -> crate::Result<()> {
     Ok(())
 }
 
-fn run_bench_fem(json: bool, quick: bool, shapes: &[String]) -> crate::Result<()> {
-    let r = crate::bench::run_fem_convergence(shapes, quick, |line| eprintln!("{line}"))?;
+fn run_bench_fem(json: bool, quick: bool, fitted: bool, shapes: &[String]) -> crate::Result<()> {
+    let mesh = if fitted {
+        crate::bench::FemMesh::Fitted
+    } else {
+        crate::bench::FemMesh::CutCells
+    };
+    let r = crate::bench::run_fem_convergence(shapes, quick, mesh, |line| eprintln!("{line}"))?;
     if json {
         crate::cli::print_json(&r);
         return Ok(());

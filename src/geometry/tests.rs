@@ -228,6 +228,28 @@ fn interpolates_linear_functions_at(mesh: &TetMesh, p: &Vector3<f64>) {
 
 /// A reference mesh stretched to fit a slab (cells cubic in the grid's frame, a 6 cm side
 /// spanned by whole cells) locates in the world: the FEM's lifter and its tetrahedra agree.
+/// The bundled rod resampled to a fitted grid 32 cells long: counting the fine cells its
+/// surface cuts as half solid keeps its volume closer to the rod's than counting them whole,
+/// which makes it a fine cell thicker all round.
+#[test]
+fn a_fitted_resample_counts_cut_cells_half() {
+    let rod = bundled("rod").expect("bundled");
+    let truth = rod.closed_volume().expect("closed");
+    let fine = VoxelGrid::from_shape(&rod, 128, None);
+    let (lo, hi) = rod.bounds();
+    let ratio = |(grid, stretch)| TetMesh::from_fitted_grid(&grid, stretch).volume() / truth;
+    let whole = ratio(fine.resample_fitted(lo, hi, 32));
+    let half = ratio(fine.resample_fitted_half_cut(lo, hi, 32));
+    assert!(
+        (half - 1.0).abs() < 0.15,
+        "cut cells half: {half:.3} of the volume"
+    );
+    assert!(
+        (half - 1.0).abs() < (whole - 1.0).abs(),
+        "half {half:.3}, whole {whole:.3}"
+    );
+}
+
 #[test]
 fn a_stretched_reference_mesh_locates_in_the_world() {
     let mesh = reference_mesh(&box_mesh(Vector3::new(0.4, 0.4, 0.06))).mesh;

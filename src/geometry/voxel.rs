@@ -251,7 +251,7 @@ impl VoxelGrid {
         let (lo, hi) = self.solid_bounds();
         let cell = (hi - lo).max() / resolution.max(1) as f64;
         let counts = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).ceil() as usize);
-        self.resample_onto(lo, cell, counts, &Stretch::identity())
+        self.resample_onto(lo, cell, counts, &Stretch::identity(), 2)
     }
 
     /// A coarser grid whose cells tile the box (`lo`, `hi`) exactly, about `resolution` cells
@@ -271,18 +271,35 @@ impl VoxelGrid {
         let counts = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).round() as usize).max(1));
         let scale = Vector3::from_fn(|a, _| (hi[a] - lo[a]) / (counts[a] as f64 * cell));
         let stretch = Stretch { anchor: lo, scale };
-        (self.resample_onto(lo, cell, counts, &stretch), stretch)
+        (self.resample_onto(lo, cell, counts, &stretch, 2), stretch)
+    }
+
+    /// `resample_fitted` with each fine cell the surface cuts counted half solid in the vote:
+    /// on average a cut cell is half inside, and counted whole it makes a thin part a fine cell
+    /// thicker on each side (the bundled rod's fitted mesh held 1.18 to 1.29 of its volume).
+    pub fn resample_fitted_half_cut(
+        &self,
+        lo: Vector3<f64>,
+        hi: Vector3<f64>,
+        resolution: usize,
+    ) -> (Self, Stretch) {
+        let cell = (hi - lo).max() / resolution.max(1) as f64;
+        let counts = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).round() as usize).max(1));
+        let scale = Vector3::from_fn(|a, _| (hi[a] - lo[a]) / (counts[a] as f64 * cell));
+        let stretch = Stretch { anchor: lo, scale };
+        (self.resample_onto(lo, cell, counts, &stretch, 1), stretch)
     }
 
     /// The coarse grid of cubic `cell`s whose first `counts` cells per axis start at `lo` in the
     /// grid frame (one empty cell pads each side), voted by the fine cells whose centers
-    /// `stretch` places in them.
+    /// `stretch` places in them: a solid fine cell counts 2, one the surface cuts `cut_vote`.
     fn resample_onto(
         &self,
         lo: Vector3<f64>,
         cell: f64,
         counts: [usize; 3],
         stretch: &Stretch,
+        cut_vote: u32,
     ) -> VoxelGrid {
         let dims = counts.map(|n| n + 2);
         let mut coarse = VoxelGrid {
@@ -297,9 +314,9 @@ impl VoxelGrid {
         for index in 0..self.len() {
             let center = stretch.to_grid(&self.cell_center(self.coords(index)));
             let c = coarse.index(coarse.cell_of(&center));
-            total[c] += 1;
+            total[c] += 2;
             if self.solid[index] {
-                solid_hits[c] += 1;
+                solid_hits[c] += if self.surface[index] { cut_vote } else { 2 };
             }
         }
         for c in 0..coarse.len() {
