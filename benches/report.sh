@@ -30,6 +30,7 @@
 #   sim-creature       bench sim, creature, 16 handles, 1024 points (about 40 minutes, mostly FEM)
 #   sim                the full `bench sim` (about 70 minutes; docs/benchmarks.md quotes it)
 #   fem                bench fem                              (the FEM reference's convergence, 35 minutes)
+#   fem-fitted         bench fem --fitted, plate and rod      (the same on volume-true meshes, 3 minutes)
 #   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
 #   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
 # `readme` stands for every file README.md quotes, the full `bench sim` last: one run of
@@ -105,6 +106,7 @@ for name in "${names[@]}"; do
                 --cubature 1024 --json --plot /tmp/sim-creature.svg ;;
         sim) benches/record.sh sim $bin bench sim --json --plot benches/results/sim.svg ;;
         fem) benches/record.sh fem $bin bench fem --json ;;
+        fem-fitted) benches/record.sh fem-fitted $bin bench fem --shapes plate,rod --fitted --json ;;
         sim-statics)
             benches/record.sh sim-statics $bin bench sim --shape plate,rod --scenario hanging \
                 --handles 4,16 --cubature 256,1024 --solver quasi-newton --json \
