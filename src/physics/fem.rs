@@ -59,6 +59,9 @@ struct Evaluation {
 }
 
 const TET_CHUNK: usize = 4096;
+/// The elastic gradient is summed over this many chunks of tetrahedra, whatever the threads:
+/// the same sums in the same order on every machine and run.
+const GRADIENT_CHUNKS: usize = 32;
 
 impl FemSim {
     /// A simulation of `mesh` (world units, m) at rest. An error when `params` are out of range
@@ -270,35 +273,46 @@ impl FemSim {
         Matrix3::from_column_slice(f.as_slice())
     }
 
+    /// Adds tetrahedron `t`'s elastic force term to `gradient`; its elastic energy.
+    fn add_elastic_gradient(&self, t: usize, x: &[f64], gradient: &mut [f64]) -> f64 {
+        let (psi, piola) = self
+            .material
+            .energy_and_first_piola(&self.deformation(t, x));
+        let p = SMatrix::<f64, 9, 1>::from_column_slice(piola.as_slice());
+        let local = self.jacobians[t].transpose() * p * self.volumes[t];
+        for (a, &v) in self.mesh.tets[t].iter().enumerate() {
+            for d in 0..3 {
+                gradient[3 * v as usize + d] += local[3 * a + d];
+            }
+        }
+        self.volumes[t] * psi
+    }
+
     fn evaluate(&self, x: &[f64], predicted: &[f64], previous: &[f64]) -> Evaluation {
         let h = self.params.dt;
         let n = x.len();
-        let (elastic, mut gradient) = (0..self.mesh.tets.len())
+        // Fixed chunks, summed in order: rayon's fold splits by work stealing, and its sums
+        // in whatever order made the reference's last digits (and `bench track`'s) differ
+        // from run to run.
+        let tets = self.mesh.tets.len();
+        let chunk = tets.div_ceil(GRADIENT_CHUNKS).max(1);
+        let partials: Vec<(f64, Vec<f64>)> = (0..tets.div_ceil(chunk))
             .into_par_iter()
-            .fold(
-                || (0.0, vec![0.0; n]),
-                |(mut energy, mut gradient), t| {
-                    let (psi, piola) = self
-                        .material
-                        .energy_and_first_piola(&self.deformation(t, x));
-                    energy += self.volumes[t] * psi;
-                    let p = SMatrix::<f64, 9, 1>::from_column_slice(piola.as_slice());
-                    let local = self.jacobians[t].transpose() * p * self.volumes[t];
-                    for (a, &v) in self.mesh.tets[t].iter().enumerate() {
-                        for d in 0..3 {
-                            gradient[3 * v as usize + d] += local[3 * a + d];
-                        }
-                    }
-                    (energy, gradient)
-                },
-            )
-            .reduce(
-                || (0.0, vec![0.0; n]),
-                |(ea, mut ga), (eb, gb)| {
-                    ga.iter_mut().zip(&gb).for_each(|(a, b)| *a += b);
-                    (ea + eb, ga)
-                },
-            );
+            .map(|c| {
+                let mut gradient = vec![0.0; n];
+                let mut energy = 0.0;
+                for t in c * chunk..((c + 1) * chunk).min(tets) {
+                    energy += self.add_elastic_gradient(t, x, &mut gradient);
+                }
+                (energy, gradient)
+            })
+            .collect();
+        let mut elastic = 0.0;
+        let mut gradient = vec![0.0; n];
+        for (energy, part) in &partials {
+            elastic += energy;
+            gradient.iter_mut().zip(part).for_each(|(a, b)| *a += b);
+        }
         let mut energy = elastic;
         let g = self.params.gravity;
         for i in 0..n {
