@@ -267,11 +267,7 @@ impl VoxelGrid {
         hi: Vector3<f64>,
         resolution: usize,
     ) -> (Self, Stretch) {
-        let cell = (hi - lo).max() / resolution.max(1) as f64;
-        let counts = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).round() as usize).max(1));
-        let scale = Vector3::from_fn(|a, _| (hi[a] - lo[a]) / (counts[a] as f64 * cell));
-        let stretch = Stretch { anchor: lo, scale };
-        (self.resample_onto(lo, cell, counts, &stretch, 2), stretch)
+        self.fitted(lo, hi, resolution, 2)
     }
 
     /// `resample_fitted` with each fine cell the surface cuts counted half solid in the vote:
@@ -283,11 +279,25 @@ impl VoxelGrid {
         hi: Vector3<f64>,
         resolution: usize,
     ) -> (Self, Stretch) {
+        self.fitted(lo, hi, resolution, 1)
+    }
+
+    /// The fitted grid of `resample_fitted`, each cut fine cell voting `cut_vote` (of 2).
+    fn fitted(
+        &self,
+        lo: Vector3<f64>,
+        hi: Vector3<f64>,
+        resolution: usize,
+        cut_vote: u32,
+    ) -> (Self, Stretch) {
         let cell = (hi - lo).max() / resolution.max(1) as f64;
         let counts = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).round() as usize).max(1));
         let scale = Vector3::from_fn(|a, _| (hi[a] - lo[a]) / (counts[a] as f64 * cell));
         let stretch = Stretch { anchor: lo, scale };
-        (self.resample_onto(lo, cell, counts, &stretch, 1), stretch)
+        (
+            self.resample_onto(lo, cell, counts, &stretch, cut_vote),
+            stretch,
+        )
     }
 
     /// The coarse grid of cubic `cell`s whose first `counts` cells per axis start at `lo` in the
