@@ -207,18 +207,9 @@ fn estimate_normal(
     let Some(NeighbourhoodPlane { normal, .. }) = neighbourhood_plane(points, &neighbours) else {
         return Vector3::z();
     };
-    // Probe a few cells out along both directions: the one that leaves the solid is outward.
-    let probe = 3.0 * grid.cell;
-    let outward_score = |n: &Vector3<f64>| {
-        (1..=3)
-            .map(|s| usize::from(!grid.contains(&(points[i] + n * probe * s as f64 / 3.0))))
-            .sum::<usize>()
-    };
-    if outward_score(&normal) >= outward_score(&-normal) {
-        normal
-    } else {
-        -normal
-    }
+    // Probed 1, 2 and 3 cells out: a noisy cloud's surface cells are ragged.
+    grid.outward(&points[i], &normal, &[1.0, 2.0, 3.0])
+        .unwrap_or(normal)
 }
 
 fn cumulative(weights: &[f64]) -> Vec<f64> {

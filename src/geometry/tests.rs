@@ -228,6 +228,29 @@ fn interpolates_linear_functions_at(mesh: &TetMesh, p: &Vector3<f64>) {
 
 /// A reference mesh stretched to fit a slab (cells cubic in the grid's frame, a 6 cm side
 /// spanned by whole cells) locates in the world: the FEM's lifter and its tetrahedra agree.
+/// On a voxelized ball, a normal given inward is turned out and one given outward kept; at a
+/// point deep inside (no side to tell) there is no answer.
+#[test]
+fn normals_are_turned_out_of_the_solid() {
+    let ball = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 28);
+    let solid = VoxelGrid::from_shape(&ball, 64, None);
+    for direction in [Vector3::x(), Vector3::new(0.3, -0.5, 0.8).normalize()] {
+        let p = direction * 0.1;
+        let turned = solid
+            .outward(&p, &-direction, &[2.0])
+            .expect("a side to tell");
+        assert!((turned - direction).norm() < 1e-12, "turned to {turned:?}");
+        let kept = solid
+            .outward(&p, &direction, &[2.0])
+            .expect("a side to tell");
+        assert!((kept - direction).norm() < 1e-12);
+    }
+    assert_eq!(
+        solid.outward(&Vector3::zeros(), &-Vector3::z(), &[2.0]),
+        None
+    );
+}
+
 /// The bundled rod resampled to a fitted grid 32 cells long: counting the fine cells its
 /// surface cuts as half solid keeps its volume closer to the rod's than counting them whole,
 /// which makes it a fine cell thicker all round.

@@ -176,6 +176,27 @@ impl VoxelGrid {
         inside_box && self.solid[self.index(self.cell_of(p))]
     }
 
+    /// `normal` at the surface point `p`, or its opposite, whichever leaves the solid: of the
+    /// probes `cells` cells along each, the one with more outside the solid. None when both
+    /// count alike (a thin part, or a point off the surface, shows no side).
+    pub fn outward(
+        &self,
+        p: &Vector3<f64>,
+        normal: &Vector3<f64>,
+        cells: &[f64],
+    ) -> Option<Vector3<f64>> {
+        let outside = |n: Vector3<f64>| {
+            (cells.iter())
+                .filter(|&&s| !self.contains(&(p + n * (s * self.cell))))
+                .count()
+        };
+        match outside(*normal).cmp(&outside(-normal)) {
+            std::cmp::Ordering::Greater => Some(*normal),
+            std::cmp::Ordering::Less => Some(-normal),
+            std::cmp::Ordering::Equal => None,
+        }
+    }
+
     /// The number of solid cells.
     pub fn solid_count(&self) -> usize {
         self.solid.iter().filter(|&&s| s).count()

@@ -102,7 +102,7 @@ pub struct Tracker {
     weights: DMatrix<f64>,
     /// Each sample's unit normal at rest, outward where the solid tells the sides apart.
     rest_normals: Vec<Vector3<f64>>,
-    /// Whether each normal is known to point out of the body (see `outward`).
+    /// Whether each normal is known to point out of the body (see `VoxelGrid::outward`).
     oriented: Vec<bool>,
     /// Typical distance between neighbouring samples, m.
     spacing: f64,
@@ -135,7 +135,11 @@ impl Tracker {
         rest_normals.extend(plane_normals(surface, &hidden));
         points.extend(hidden);
         let oriented = (points.iter().zip(rest_normals.iter_mut()))
-            .map(|(p, n)| outward(body.solid(), p, n))
+            .map(|(p, n)| {
+                let out = body.solid().outward(p, n, &[OUTWARD_PROBE_CELLS]);
+                *n = out.unwrap_or(*n);
+                out.is_some()
+            })
             .collect();
         let subspace = body.subspace();
         let phis = subspace.phis(&points);
@@ -397,6 +401,8 @@ struct Seen {
 const ALIGN_ITERATIONS: usize = 3;
 /// Every this many visible samples is paired in the alignment.
 const ICP_STRIDE: usize = 4;
+/// How far along a sample's normal the body's solid is probed to turn it outward, in cells.
+const OUTWARD_PROBE_CELLS: f64 = 2.0;
 /// Neighbours of a sample's point at rest whose plane gives its normal.
 const NORMAL_NEIGHBOURS: usize = 8;
 /// A rotation the frame pins down less than this share of what it pins a turn of the seen
@@ -440,25 +446,6 @@ fn rigidly_aligned(
         turned = motion.rotation * turned;
     }
     aligned
-}
-
-/// Turns `normal` at the surface point `p` to point out of `solid`, when the solid is inside
-/// on one side of `p` and outside on the other (two cells along the normal); whether it did
-/// (a thin part, or a point a cell off the surface, may show no side).
-fn outward(
-    solid: &crate::geometry::VoxelGrid,
-    p: &Vector3<f64>,
-    normal: &mut Vector3<f64>,
-) -> bool {
-    let step = *normal * 2.0 * solid.cell;
-    match (solid.contains(&(p + step)), solid.contains(&(p - step))) {
-        (false, true) => true,
-        (true, false) => {
-            *normal = -*normal;
-            true
-        }
-        _ => false,
-    }
 }
 
 /// At each of `at`, the unit normal of the plane through its nearest points of `points`.
@@ -689,28 +676,6 @@ impl BinGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{sdf_mesh, VoxelGrid};
-
-    /// On a voxelized ball, a normal given inward is turned out and one given outward kept;
-    /// a point deep inside (no side to tell) leaves its normal as it was.
-    #[test]
-    fn normals_are_turned_out_of_the_solid() {
-        let ball = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 28);
-        let solid = VoxelGrid::from_shape(&ball, 64, None);
-        for direction in [Vector3::x(), Vector3::new(0.3, -0.5, 0.8).normalize()] {
-            let p = direction * 0.1;
-            let mut inward = -direction;
-            assert!(outward(&solid, &p, &mut inward));
-            assert!((inward - direction).norm() < 1e-12, "turned to {inward:?}");
-            let mut out = direction;
-            assert!(outward(&solid, &p, &mut out));
-            assert!((out - direction).norm() < 1e-12);
-        }
-        let mut deep = -Vector3::z();
-        assert!(!outward(&solid, &Vector3::zeros(), &mut deep));
-        assert_eq!(deep, -Vector3::z());
-    }
-
     /// Pairs of points of a surface (`surface` maps a direction to a point and its normal)
     /// with their places after the rigid `motion`.
     fn pairs_moved(
