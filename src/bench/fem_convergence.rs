@@ -107,8 +107,7 @@ pub fn run_fem_convergence(
                 FemMesh::CutCells => prepare_shape(source, young, resolution, 0, 0)?,
                 FemMesh::Fitted => fitted_shape(source, young, resolution)?,
             };
-            let mut row = hanging_equilibrium(name, &shape, resolution, resolution == bench)?;
-            row.mesh = mesh;
+            let row = hanging_equilibrium(name, &shape, mesh, resolution, resolution == bench)?;
             progress(&format!(
                 "{name} at {resolution}: {} vertices, sag {:.6} m, max {:.6} m, Rayleigh {:.4} Hz, {} steps ({:.1} s)",
                 row.vertices, row.sag_m, row.max_displacement_m, row.rayleigh_hz, row.steps, row.solve_s
@@ -131,10 +130,12 @@ pub fn run_fem_convergence(
     Ok(FemConvergenceReport { rows })
 }
 
-/// The static equilibrium of `shape` hanging from its pinned end, and its figures.
+/// The static equilibrium of `shape` (on a mesh of kind `mesh`) hanging from its pinned end, and
+/// its figures.
 fn hanging_equilibrium(
     name: &str,
     shape: &BenchShape,
+    mesh: FemMesh,
     resolution: usize,
     bench: bool,
 ) -> Result<FemConvergenceRow> {
@@ -145,7 +146,7 @@ fn hanging_equilibrium(
     let (sag_m, max_displacement_m) = sag_and_largest(shape, &params, &equilibrium.positions);
     Ok(FemConvergenceRow {
         shape: name.into(),
-        mesh: FemMesh::CutCells,
+        mesh,
         resolution,
         bench,
         vertices: shape.mesh.vertices.len(),
