@@ -440,24 +440,25 @@ fn send_bad_input(client: &Client, k: usize, send: &dyn Fn(&str, bool)) {
 
 /// Samples the resident memory at `t` (s); every 60 samples, a progress line.
 fn sample_memory(report: &mut SoakReport, t: f64, log: &dyn Fn(&str)) {
-    report.memory.push(MemorySample {
+    let sample = MemorySample {
         at_s: t,
         rss_mb: rss_mb(),
         heap_in_use_mb: heap_in_use_mb(),
         rss_shared_mb: status_mb("RssShmem:"),
-    });
-    if report.memory.len().is_multiple_of(60) {
+    };
+    if (report.memory.len() + 1).is_multiple_of(60) {
         log(&format!(
             "{t:.0} s: {} shapes, {} pokes, {} states, RSS {:.1} MB (shared {:.1}), heap in use \
              {:.1} MB",
             report.shapes_sent,
             report.pokes_sent,
             report.states_received,
-            rss_mb(),
-            status_mb("RssShmem:"),
-            heap_in_use_mb()
+            sample.rss_mb,
+            sample.rss_shared_mb,
+            sample.heap_in_use_mb
         ));
     }
+    report.memory.push(sample);
 }
 
 /// Counts the states (and those with a NaN or Inf) and the statuses received since the last call.
