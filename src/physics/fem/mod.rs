@@ -1,6 +1,8 @@
-//! The full-space reference: linear tetrahedra of the same voxelized interior, the same
-//! material, forces and implicit Euler objective as the reduced simulator, solved by Newton with
-//! a PSD-projected Hessian and faer's sparse Cholesky. Pins here are exact (Dirichlet).
+//! The full-space reference: tetrahedra of the same voxelized interior, the same material,
+//! forces and implicit Euler objective as the reduced simulator, solved by Newton with a
+//! PSD-projected Hessian and faer's sparse Cholesky. Pins here are exact (Dirichlet).
+
+mod elements;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -8,6 +10,7 @@ use std::time::Instant;
 use nalgebra::{Matrix3, SMatrix, Vector3};
 use rayon::prelude::*;
 
+use self::elements::{jacobian, Elements};
 use super::material::Material;
 use super::obstacle::{carried_by, Anchors, Obstacle, Penetration, Stick};
 use super::reduced::{is_descent, StepReport};
@@ -15,20 +18,16 @@ use super::scene::{Poke, SimParams};
 use crate::error::Result;
 use crate::geometry::TetMesh;
 use crate::linalg::{ElementPattern, SparseCholesky};
-use crate::skinning::linear_gradients;
 
-/// dP/dF contracted with a tetrahedron's basis gradients: rows d + 3e of vec(F), columns 3a + d.
-type TetJacobian = SMatrix<f64, 9, 12>;
-
-/// The full-space reference simulation: every vertex of a tetrahedral mesh free (3 numbers
+/// The full-space reference simulation: every node of a tetrahedral mesh free (3 numbers
 /// each), stepped by implicit Euler with the same physics as [`ReducedSim`](super::ReducedSim),
-/// to measure the reduced simulation's error against.
-pub struct FemSim {
+/// to measure the reduced simulation's error against. `N` nodes per element (`D` = 3 `N`
+/// unknowns): the mesh's linear tetrahedra.
+pub struct FemSim<const N: usize = 4, const D: usize = 12> {
     mesh: Arc<TetMesh>,
     params: SimParams,
     material: Material,
-    jacobians: Vec<TetJacobian>,
-    volumes: Vec<f64>,
+    elements: Elements<N>,
     masses: Vec<f64>,
     x: Vec<f64>,
     x_prev: Vec<f64>,
@@ -58,40 +57,32 @@ struct Evaluation {
     gradient: Vec<f64>,
 }
 
-const TET_CHUNK: usize = 4096;
+const ELEMENT_CHUNK: usize = 4096;
 /// The elastic gradient is summed over this many chunks of tetrahedra, whatever the threads:
 /// the same sums in the same order on every machine and run.
 const GRADIENT_CHUNKS: usize = 32;
 
-impl FemSim {
-    /// A simulation of `mesh` (world units, m) at rest. An error when `params` are out of range
-    /// (`Error::InvalidParameter`) or the sparse pattern cannot be analysed
-    /// (`Error::LinearAlgebra`).
+impl FemSim<4, 12> {
+    /// A simulation of `mesh` (world units, m) at rest, on its linear tetrahedra. An error when
+    /// `params` are out of range (`Error::InvalidParameter`) or the sparse pattern cannot be
+    /// analysed (`Error::LinearAlgebra`).
     pub fn new(mesh: Arc<TetMesh>, params: SimParams) -> Result<Self> {
+        let elements = Elements::linear(&mesh);
+        Self::with_elements(mesh, params, elements)
+    }
+}
+
+impl<const N: usize, const D: usize> FemSim<N, D> {
+    fn with_elements(mesh: Arc<TetMesh>, params: SimParams, elements: Elements<N>) -> Result<Self> {
+        assert_eq!(D, 3 * N, "three unknowns per node");
         params.validate()?;
-        let (jacobians, volumes): (Vec<_>, Vec<_>) = mesh
-            .tets
-            .iter()
-            .map(|tet| {
-                let (grads, volume) = linear_gradients(&tet.map(|v| mesh.vertices[v as usize]));
-                let mut j = TetJacobian::zeros();
-                for a in 0..4 {
-                    for e in 0..3 {
-                        for d in 0..3 {
-                            j[(d + 3 * e, 3 * a + d)] = grads[a][e];
-                        }
-                    }
-                }
-                (j, volume)
-            })
-            .unzip();
-        let masses: Vec<f64> = mesh
-            .lumped_volumes()
+        let masses: Vec<f64> = elements
+            .lumped_volumes
             .iter()
             .map(|v| v * params.density)
             .collect();
-        let rest: Vec<f64> = mesh.vertices.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
-        let pattern = ElementPattern::new(mesh.vertices.len(), 3, &mesh.tets);
+        let rest = elements.rest_positions(&mesh);
+        let pattern = ElementPattern::new(masses.len(), 3, &elements.nodes);
         let cholesky = pattern.cholesky()?;
         let diagonal = {
             let (lo, hi) = mesh.bounds();
@@ -102,8 +93,7 @@ impl FemSim {
         Ok(Self {
             material: params.material(),
             decrement_tolerance: total_mass * length * length / (params.dt * params.dt),
-            jacobians,
-            volumes,
+            elements,
             masses,
             x: rest.clone(),
             x_prev: rest.clone(),
@@ -132,20 +122,27 @@ impl FemSim {
     pub fn time(&self) -> f64 {
         self.time
     }
-    /// Vertex positions, x y z per vertex.
+    /// The mesh's vertex positions, x y z per vertex.
     pub fn positions(&self) -> &[f64] {
-        &self.x
+        &self.x[..3 * self.mesh.vertices.len()]
     }
-    /// Lumped mass per vertex, kg.
+    /// Lumped mass per node (the mesh's vertices first), kg.
     pub fn vertex_masses(&self) -> &[f64] {
         &self.masses
     }
 
-    /// Starts from these vertex positions (x y z per vertex), at rest velocity.
+    /// Starts from these vertex positions (x y z per vertex of the mesh; nodes between vertices
+    /// halfway between them), at rest velocity.
     pub fn set_positions(&mut self, positions: &[f64]) {
-        assert_eq!(positions.len(), self.x.len(), "one position per vertex");
-        self.x.copy_from_slice(positions);
-        self.x_prev.copy_from_slice(positions);
+        let vertices = positions.len();
+        assert_eq!(
+            vertices,
+            3 * self.mesh.vertices.len(),
+            "one position per vertex"
+        );
+        self.x[..vertices].copy_from_slice(positions);
+        self.elements.interpolate_edges(&mut self.x);
+        self.x_prev.copy_from_slice(&self.x);
     }
 
     /// Fixes these vertices at their rest positions.
@@ -155,15 +152,16 @@ impl FemSim {
                 self.fixed[3 * v + d] = true;
             }
         }
+        self.elements.fix_edges(&mut self.fixed, &mut self.targets);
     }
 
     /// Holds these vertices at `motion` applied to their rest positions (and fixes them).
     pub fn move_pinned(&mut self, vertices: &[usize], motion: &nalgebra::Isometry3<f64>) {
-        self.pin_vertices(vertices);
         for &v in vertices {
             let target = motion.transform_point(&self.mesh.vertices[v].into());
             self.targets[3 * v..3 * v + 3].copy_from_slice(target.coords.as_slice());
         }
+        self.pin_vertices(vertices);
     }
 
     /// Adds a static obstacle.
@@ -261,31 +259,39 @@ impl FemSim {
         Ok(report)
     }
 
-    fn deformation(&self, t: usize, x: &[f64]) -> Matrix3<f64> {
-        let tet = self.mesh.tets[t];
-        let mut local = SMatrix::<f64, 12, 1>::zeros();
-        for a in 0..4 {
-            for d in 0..3 {
-                local[3 * a + d] = x[3 * tet[a] as usize + d];
-            }
+    /// The deformation gradient at quadrature point `q` of element `e`.
+    fn deformation(&self, e: usize, q: usize, x: &[f64]) -> Matrix3<f64> {
+        let mut f = Matrix3::zeros();
+        for (&v, g) in self.elements.nodes[e]
+            .iter()
+            .zip(&self.elements.gradients[q])
+        {
+            let v = 3 * v as usize;
+            f += Vector3::new(x[v], x[v + 1], x[v + 2]) * g.transpose();
         }
-        let f = self.jacobians[t] * local;
-        Matrix3::from_column_slice(f.as_slice())
+        f
     }
 
-    /// Adds tetrahedron `t`'s elastic force term to `gradient`; its elastic energy.
-    fn add_elastic_gradient(&self, t: usize, x: &[f64], gradient: &mut [f64]) -> f64 {
-        let (psi, piola) = self
-            .material
-            .energy_and_first_piola(&self.deformation(t, x));
-        let p = SMatrix::<f64, 9, 1>::from_column_slice(piola.as_slice());
-        let local = self.jacobians[t].transpose() * p * self.volumes[t];
-        for (a, &v) in self.mesh.tets[t].iter().enumerate() {
-            for d in 0..3 {
-                gradient[3 * v as usize + d] += local[3 * a + d];
+    /// Adds element `e`'s elastic force term to `gradient`; its elastic energy.
+    fn add_elastic_gradient(&self, e: usize, x: &[f64], gradient: &mut [f64]) -> f64 {
+        let mut energy = 0.0;
+        for q in self.elements.points(e) {
+            let (psi, piola) = self
+                .material
+                .energy_and_first_piola(&self.deformation(e, q, x));
+            let weight = self.elements.weights[q];
+            for (&v, g) in self.elements.nodes[e]
+                .iter()
+                .zip(&self.elements.gradients[q])
+            {
+                let force = piola * g * weight;
+                for d in 0..3 {
+                    gradient[3 * v as usize + d] += force[d];
+                }
             }
+            energy += weight * psi;
         }
-        self.volumes[t] * psi
+        energy
     }
 
     fn evaluate(&self, x: &[f64], predicted: &[f64], previous: &[f64]) -> Evaluation {
@@ -294,15 +300,15 @@ impl FemSim {
         // Fixed chunks, summed in order: rayon's fold splits by work stealing, and its sums
         // in whatever order made the reference's last digits (and `bench track`'s) differ
         // from run to run.
-        let tets = self.mesh.tets.len();
-        let chunk = tets.div_ceil(GRADIENT_CHUNKS).max(1);
-        let partials: Vec<(f64, Vec<f64>)> = (0..tets.div_ceil(chunk))
+        let elements = self.elements.nodes.len();
+        let chunk = elements.div_ceil(GRADIENT_CHUNKS).max(1);
+        let partials: Vec<(f64, Vec<f64>)> = (0..elements.div_ceil(chunk))
             .into_par_iter()
             .map(|c| {
                 let mut gradient = vec![0.0; n];
                 let mut energy = 0.0;
-                for t in c * chunk..((c + 1) * chunk).min(tets) {
-                    energy += self.add_elastic_gradient(t, x, &mut gradient);
+                for e in c * chunk..((c + 1) * chunk).min(elements) {
+                    energy += self.add_elastic_gradient(e, x, &mut gradient);
                 }
                 (energy, gradient)
             })
@@ -415,21 +421,28 @@ impl FemSim {
         })
     }
 
+    /// Element `e`'s elastic Hessian, each point's projected to be positive semi-definite.
+    fn element_hessian(&self, e: usize, x: &[f64]) -> SMatrix<f64, D, D> {
+        let mut local = SMatrix::<f64, D, D>::zeros();
+        for q in self.elements.points(e) {
+            let h9 = self
+                .material
+                .stress_derivative(&self.deformation(e, q, x), true);
+            let j = jacobian::<N, D>(&self.elements.gradients[q]);
+            local += j.transpose() * (h9 * j) * self.elements.weights[q];
+        }
+        local
+    }
+
     /// The projected Hessian of the step objective (upper triangle values of the pattern).
     fn hessian(&self, x: &[f64]) -> Vec<f64> {
         let mut values = self.pattern.zeros();
-        let tets = self.mesh.tets.len();
-        for start in (0..tets).step_by(TET_CHUNK) {
-            let end = (start + TET_CHUNK).min(tets);
-            let locals: Vec<SMatrix<f64, 12, 12>> = (start..end)
+        let elements = self.elements.nodes.len();
+        for start in (0..elements).step_by(ELEMENT_CHUNK) {
+            let end = (start + ELEMENT_CHUNK).min(elements);
+            let locals: Vec<SMatrix<f64, D, D>> = (start..end)
                 .into_par_iter()
-                .map(|t| {
-                    let h9 = self
-                        .material
-                        .stress_derivative(&self.deformation(t, x), true);
-                    let j = &self.jacobians[t];
-                    j.transpose() * (h9 * j) * self.volumes[t]
-                })
+                .map(|e| self.element_hessian(e, x))
                 .collect();
             for (offset, local) in locals.iter().enumerate() {
                 // Local matrices are symmetric, so column-major storage reads as row-major.
