@@ -17,6 +17,7 @@ use super::sim::{
 use super::statics::{fem_hanging, rayleigh_hz, sag_and_largest};
 use crate::error::{Error, Result};
 use crate::geometry::{bundled, Shape, TetMesh, VoxelGrid};
+use crate::physics::FemElement;
 
 /// Which voxel mesh the study solves on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -37,13 +38,17 @@ pub struct FemConvergenceRow {
     pub shape: String,
     /// The voxel mesh solved on.
     pub mesh: FemMesh,
+    /// The FEM's element.
+    pub element: FemElement,
     /// Voxel cells across the longest side.
     pub resolution: usize,
     /// Whether `bench sim` uses this resolution.
     pub bench: bool,
-    /// FEM vertices and tetrahedra.
+    /// Mesh vertices and tetrahedra, and the FEM's nodes (more than the vertices for
+    /// quadratic elements).
     pub vertices: usize,
     pub tets: usize,
+    pub nodes: usize,
     /// The tetrahedral mesh's volume over the shape's: the voxel mesh keeps every cell the
     /// surface cuts, so a thin shape comes out thicker, and stiffer, than it is.
     pub volume_ratio: f64,
@@ -71,11 +76,16 @@ pub struct FemConvergenceReport {
 }
 
 /// The resolutions studied for `SHAPES[i]`, coarse to fine, and the bench's: `bench sim`'s
-/// (the creature's the smallest with its vertex count) and around it; `quick`: small ones.
-fn resolutions(i: usize, quick: bool) -> (Vec<usize>, usize) {
+/// (the creature's the smallest with its vertex count) and around it, half as many cells
+/// across for quadratic elements (some seven times the nodes per vertex); `quick`: small ones.
+fn resolutions(i: usize, quick: bool, element: FemElement) -> (Vec<usize>, usize) {
     if quick {
         return (vec![16, 24, 32], 24);
     }
+    let scale = match element {
+        FemElement::Linear => 1.0,
+        FemElement::Quadratic => 0.5,
+    };
     let bench = match bench_resolutions(false)[i] {
         0 => {
             let fine = VoxelGrid::from_shape(&bundled(SHAPES[i]).expect("bundled"), 128, None);
@@ -83,7 +93,7 @@ fn resolutions(i: usize, quick: bool) -> (Vec<usize>, usize) {
         }
         r => r,
     };
-    let around = [0.5, 0.75, 1.0, 1.25].map(|f| (bench as f64 * f).round() as usize);
+    let around = [0.5, 0.75, 1.0, 1.25].map(|f| (bench as f64 * f * scale).round() as usize);
     (around.to_vec(), bench)
 }
 
@@ -92,6 +102,7 @@ pub fn run_fem_convergence(
     shapes: &[String],
     quick: bool,
     mesh: FemMesh,
+    element: FemElement,
     mut progress: impl FnMut(&str),
 ) -> Result<FemConvergenceReport> {
     let mut rows = Vec::new();
@@ -99,7 +110,7 @@ pub fn run_fem_convergence(
         if !shapes.is_empty() && !shapes.iter().any(|s| s == name) {
             continue;
         }
-        let (list, bench) = resolutions(i, quick);
+        let (list, bench) = resolutions(i, quick, element);
         let mut of_shape = Vec::new();
         for resolution in list {
             let source = bundled(name).expect("bundled");
@@ -107,10 +118,11 @@ pub fn run_fem_convergence(
                 FemMesh::CutCells => prepare_shape(source, young, resolution, 0, 0)?,
                 FemMesh::Fitted => fitted_shape(source, young, resolution)?,
             };
-            let row = hanging_equilibrium(name, &shape, mesh, resolution, resolution == bench)?;
+            let bench = resolution == bench && element == FemElement::Linear;
+            let row = hanging_equilibrium(name, &shape, (mesh, element), resolution, bench)?;
             progress(&format!(
-                "{name} at {resolution}: {} vertices, sag {:.6} m, max {:.6} m, Rayleigh {:.4} Hz, {} steps ({:.1} s)",
-                row.vertices, row.sag_m, row.max_displacement_m, row.rayleigh_hz, row.steps, row.solve_s
+                "{name} at {resolution}: {} nodes, sag {:.6} m, max {:.6} m, Rayleigh {:.4} Hz, {} steps ({:.1} s)",
+                row.nodes, row.sag_m, row.max_displacement_m, row.rayleigh_hz, row.steps, row.solve_s
             ));
             of_shape.push(row);
         }
@@ -130,27 +142,29 @@ pub fn run_fem_convergence(
     Ok(FemConvergenceReport { rows })
 }
 
-/// The static equilibrium of `shape` (on a mesh of kind `mesh`) hanging from its pinned end, and
-/// its figures.
+/// The static equilibrium of `shape` (on a mesh of kind `mesh`, of `element`s) hanging from its
+/// pinned end, and its figures.
 fn hanging_equilibrium(
     name: &str,
     shape: &BenchShape,
-    mesh: FemMesh,
+    (mesh, element): (FemMesh, FemElement),
     resolution: usize,
     bench: bool,
 ) -> Result<FemConvergenceRow> {
     let params = scenario_params(shape);
     let started = Instant::now();
-    let equilibrium = fem_hanging(shape, &params)?;
+    let equilibrium = fem_hanging(shape, &params, element)?;
     let solve_s = started.elapsed().as_secs_f64();
     let (sag_m, max_displacement_m) = sag_and_largest(shape, &params, &equilibrium.positions);
     Ok(FemConvergenceRow {
         shape: name.into(),
         mesh,
+        element,
         resolution,
         bench,
         vertices: shape.mesh.vertices.len(),
         tets: shape.mesh.tets.len(),
+        nodes: equilibrium.nodes,
         volume_ratio: shape.mesh.volume() / shape.source.closed_volume().unwrap_or(f64::NAN),
         sag_m,
         max_displacement_m,

@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 
 use super::sim::{pinned_vertices, run_reduced, BenchShape, Scenario};
 use crate::error::Result;
-use crate::physics::{FemSim, SimParams, Solver, Subspace};
+use crate::physics::{FemElement, FemSim, SimParams, Solver, Subspace};
 
 /// Implicit Euler steps this long, s, damp the swing out in a few steps (ω h >= 8 for every
 /// mode of the bench shapes, the slowest the creature's at 0.65 Hz): the step sequence settles
@@ -38,13 +38,30 @@ fn settling(params: &SimParams) -> SimParams {
 /// took and whether the last moved less than `SETTLED`.
 pub(crate) struct Equilibrium {
     pub positions: Vec<f64>,
+    /// The FEM's nodes.
+    pub nodes: usize,
     pub steps: usize,
     pub settled: bool,
 }
 
-/// `shape` hanging from its pinned end under `params`, solved statically with the FEM.
-pub(crate) fn fem_hanging(shape: &BenchShape, params: &SimParams) -> Result<Equilibrium> {
-    let mut fem = FemSim::new(shape.mesh.clone(), settling(params))?;
+/// `shape` hanging from its pinned end under `params`, solved statically with the FEM of
+/// `element`s.
+pub(crate) fn fem_hanging(
+    shape: &BenchShape,
+    params: &SimParams,
+    element: FemElement,
+) -> Result<Equilibrium> {
+    let (mesh, params) = (shape.mesh.clone(), settling(params));
+    match element {
+        FemElement::Linear => settle(FemSim::new(mesh, params)?, shape),
+        FemElement::Quadratic => settle(FemSim::quadratic(mesh, params)?, shape),
+    }
+}
+
+fn settle<const N: usize, const D: usize>(
+    mut fem: FemSim<N, D>,
+    shape: &BenchShape,
+) -> Result<Equilibrium> {
     fem.pin_vertices(&pinned_vertices(&shape.mesh));
     let (mut steps, mut settled) = (0, false);
     while steps < MAX_STATIC_STEPS && !settled {
@@ -60,6 +77,7 @@ pub(crate) fn fem_hanging(shape: &BenchShape, params: &SimParams) -> Result<Equi
     }
     Ok(Equilibrium {
         positions: fem.positions().to_vec(),
+        nodes: fem.nodes(),
         steps,
         settled,
     })

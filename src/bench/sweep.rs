@@ -15,7 +15,7 @@ use super::statics::{fem_hanging, reduced_against};
 use super::stats::median;
 use crate::error::Result;
 use crate::geometry::{bundled, sample_surface, Cubature, SurfaceSampling, VoxelGrid};
-use crate::physics::{Lifter, SimParams, Subspace};
+use crate::physics::{FemElement, Lifter, SimParams, Subspace};
 use crate::skinning::{EigenmodeField, SkinningField};
 
 /// Runs the bench; `progress` receives a line per finished piece of work.
@@ -69,7 +69,7 @@ pub fn run_sim_bench(
             shape.eigen().iterations
         ));
         let started = Instant::now();
-        let equilibrium = fem_hanging(&shape, &scenario_params(&shape))?;
+        let equilibrium = fem_hanging(&shape, &scenario_params(&shape), FemElement::Linear)?;
         progress(&format!(
             "{name}: FEM hanging equilibrium in {} static steps ({:.0} s)",
             equilibrium.steps,

@@ -156,6 +156,10 @@ enum BenchCommand {
         /// demo's reference), instead of `bench sim`'s, which keep every cell the surface cuts.
         #[arg(long)]
         fitted: bool,
+        /// Quadratic tetrahedra (a node at each edge's middle) instead of linear ones, at half
+        /// the cells across.
+        #[arg(long)]
+        quadratic: bool,
     },
     /// The same soft block in MuJoCo (flexcomp: full, trilinear and quadratic dofs) and in
     /// physskin, dropped and poked, each against our FEM: step time next to error.
@@ -327,7 +331,8 @@ pub fn main() -> ExitCode {
                 quick,
                 shapes,
                 fitted,
-            } => run_bench_fem(json, quick, fitted, &shapes),
+                quadratic,
+            } => run_bench_fem(json, quick, (fitted, quadratic), &shapes),
             BenchCommand::Track(args) => crate::cli::track::run(args),
             BenchCommand::Peer {
                 json,
@@ -441,13 +446,26 @@ fn run_bench_real(json: bool) -> crate::Result<()> {
     Ok(())
 }
 
-fn run_bench_fem(json: bool, quick: bool, fitted: bool, shapes: &[String]) -> crate::Result<()> {
+fn run_bench_fem(
+    json: bool,
+    quick: bool,
+    (fitted, quadratic): (bool, bool),
+    shapes: &[String],
+) -> crate::Result<()> {
+    use crate::bench::FemMesh;
+    use crate::physics::FemElement;
     let mesh = if fitted {
-        crate::bench::FemMesh::Fitted
+        FemMesh::Fitted
     } else {
-        crate::bench::FemMesh::CutCells
+        FemMesh::CutCells
     };
-    let r = crate::bench::run_fem_convergence(shapes, quick, mesh, |line| eprintln!("{line}"))?;
+    let element = if quadratic {
+        FemElement::Quadratic
+    } else {
+        FemElement::Linear
+    };
+    let progress = |line: &str| eprintln!("{line}");
+    let r = crate::bench::run_fem_convergence(shapes, quick, mesh, element, progress)?;
     if json {
         crate::cli::print_json(&r);
         return Ok(());

@@ -16,7 +16,7 @@ mod shares;
 mod strain;
 mod subspace;
 
-pub use fem::FemSim;
+pub use fem::{FemElement, FemSim};
 pub use lift::Lifter;
 pub use material::{BulkIntegration, Material, MaterialModel};
 pub use obstacle::Obstacle;
