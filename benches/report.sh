@@ -31,6 +31,8 @@
 #   sim                the full `bench sim` (about 70 minutes; docs/benchmarks.md quotes it)
 #   fem                bench fem                              (the FEM reference's convergence, 35 minutes)
 #   fem-fitted         bench fem --fitted, plate and rod      (the same on volume-true meshes, 3 minutes)
+#   fem-quadratic      bench fem --fitted --quadratic, plate and rod (quadratic tetrahedra, 3 minutes)
+#   sim-quadratic-quick bench sim --quick against quadratic tetrahedra, 16 handles, quasi-Newton (15 minutes)
 #   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
 #   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
 # `readme` stands for every file README.md quotes, the full `bench sim` last: one run of
@@ -107,6 +109,10 @@ for name in "${names[@]}"; do
         sim) benches/record.sh sim $bin bench sim --json --plot benches/results/sim.svg ;;
         fem) benches/record.sh fem $bin bench fem --json ;;
         fem-fitted) benches/record.sh fem-fitted $bin bench fem --shapes plate,rod --fitted --json ;;
+        fem-quadratic) benches/record.sh fem-quadratic $bin bench fem --shapes plate,rod --fitted --quadratic --json ;;
+        sim-quadratic-quick)
+            benches/record.sh sim-quadratic-quick $bin bench sim --quick --handles 16 \
+                --solver quasi-newton --quadratic --json --plot /tmp/sim-quadratic-quick.svg ;;
         sim-statics)
             benches/record.sh sim-statics $bin bench sim --shape plate,rod --scenario hanging \
                 --handles 4,16 --cubature 256,1024 --solver quasi-newton --json \

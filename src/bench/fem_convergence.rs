@@ -114,12 +114,13 @@ pub fn run_fem_convergence(
         let mut of_shape = Vec::new();
         for resolution in list {
             let source = bundled(name).expect("bundled");
-            let shape = match mesh {
+            let mut shape = match mesh {
                 FemMesh::CutCells => prepare_shape(source, young, resolution, 0, 0)?,
                 FemMesh::Fitted => fitted_shape(source, young, resolution)?,
             };
+            shape.reference = element;
             let bench = resolution == bench && element == FemElement::Linear;
-            let row = hanging_equilibrium(name, &shape, (mesh, element), resolution, bench)?;
+            let row = hanging_equilibrium(name, &shape, mesh, resolution, bench)?;
             progress(&format!(
                 "{name} at {resolution}: {} nodes, sag {:.6} m, max {:.6} m, Rayleigh {:.4} Hz, {} steps ({:.1} s)",
                 row.nodes, row.sag_m, row.max_displacement_m, row.rayleigh_hz, row.steps, row.solve_s
@@ -142,24 +143,24 @@ pub fn run_fem_convergence(
     Ok(FemConvergenceReport { rows })
 }
 
-/// The static equilibrium of `shape` (on a mesh of kind `mesh`, of `element`s) hanging from its
-/// pinned end, and its figures.
+/// The static equilibrium of `shape` (on a mesh of kind `mesh`) hanging from its pinned end,
+/// and its figures.
 fn hanging_equilibrium(
     name: &str,
     shape: &BenchShape,
-    (mesh, element): (FemMesh, FemElement),
+    mesh: FemMesh,
     resolution: usize,
     bench: bool,
 ) -> Result<FemConvergenceRow> {
     let params = scenario_params(shape);
     let started = Instant::now();
-    let equilibrium = fem_hanging(shape, &params, element)?;
+    let equilibrium = fem_hanging(shape, &params)?;
     let solve_s = started.elapsed().as_secs_f64();
     let (sag_m, max_displacement_m) = sag_and_largest(shape, &params, &equilibrium.positions);
     Ok(FemConvergenceRow {
         shape: name.into(),
         mesh,
-        element,
+        element: shape.reference,
         resolution,
         bench,
         vertices: shape.mesh.vertices.len(),
@@ -192,5 +193,6 @@ fn fitted_shape(source: Shape, young: f64, resolution: usize) -> Result<BenchSha
         eigen: None,
         diagonal: (hi - lo).norm(),
         young,
+        reference: FemElement::Linear,
     })
 }

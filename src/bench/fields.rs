@@ -14,7 +14,7 @@ use super::sim::{prepare_shape, run_fem, run_reduced, scenario_params, BenchShap
 use super::statics::{fem_hanging, reduced_against};
 use crate::geometry::TetMesh;
 use crate::geometry::{Cubature, Shape, VoxelGrid};
-use crate::physics::{FemElement, SimParams, Solver, Subspace};
+use crate::physics::{SimParams, Solver, Subspace};
 use crate::skinning::{
     refine_field, FieldMetrics, NeuralField, NeuralModel, RefineBudget, RefineOptions,
     SkinningField, DEFAULT_REFINE_MS,
@@ -361,7 +361,7 @@ fn simulate_both(
     let params = scenario_params(&bench);
     let cubature = Cubature::stratified(&bench.grid, options.cubature, bench.mesh.volume());
     let references = fem_references(&bench, &params, options.steps)?;
-    let equilibrium = fem_hanging(&bench, &params, FemElement::Linear)?;
+    let equilibrium = fem_hanging(&bench, &params)?;
     let fields: [Arc<dyn SkinningField>; 3] = [
         learned,
         Arc::new(bench.eigen().truncated(modes)),

@@ -10,7 +10,8 @@ use super::stats::{median, quantile};
 use crate::error::{Error, Result};
 use crate::geometry::{stratified_subset, Shape, TetMesh, VoxelGrid};
 use crate::physics::{
-    BulkIntegration, FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver, Subspace,
+    BulkIntegration, FemElement, FemSim, Lifter, Obstacle, Poke, ReducedSim, SimParams, Solver,
+    Subspace,
 };
 use crate::skinning::{EigenmodeField, EigenmodeOptions};
 
@@ -34,6 +35,8 @@ pub struct SimBenchOptions {
     pub solvers: Vec<Solver>,
     /// How the reduced bodies integrate the bulk term, each in turn; empty: points.
     pub bulks: Vec<BulkIntegration>,
+    /// The FEM reference's element (linear by default).
+    pub reference: FemElement,
 }
 
 /// The bench's bundled shapes.
@@ -183,6 +186,8 @@ pub(crate) struct BenchShape {
     pub eigen: Option<EigenmodeField>,
     pub diagonal: f64,
     pub young: f64,
+    /// The element of its FEM reference: linear unless a run asks for quadratic.
+    pub reference: FemElement,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -283,6 +288,7 @@ pub(crate) fn shape_on_grid(
         eigen,
         diagonal: (hi - lo).norm(),
         young,
+        reference: FemElement::Linear,
     })
 }
 
@@ -369,13 +375,30 @@ pub(crate) fn poke(shape: &BenchShape, params: &SimParams) -> Poke {
     }
 }
 
+/// The FEM reference of `shape` (of its `reference` element) through `steps` steps of
+/// `scenario`: the vertex positions after each step and each step's time, s.
 pub(crate) fn run_fem(
     shape: &BenchShape,
     scenario: Scenario,
     params: &SimParams,
     steps: usize,
 ) -> Result<(Vec<Vec<f64>>, Vec<f64>)> {
-    let mut fem = FemSim::new(shape.mesh.clone(), params.clone())?;
+    let (mesh, params) = (shape.mesh.clone(), params.clone());
+    match shape.reference {
+        FemElement::Linear => run_fem_on(FemSim::new(mesh, params)?, shape, scenario, steps),
+        FemElement::Quadratic => {
+            run_fem_on(FemSim::quadratic(mesh, params)?, shape, scenario, steps)
+        }
+    }
+}
+
+fn run_fem_on<const N: usize, const D: usize>(
+    mut fem: FemSim<N, D>,
+    shape: &BenchShape,
+    scenario: Scenario,
+    steps: usize,
+) -> Result<(Vec<Vec<f64>>, Vec<f64>)> {
+    let params = fem.params().clone();
     match scenario {
         Scenario::Hanging => fem.pin_vertices(&pinned_vertices(&shape.mesh)),
         Scenario::Drop => {
@@ -391,7 +414,7 @@ pub(crate) fn run_fem(
         }
         Scenario::Poke => {
             fem.pin_vertices(&pinned_vertices(&shape.mesh));
-            fem.add_poke(poke(shape, params));
+            fem.add_poke(poke(shape, &params));
         }
     }
     let mut trajectory = Vec::with_capacity(steps);

@@ -44,15 +44,11 @@ pub(crate) struct Equilibrium {
     pub settled: bool,
 }
 
-/// `shape` hanging from its pinned end under `params`, solved statically with the FEM of
-/// `element`s.
-pub(crate) fn fem_hanging(
-    shape: &BenchShape,
-    params: &SimParams,
-    element: FemElement,
-) -> Result<Equilibrium> {
+/// `shape` hanging from its pinned end under `params`, solved statically with its FEM
+/// reference.
+pub(crate) fn fem_hanging(shape: &BenchShape, params: &SimParams) -> Result<Equilibrium> {
     let (mesh, params) = (shape.mesh.clone(), settling(params));
-    match element {
+    match shape.reference {
         FemElement::Linear => settle(FemSim::new(mesh, params)?, shape),
         FemElement::Quadratic => settle(FemSim::quadratic(mesh, params)?, shape),
     }

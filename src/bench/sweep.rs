@@ -15,7 +15,7 @@ use super::statics::{fem_hanging, reduced_against};
 use super::stats::median;
 use crate::error::Result;
 use crate::geometry::{bundled, sample_surface, Cubature, SurfaceSampling, VoxelGrid};
-use crate::physics::{FemElement, Lifter, SimParams, Subspace};
+use crate::physics::{Lifter, SimParams, Subspace};
 use crate::skinning::{EigenmodeField, SkinningField};
 
 /// Runs the bench; `progress` receives a line per finished piece of work.
@@ -61,7 +61,8 @@ pub fn run_sim_bench(
     let mut lift_field = None;
     for (name, young, resolution) in shapes {
         let source = bundled(name).expect("a bundled shape");
-        let shape = prepare_shape(source, young, resolution, min_big_vertices, max_modes)?;
+        let mut shape = prepare_shape(source, young, resolution, min_big_vertices, max_modes)?;
+        shape.reference = options.reference;
         progress(&format!(
             "{name}: {} FEM vertices, {} tets, eigenmodes in {} iterations",
             shape.mesh.vertices.len(),
@@ -69,9 +70,10 @@ pub fn run_sim_bench(
             shape.eigen().iterations
         ));
         let started = Instant::now();
-        let equilibrium = fem_hanging(&shape, &scenario_params(&shape), FemElement::Linear)?;
+        let equilibrium = fem_hanging(&shape, &scenario_params(&shape))?;
         progress(&format!(
-            "{name}: FEM hanging equilibrium in {} static steps ({:.0} s)",
+            "{name}: FEM hanging equilibrium ({} nodes) in {} static steps ({:.0} s)",
+            equilibrium.nodes,
             equilibrium.steps,
             started.elapsed().as_secs_f64()
         ));

@@ -211,6 +211,10 @@ enum BenchCommand {
         /// How the reduced bodies integrate the bulk term, each in turn (default: points).
         #[arg(long, value_delimiter = ',', value_enum)]
         bulk: Vec<crate::cli::simulate::BulkArg>,
+        /// The FEM reference on quadratic tetrahedra of the same mesh (free of the linear
+        /// ones' locking, some seven times the unknowns).
+        #[arg(long)]
+        quadratic: bool,
     },
 }
 
@@ -288,6 +292,7 @@ pub fn main() -> ExitCode {
             cubature: Vec::new(),
             solver: Vec::new(),
             bulk: Vec::new(),
+            quadratic: false,
         }) {
             BenchCommand::Sim {
                 quick,
@@ -299,6 +304,7 @@ pub fn main() -> ExitCode {
                 cubature,
                 solver,
                 bulk,
+                quadratic,
             } => {
                 let options = SimBenchOptions {
                     quick,
@@ -308,6 +314,11 @@ pub fn main() -> ExitCode {
                     cubatures: cubature,
                     solvers: solver.into_iter().map(Into::into).collect(),
                     bulks: bulk.into_iter().map(Into::into).collect(),
+                    reference: if quadratic {
+                        crate::physics::FemElement::Quadratic
+                    } else {
+                        crate::physics::FemElement::Linear
+                    },
                 };
                 run_bench_sim(&options, json, &plot)
             }

@@ -141,6 +141,10 @@ impl<const N: usize, const D: usize> FemSim<N, D> {
     pub fn mesh(&self) -> &TetMesh {
         &self.mesh
     }
+    /// The parameters it was made with.
+    pub fn params(&self) -> &SimParams {
+        &self.params
+    }
     /// Simulated time, s (`dt` per step).
     pub fn time(&self) -> f64 {
         self.time
