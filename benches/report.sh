@@ -33,6 +33,7 @@
 #   fem-fitted         bench fem --fitted, plate and rod      (the same on volume-true meshes, 3 minutes)
 #   fem-quadratic      bench fem --fitted --quadratic, plate and rod (quadratic tetrahedra, 3 minutes)
 #   sim-quadratic-quick bench sim --quick against quadratic tetrahedra, 16 handles, quasi-Newton (15 minutes)
+#   sim-quadratic-handles bench sim --quick --quadratic, plate and rod hanging, 4 to 32 handles (1 minute)
 #   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
 #   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
 # `readme` stands for every file README.md quotes, the full `bench sim` last: one run of
@@ -113,6 +114,10 @@ for name in "${names[@]}"; do
         sim-quadratic-quick)
             benches/record.sh sim-quadratic-quick $bin bench sim --quick --handles 16 \
                 --solver quasi-newton --quadratic --json --plot /tmp/sim-quadratic-quick.svg ;;
+        sim-quadratic-handles)
+            benches/record.sh sim-quadratic-handles $bin bench sim --quick --quadratic \
+                --shape plate,rod --scenario hanging --handles 4,8,16,32 --cubature 256,1024 \
+                --solver quasi-newton --json --plot /tmp/sim-quadratic-handles.svg ;;
         sim-statics)
             benches/record.sh sim-statics $bin bench sim --shape plate,rod --scenario hanging \
                 --handles 4,16 --cubature 256,1024 --solver quasi-newton --json \
