@@ -34,6 +34,7 @@
 #   fem-quadratic      bench fem --fitted --quadratic, plate and rod (quadratic tetrahedra, 3 minutes)
 #   sim-quadratic-quick bench sim --quick against quadratic tetrahedra, 16 handles, quasi-Newton (15 minutes)
 #   sim-quadratic-handles bench sim --quick --quadratic, plate and rod hanging, 4 to 32 handles (1 minute)
+#   sim-quadratic-poisson the same at Poisson's ratio 0.3 (1 minute)
 #   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
 #   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
 # `readme` stands for every file README.md quotes, the full `bench sim` last: one run of
@@ -118,6 +119,11 @@ for name in "${names[@]}"; do
             benches/record.sh sim-quadratic-handles $bin bench sim --quick --quadratic \
                 --shape plate,rod --scenario hanging --handles 4,8,16,32 --cubature 256,1024 \
                 --solver quasi-newton --json --plot /tmp/sim-quadratic-handles.svg ;;
+        sim-quadratic-poisson)
+            benches/record.sh sim-quadratic-poisson $bin bench sim --quick --quadratic \
+                --poisson 0.3 --shape plate,rod --scenario hanging --handles 4,8,16,32 \
+                --cubature 256,1024 --solver quasi-newton --json \
+                --plot /tmp/sim-quadratic-poisson.svg ;;
         sim-statics)
             benches/record.sh sim-statics $bin bench sim --shape plate,rod --scenario hanging \
                 --handles 4,16 --cubature 256,1024 --solver quasi-newton --json \

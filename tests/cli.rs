@@ -158,7 +158,11 @@ fn sim_bench_filters_run_only_the_chosen_rows_and_refuse_unknown_names() {
     // Without the creature there is no lifting figure, and no invented one.
     assert!(report.get("lift_100k_ms").is_none(), "{report}");
     std::fs::remove_file(&plot).ok();
-    for (flag, bad) in [("--shape", "teapot"), ("--scenario", "juggle")] {
+    for (flag, bad) in [
+        ("--shape", "teapot"),
+        ("--scenario", "juggle"),
+        ("--poisson", "0.7"),
+    ] {
         let out = physskin()
             .args(["bench", "sim", "--quick", flag, bad])
             .output()

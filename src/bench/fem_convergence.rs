@@ -17,7 +17,7 @@ use super::sim::{
 use super::statics::{fem_hanging, rayleigh_hz, sag_and_largest};
 use crate::error::{Error, Result};
 use crate::geometry::{bundled, Shape, TetMesh, VoxelGrid};
-use crate::physics::FemElement;
+use crate::physics::{FemElement, SimParams};
 
 /// Which voxel mesh the study solves on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -193,6 +193,7 @@ fn fitted_shape(source: Shape, young: f64, resolution: usize) -> Result<BenchSha
         eigen: None,
         diagonal: (hi - lo).norm(),
         young,
+        poisson: SimParams::default().poisson,
         reference: FemElement::Linear,
     })
 }

@@ -37,6 +37,8 @@ pub struct SimBenchOptions {
     pub bulks: Vec<BulkIntegration>,
     /// The FEM reference's element (linear by default).
     pub reference: FemElement,
+    /// Poisson's ratio of every body and its reference; None: the default material's.
+    pub poisson: Option<f64>,
 }
 
 /// The bench's bundled shapes.
@@ -93,6 +95,13 @@ impl SimBenchOptions {
         }
         for name in &self.scenarios {
             Scenario::named(name)?;
+        }
+        if let Some(poisson) = self.poisson {
+            SimParams {
+                poisson,
+                ..SimParams::default()
+            }
+            .validate()?;
         }
         if let Some(&bad) = self
             .handles
@@ -186,6 +195,8 @@ pub(crate) struct BenchShape {
     pub eigen: Option<EigenmodeField>,
     pub diagonal: f64,
     pub young: f64,
+    /// Its Poisson's ratio (the default material's unless a run asks for another).
+    pub poisson: f64,
     /// The element of its FEM reference: linear unless a run asks for quadratic.
     pub reference: FemElement,
 }
@@ -288,6 +299,7 @@ pub(crate) fn shape_on_grid(
         eigen,
         diagonal: (hi - lo).norm(),
         young,
+        poisson: SimParams::default().poisson,
         reference: FemElement::Linear,
     })
 }
@@ -295,6 +307,7 @@ pub(crate) fn shape_on_grid(
 pub(crate) fn scenario_params(shape: &BenchShape) -> SimParams {
     SimParams {
         young: shape.young,
+        poisson: shape.poisson,
         ..SimParams::default()
     }
 }

@@ -63,6 +63,9 @@ pub fn run_sim_bench(
         let source = bundled(name).expect("a bundled shape");
         let mut shape = prepare_shape(source, young, resolution, min_big_vertices, max_modes)?;
         shape.reference = options.reference;
+        if let Some(poisson) = options.poisson {
+            shape.poisson = poisson;
+        }
         progress(&format!(
             "{name}: {} FEM vertices, {} tets, eigenmodes in {} iterations",
             shape.mesh.vertices.len(),

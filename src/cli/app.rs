@@ -215,6 +215,9 @@ enum BenchCommand {
         /// ones' locking, some seven times the unknowns).
         #[arg(long)]
         quadratic: bool,
+        /// Poisson's ratio of every body and its FEM (default: the material's, 0.45).
+        #[arg(long)]
+        poisson: Option<f64>,
     },
 }
 
@@ -293,6 +296,7 @@ pub fn main() -> ExitCode {
             solver: Vec::new(),
             bulk: Vec::new(),
             quadratic: false,
+            poisson: None,
         }) {
             BenchCommand::Sim {
                 quick,
@@ -305,6 +309,7 @@ pub fn main() -> ExitCode {
                 solver,
                 bulk,
                 quadratic,
+                poisson,
             } => {
                 let options = SimBenchOptions {
                     quick,
@@ -319,6 +324,7 @@ pub fn main() -> ExitCode {
                     } else {
                         crate::physics::FemElement::Linear
                     },
+                    poisson,
                 };
                 run_bench_sim(&options, json, &plot)
             }
