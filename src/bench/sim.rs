@@ -75,6 +75,20 @@ impl SimBenchOptions {
         }
     }
 
+    /// The scenarios chosen, or the run's own: hanging and drop with `quick`, all three
+    /// otherwise.
+    pub(super) fn chosen_scenarios(&self) -> Result<Vec<Scenario>> {
+        if self.scenarios.is_empty() {
+            let quick = [Scenario::Hanging, Scenario::Drop];
+            return Ok(if self.quick {
+                quick.to_vec()
+            } else {
+                Scenario::ALL.to_vec()
+            });
+        }
+        self.scenarios.iter().map(|n| Scenario::named(n)).collect()
+    }
+
     /// Each solver with each way of integrating the bulk term, as chosen.
     pub(super) fn variants(&self) -> Vec<(Solver, BulkIntegration)> {
         let solvers = Self::pick(&[Solver::Newton, Solver::QuasiNewton], &self.solvers);

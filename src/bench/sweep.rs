@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::sim::{
     bench_min_vertices, bench_resolutions, prepare_shape, run_fem, run_reduced, scenario_params,
-    BenchShape, Scenario, SimBenchOptions, SimBenchReport, SimRow, SHAPES, YOUNGS,
+    BenchShape, SimBenchOptions, SimBenchReport, SimRow, SHAPES, YOUNGS,
 };
 use super::statics::{fem_hanging, reduced_against};
 use super::stats::median;
@@ -31,20 +31,7 @@ pub fn run_sim_bench(
     );
     let cubatures = SimBenchOptions::pick(&[256, 1024], &options.cubatures);
     let variants = options.variants();
-    let default_scenarios: &[Scenario] = if quick {
-        &[Scenario::Hanging, Scenario::Drop]
-    } else {
-        &Scenario::ALL
-    };
-    let scenarios: Vec<Scenario> = if options.scenarios.is_empty() {
-        default_scenarios.to_vec()
-    } else {
-        options
-            .scenarios
-            .iter()
-            .map(|n| Scenario::named(n))
-            .collect::<Result<_>>()?
-    };
+    let scenarios = options.chosen_scenarios()?;
     let steps = if quick { 20 } else { 60 };
     let max_modes = *handle_counts
         .iter()

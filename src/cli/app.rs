@@ -6,8 +6,6 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-use crate::bench::{run_sim_bench, SimBenchOptions, SimBenchReport};
-
 #[derive(Parser)]
 #[command(
     name = "physskin",
@@ -183,42 +181,7 @@ enum BenchCommand {
         plot: PathBuf,
     },
     /// Reduced simulation against the FEM reference: step time next to error.
-    Sim {
-        /// Small meshes and fewer variants (fits in CI).
-        #[arg(long)]
-        quick: bool,
-        /// Print JSON instead of the table.
-        #[arg(long)]
-        json: bool,
-        /// Where to write the step-time-against-error plot (SVG).
-        #[arg(long, default_value = "target/bench/sim.svg")]
-        plot: PathBuf,
-        /// Only these shapes (plate, rod, creature; comma-separated).
-        #[arg(long, value_delimiter = ',')]
-        shape: Vec<String>,
-        /// Only these scenarios (hanging, drop, poke).
-        #[arg(long, value_delimiter = ',')]
-        scenario: Vec<String>,
-        /// Only these handle counts (besides the constant one).
-        #[arg(long, value_delimiter = ',')]
-        handles: Vec<usize>,
-        /// Only these cubature sizes.
-        #[arg(long, value_delimiter = ',')]
-        cubature: Vec<usize>,
-        /// Only these solvers.
-        #[arg(long, value_delimiter = ',', value_enum)]
-        solver: Vec<crate::cli::simulate::SolverArg>,
-        /// How the reduced bodies integrate the bulk term, each in turn (default: points).
-        #[arg(long, value_delimiter = ',', value_enum)]
-        bulk: Vec<crate::cli::simulate::BulkArg>,
-        /// The FEM reference on quadratic tetrahedra of the same mesh (free of the linear
-        /// ones' locking, some seven times the unknowns).
-        #[arg(long)]
-        quadratic: bool,
-        /// Poisson's ratio of every body and its FEM (default: the material's, 0.45).
-        #[arg(long)]
-        poisson: Option<f64>,
-    },
+    Sim(crate::cli::bench_sim::SimArgs),
 }
 
 /// Sets RAYON_NUM_THREADS, when unset, to the thread count rayon would pick anyway. candle
@@ -285,49 +248,10 @@ pub fn main() -> ExitCode {
         Command::Infer(args) => crate::cli::infer::run(args),
         Command::Node(args) => crate::cli::node::run(args, ros),
         Command::Scene(args) => crate::cli::scene::run(args),
-        Command::Bench { which } => match which.unwrap_or(BenchCommand::Sim {
-            quick: false,
-            json: false,
-            plot: "target/bench/sim.svg".into(),
-            shape: Vec::new(),
-            scenario: Vec::new(),
-            handles: Vec::new(),
-            cubature: Vec::new(),
-            solver: Vec::new(),
-            bulk: Vec::new(),
-            quadratic: false,
-            poisson: None,
-        }) {
-            BenchCommand::Sim {
-                quick,
-                json,
-                plot,
-                shape,
-                scenario,
-                handles,
-                cubature,
-                solver,
-                bulk,
-                quadratic,
-                poisson,
-            } => {
-                let options = SimBenchOptions {
-                    quick,
-                    shapes: shape,
-                    scenarios: scenario,
-                    handles,
-                    cubatures: cubature,
-                    solvers: solver.into_iter().map(Into::into).collect(),
-                    bulks: bulk.into_iter().map(Into::into).collect(),
-                    reference: if quadratic {
-                        crate::physics::FemElement::Quadratic
-                    } else {
-                        crate::physics::FemElement::Linear
-                    },
-                    poisson,
-                };
-                run_bench_sim(&options, json, &plot)
-            }
+        Command::Bench { which } => match which
+            .unwrap_or_else(|| BenchCommand::Sim(crate::cli::bench_sim::SimArgs::default()))
+        {
+            BenchCommand::Sim(args) => crate::cli::bench_sim::run(args),
             BenchCommand::Latency {
                 json,
                 domain_id,
@@ -740,72 +664,4 @@ fn run_bench_latency(
         );
     }
     Ok(())
-}
-
-fn run_bench_sim(
-    options: &SimBenchOptions,
-    json: bool,
-    plot: &std::path::Path,
-) -> crate::Result<()> {
-    let report = run_sim_bench(options, |line| eprintln!("{line}"))?;
-    crate::cli::write_plot(plot, &crate::bench::sim_plot(&report))?;
-    if json {
-        crate::cli::print_json(&report);
-    } else {
-        print_table(&report);
-        println!("plot: {}", plot.display());
-    }
-    Ok(())
-}
-
-fn print_table(report: &SimBenchReport) {
-    println!(
-        "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9} {:>9} {:>9} {:>9} {:>10} {:>8} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6}",
-        "shape",
-        "verts",
-        "scenario",
-        "field",
-        "m",
-        "cub",
-        "solver",
-        "step_ms",
-        "mean_ms",
-        "p99_ms",
-        "prep_max",
-        "fem_ms",
-        "speedup",
-        "err_%",
-        "static_%",
-        "freq",
-        "iters",
-        "unconv",
-        "fallbk"
-    );
-    for r in &report.rows {
-        println!(
-            "{:<9} {:>6} {:<8} {:<6} {:>3} {:>5} {:<12} {:>9.3} {:>9.3} {:>9.3} {:>9.3} {:>10.1} {:>8.0} {:>8.3} {:>8.3} {:>6.3} {:>6.1} {:>6} {:>6}",
-            r.shape,
-            r.vertices,
-            r.scenario,
-            r.field,
-            r.handles,
-            r.cubature,
-            r.solver,
-            r.step_ms,
-            r.step_mean_ms,
-            r.step_p99_ms,
-            r.prepare_max_ms,
-            r.fem_step_ms,
-            r.speedup,
-            r.error_pct,
-            r.static_error_pct,
-            r.frequency_ratio,
-            r.mean_iterations,
-            r.unconverged_steps,
-            r.fallback_steps
-        );
-    }
-    if let Some(ms) = report.lift_100k_ms {
-        println!("lift 100k points: {ms:.3} ms (median)");
-    }
 }

@@ -4,6 +4,7 @@
 mod app;
 pub(crate) mod bag;
 pub(crate) mod basis;
+pub(crate) mod bench_sim;
 pub(crate) mod demo;
 pub(crate) mod eval;
 pub(crate) mod infer;
