@@ -111,6 +111,48 @@ fn quick_sim_bench_reports_every_row_with_speed_next_to_error() {
     std::fs::remove_file(&plot).ok();
 }
 
+/// The quick rod at 4 handles, hanging and dropped, against its FEM on linear tetrahedra or,
+/// with `quadratic`, quadratic ones.
+fn quick_rod_rows(quadratic: bool) -> Vec<serde_json::Value> {
+    let plot = std::env::temp_dir().join(format!("physskin-rod-{}.svg", std::process::id()));
+    let mut args = vec![
+        "bench",
+        "sim",
+        "--quick",
+        "--shape",
+        "rod",
+        "--handles",
+        "4",
+    ];
+    args.extend(["--cubature", "256", "--solver", "quasi-newton", "--json"]);
+    args.extend(["--scenario", "hanging,drop"]);
+    if quadratic {
+        args.push("--quadratic");
+    }
+    let out = succeeded(physskin().args(args).arg("--plot").arg(&plot));
+    std::fs::remove_file(&plot).ok();
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    report["rows"].as_array().expect("rows").clone()
+}
+
+/// `bench sim --quadratic`: the reference on quadratic tetrahedra runs every scenario (pins,
+/// the drop's tilted start and floor) and bends where linear ones lock, so the same reduced rod
+/// is stiffer against it (measured frequency ratios 2.027 against 1.347).
+#[test]
+fn a_quadratic_reference_shows_the_reduced_body_stiffer_than_a_linear_one_does() {
+    let (linear, quadratic) = (quick_rod_rows(false), quick_rod_rows(true));
+    assert_eq!(quadratic.len(), 2, "hanging and drop");
+    for (row, against) in linear.iter().zip(&quadratic) {
+        let error = against["error_pct"].as_f64().unwrap();
+        assert!(error.is_finite() && error < 10.0, "{against}");
+        let ratio = |r: &serde_json::Value| r["frequency_ratio"].as_f64().unwrap();
+        assert!(
+            ratio(against) > 1.2 * ratio(row),
+            "linear {row}, quadratic {against}"
+        );
+    }
+}
+
 #[test]
 fn sim_bench_filters_run_only_the_chosen_rows_and_refuse_unknown_names() {
     let plot = std::env::temp_dir().join(format!("physskin-sim-f-{}.svg", std::process::id()));
