@@ -33,9 +33,8 @@
 #   fem-fitted         bench fem --fitted, plate and rod      (the same on volume-true meshes, 3 minutes)
 #   fem-quadratic      bench fem --fitted --quadratic, plate and rod (quadratic tetrahedra, 3 minutes)
 #   sim-quadratic-quick bench sim --quick against quadratic tetrahedra, 16 handles, quasi-Newton (15 minutes)
-#   sim-quadratic-handles bench sim --quick --quadratic, plate and rod hanging, 4 to 32 handles (1 minute)
+#   sim-quadratic-handles bench sim --quick --quadratic, hanging, 4 to 32 handles (12 minutes, mostly the creature's FEM)
 #   sim-quadratic-poisson the same at Poisson's ratio 0.3 (1 minute)
-#   sim-quadratic-creature the creature hanging against quadratic tetrahedra, 4 to 32 handles (15 minutes)
 #   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
 #   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
 # `readme` stands for every file README.md quotes, the full `bench sim` last: one run of
@@ -118,12 +117,8 @@ for name in "${names[@]}"; do
                 --solver quasi-newton --quadratic --json --plot /tmp/sim-quadratic-quick.svg ;;
         sim-quadratic-handles)
             benches/record.sh sim-quadratic-handles $bin bench sim --quick --quadratic \
-                --shape plate,rod --scenario hanging --handles 4,8,16,32 --cubature 256,1024 \
-                --solver quasi-newton --json --plot /tmp/sim-quadratic-handles.svg ;;
-        sim-quadratic-creature)
-            benches/record.sh sim-quadratic-creature $bin bench sim --quick --quadratic \
-                --shape creature --scenario hanging --handles 4,8,16,32 --cubature 256,1024 \
-                --solver quasi-newton --json --plot /tmp/sim-quadratic-creature.svg ;;
+                --scenario hanging --handles 4,8,16,32 --cubature 256,1024 \
+                --solver quasi-newton --json --plot docs/images/sim-quadratic.svg ;;
         sim-quadratic-poisson)
             benches/record.sh sim-quadratic-poisson $bin bench sim --quick --quadratic \
                 --poisson 0.3 --shape plate,rod --scenario hanging --handles 4,8,16,32 \

@@ -108,7 +108,18 @@ fn quick_sim_bench_reports_every_row_with_speed_next_to_error() {
         .is_some_and(|v| v.is_finite() && v > 0.0));
     let svg = std::fs::read_to_string(&plot).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("<circle"));
-    std::fs::remove_file(&plot).ok();
+    // Beside it, the static error against handles: a series per shape and cubature size.
+    let by_handles =
+        plot.with_file_name(format!("physskin-sim-{}-handles.svg", std::process::id()));
+    let svg = std::fs::read_to_string(&by_handles).unwrap();
+    assert!(svg.contains("static error against handles"), "{svg}");
+    assert!(
+        svg.contains("creature, 1024 points") && svg.contains("<circle"),
+        "{svg}"
+    );
+    for file in [&plot, &by_handles] {
+        std::fs::remove_file(file).ok();
+    }
 }
 
 /// The quick rod at 4 handles, hanging and dropped, against its FEM on linear tetrahedra or,
@@ -131,6 +142,10 @@ fn quick_rod_rows(quadratic: bool) -> Vec<serde_json::Value> {
     }
     let out = succeeded(physskin().args(args).arg("--plot").arg(&plot));
     std::fs::remove_file(&plot).ok();
+    std::fs::remove_file(
+        plot.with_file_name(format!("physskin-rod-{}-handles.svg", std::process::id())),
+    )
+    .ok();
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     report["rows"].as_array().expect("rows").clone()
 }

@@ -36,7 +36,7 @@ pub use real_bench::run_real_bench;
 pub use real_to_sim::{simulate_input, InputSimOptions, InputSimSummary};
 pub use replay::run_replay_bench;
 pub use scene::{run_scene, run_scene_bench, SceneRun, SceneRunOptions, WORKCELL};
-pub use sim::{sim_plot, SimBenchOptions, SimBenchReport};
+pub use sim::{handles_plot, sim_plot, SimBenchOptions, SimBenchReport};
 pub use simulate::{simulate, SimulateOptions};
 pub use soak::{run_soak, SoakOptions};
 pub use stress::{run_stress, stress_cases};

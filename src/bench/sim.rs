@@ -579,3 +579,43 @@ pub fn sim_plot(report: &SimBenchReport) -> String {
         ],
     )
 }
+
+/// Static error against handles (log scale), one series per shape and cubature size: what
+/// doubling the handles or quadrupling the points buys.
+pub fn handles_plot(report: &SimBenchReport) -> String {
+    const COLORS: [&str; 6] = [
+        "#1f77b4", "#aec7e8", "#d62728", "#ff9896", "#2ca02c", "#98df8a",
+    ];
+    let mut kinds: Vec<(&str, usize)> = (report.rows.iter())
+        .map(|r| (r.shape.as_str(), r.cubature))
+        .collect();
+    kinds.sort_unstable_by_key(|&(shape, cubature)| {
+        (SHAPES.iter().position(|&s| s == shape), cubature)
+    });
+    kinds.dedup();
+    let labels: Vec<String> = (kinds.iter())
+        .map(|(shape, cubature)| format!("{shape}, {cubature} points"))
+        .collect();
+    let series: Vec<_> = (kinds.iter().zip(&labels).enumerate())
+        .map(|(i, (&(shape, cubature), label))| {
+            let mut points: Vec<(f64, f64)> = (report.rows.iter())
+                .filter(|r| r.shape == shape && r.cubature == cubature)
+                .map(|r| (r.handles as f64, r.static_error_pct))
+                .filter(|(_, error)| error.is_finite())
+                .collect();
+            // Every scenario of a size repeats its static error.
+            points.dedup();
+            super::plot::Series {
+                label,
+                color: COLORS[i % COLORS.len()],
+                points,
+            }
+        })
+        .collect();
+    super::plot::scatter_svg(
+        "physskin: static error against handles",
+        "handles besides the constant one (log scale)",
+        "static error vs FEM (% of bounding diagonal)",
+        &series,
+    )
+}

@@ -15,7 +15,8 @@ pub struct SimArgs {
     /// Print JSON instead of the table.
     #[arg(long)]
     pub json: bool,
-    /// Where to write the step-time-against-error plot (SVG).
+    /// Where to write the step-time-against-error plot (SVG); the static error against
+    /// handles goes beside it, its name ending in `-handles.svg`.
     #[arg(long, default_value = "target/bench/sim.svg")]
     pub plot: PathBuf,
     /// Only these shapes (plate, rod, creature; comma-separated).
@@ -84,16 +85,22 @@ impl SimArgs {
     }
 }
 
-/// Runs `bench sim` as `args` ask: a table (or JSON) on stdout and the plot.
+/// Runs `bench sim` as `args` ask: a table (or JSON) on stdout, the plot of step time against
+/// error, and beside it (`NAME-handles.svg`) the static error against handles.
 pub(crate) fn run(args: SimArgs) -> crate::Result<()> {
     let (json, plot) = (args.json, args.plot.clone());
     let report = run_sim_bench(&args.options(), |line| eprintln!("{line}"))?;
     crate::cli::write_plot(&plot, &crate::bench::sim_plot(&report))?;
+    let stem = plot
+        .file_stem()
+        .map_or("sim".into(), |s| s.to_string_lossy());
+    let by_handles = plot.with_file_name(format!("{stem}-handles.svg"));
+    crate::cli::write_plot(&by_handles, &crate::bench::handles_plot(&report))?;
     if json {
         crate::cli::print_json(&report);
     } else {
         print_table(&report);
-        println!("plot: {}", plot.display());
+        println!("plots: {} and {}", plot.display(), by_handles.display());
     }
     Ok(())
 }
