@@ -34,7 +34,7 @@
 #   fem-quadratic      bench fem --fitted --quadratic, plate and rod (quadratic tetrahedra, 3 minutes)
 #   sim-quadratic-quick bench sim --quick against quadratic tetrahedra, 16 handles, quasi-Newton (15 minutes)
 #   sim-quadratic-handles bench sim --quick --quadratic, hanging, 4 to 32 handles (12 minutes, mostly the creature's FEM)
-#   sim-quadratic-poisson the same at Poisson's ratio 0.3 (1 minute)
+#   sim-quadratic-poisson the plate and rod of sim-quadratic-handles at Poisson's ratio 0.3 (1 minute)
 #   sim-statics        bench sim, plate and rod hanging, quasi-Newton (static error, about 5 minutes)
 #   sim-statics-quick  bench sim --quick, hanging, quasi-Newton (the creature's static error on a small mesh)
 # `readme` stands for every file README.md quotes, the full `bench sim` last: one run of
