@@ -603,7 +603,8 @@ pub fn handles_plot(report: &SimBenchReport) -> String {
                 .map(|r| (r.handles as f64, r.static_error_pct))
                 .filter(|(_, error)| error.is_finite())
                 .collect();
-            // Every scenario of a size repeats its static error.
+            // Every scenario of a size repeats its static error: one mark each.
+            points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
             points.dedup();
             super::plot::Series {
                 label,
