@@ -119,8 +119,8 @@ pub fn run_fem_convergence(
                 FemMesh::Fitted => fitted_shape(source, young, resolution)?,
             };
             shape.reference = element;
-            let bench = resolution == bench && element == FemElement::Linear;
-            let row = hanging_equilibrium(name, &shape, mesh, resolution, bench)?;
+            let is_bench = resolution == bench && element == FemElement::Linear;
+            let row = hanging_equilibrium(name, &shape, mesh, resolution, is_bench)?;
             progress(&format!(
                 "{name} at {resolution}: {} nodes, sag {:.6} m, max {:.6} m, Rayleigh {:.4} Hz, {} steps ({:.1} s)",
                 row.nodes, row.sag_m, row.max_displacement_m, row.rayleigh_hz, row.steps, row.solve_s

@@ -226,8 +226,6 @@ fn interpolates_linear_functions_at(mesh: &TetMesh, p: &Vector3<f64>) {
     );
 }
 
-/// A reference mesh stretched to fit a slab (cells cubic in the grid's frame, a 6 cm side
-/// spanned by whole cells) locates in the world: the FEM's lifter and its tetrahedra agree.
 /// On a voxelized ball, a normal given inward is turned out and one given outward kept; at a
 /// point deep inside (no side to tell) there is no answer.
 #[test]
@@ -273,6 +271,8 @@ fn a_fitted_resample_counts_cut_cells_half() {
     );
 }
 
+/// A reference mesh stretched to fit a slab (cells cubic in the grid's frame, a 6 cm side
+/// spanned by whole cells) locates in the world: the FEM's lifter and its tetrahedra agree.
 #[test]
 fn a_stretched_reference_mesh_locates_in_the_world() {
     let mesh = reference_mesh(&box_mesh(Vector3::new(0.4, 0.4, 0.06))).mesh;
