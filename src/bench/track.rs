@@ -300,8 +300,11 @@ fn scan_frames(
         }
         let (mut vertices, mut triangles) = (positions.clone(), truth.surface.clone());
         let faces = triangles.len();
-        for poke in sequence.pokes.iter().filter(|p| p.start <= t && t < p.end) {
-            add_poker(poke, truth, step, &mut vertices, &mut triangles);
+        let box_faces = box_mesh(Vector3::repeat(1.0)).triangles;
+        for corners in &truth.occluders[step] {
+            let base = vertices.len() as u32;
+            vertices.extend_from_slice(corners);
+            triangles.extend(box_faces.iter().map(|f| f.map(|i| base + i)));
         }
         let mut frame = Frame {
             points: Vec::new(),
@@ -326,45 +329,6 @@ fn scan_frames(
         frames.push(Some(frame));
     }
     Ok(frames)
-}
-
-/// A 2.4 cm square rod from the poked point 0.3 m back along the force: it hides what lies
-/// behind it from the camera.
-fn add_poker(
-    poke: &Poke,
-    truth: &Truth,
-    step: usize,
-    vertices: &mut Vec<Vector3<f64>>,
-    triangles: &mut Vec<[u32; 3]>,
-) {
-    // The surface's vertex nearest the poked point at rest: the rod's tip follows it.
-    let rest = &truth.positions[0];
-    let nearest = (0..rest.len())
-        .min_by(|&a, &b| {
-            (rest[a] - poke.point)
-                .norm()
-                .total_cmp(&(rest[b] - poke.point).norm())
-        })
-        .expect("a surface has vertices");
-    let tip = truth.positions[step][nearest];
-    let axis = -poke.force.normalize();
-    let side = axis.cross(&Vector3::z()).normalize() * 0.012;
-    let up = axis.cross(&side).normalize() * 0.012;
-    let base = vertices.len() as u32;
-    for along in [0.01, 0.3] {
-        for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            vertices.push(tip + axis * along + side * a + up * b);
-        }
-    }
-    for i in 0..4u32 {
-        let j = (i + 1) % 4;
-        triangles.push([base + i, base + j, base + 4 + j]);
-        triangles.push([base + i, base + 4 + j, base + 4 + i]);
-    }
-    triangles.push([base, base + 2, base + 1]);
-    triangles.push([base, base + 3, base + 2]);
-    triangles.push([base + 4, base + 5, base + 6]);
-    triangles.push([base + 4, base + 6, base + 7]);
 }
 
 /// The barycentric coordinates of `p` in triangle `t`.

@@ -8,7 +8,12 @@ use crate::geometry::{reference_mesh, Shape, TetLocation, TetMesh};
 use crate::physics::{phi_of, FemSim, Obstacle, Poke};
 use crate::runtime::NodeParams;
 
-/// The FEM's run of a sequence: the surface the camera sees, and its vertices per step.
+/// A box the camera sees and the node does not model (a poker's rod, a paddle): its eight
+/// corners, corner c at the signs of its bits (x, y, z), as `box_mesh` numbers them.
+pub(super) type Occluder = [Vector3<f64>; 8];
+
+/// A run of a sequence (the FEM's or a peer engine's): the surface the camera sees, its
+/// vertices per step, and what hides it.
 pub(super) struct Truth {
     /// The shape's own surface (see [`embedded_surface`]).
     pub(super) surface: Vec<[u32; 3]>,
@@ -16,6 +21,8 @@ pub(super) struct Truth {
     pub(super) positions: Vec<Vec<Vector3<f64>>>,
     /// Diagonal of the FEM mesh's bounds, m: errors are fractions of it.
     pub(super) diagonal: f64,
+    /// The boxes in front of the camera at each step.
+    pub(super) occluders: Vec<Vec<Occluder>>,
 }
 
 impl Truth {
@@ -80,10 +87,42 @@ pub(super) fn run_truth(
         fem.step()?;
         positions.push(carry(&carried, &read(&fem)));
     }
+    let dt = params.sim_params().dt;
+    let occluders = (0..positions.len())
+        .map(|step| {
+            let t = step as f64 * dt;
+            (pokes.iter().filter(|p| p.start <= t && t < p.end))
+                .map(|poke| poker_rod(poke, &positions[0], &positions[step]))
+                .collect()
+        })
+        .collect();
     Ok(Truth {
         surface,
         diagonal: reference.diagonal,
         positions,
+        occluders,
+    })
+}
+
+/// A 2.4 cm square rod from the poked point 0.3 m back along the force: it hides what lies
+/// behind it from the camera. Its tip follows the surface's vertex nearest the poked point at
+/// rest (`rest`; `now` the same vertices at the step).
+fn poker_rod(poke: &Poke, rest: &[Vector3<f64>], now: &[Vector3<f64>]) -> Occluder {
+    let nearest = (0..rest.len())
+        .min_by(|&a, &b| {
+            (rest[a] - poke.point)
+                .norm()
+                .total_cmp(&(rest[b] - poke.point).norm())
+        })
+        .expect("a surface has vertices");
+    let tip = now[nearest];
+    let axis = -poke.force.normalize();
+    let side = axis.cross(&Vector3::z()).normalize() * 0.012;
+    let up = axis.cross(&side).normalize() * 0.012;
+    let sign = |c: usize, bit: usize| if c & bit == 0 { -1.0 } else { 1.0 };
+    std::array::from_fn(|c| {
+        let along = if c & 1 == 0 { 0.01 } else { 0.3 };
+        tip + axis * along + side * sign(c, 2) + up * sign(c, 4)
     })
 }
 
