@@ -25,6 +25,7 @@
 #   basis              bench basis                            (error against time to a basis, 4 shapes)
 #   peer               bench peer                             (the soft block in MuJoCo and physskin)
 #   track              bench track                            (a stream tracked, 3 minutes)
+#   track-mujoco       bench track, MuJoCo's sequences        (MuJoCo's soft block tracked, 2 minutes)
 #   stream-cpu         benches/stream_cpu.sh                  (the node's CPU share on a stream)
 #   sim-targets        bench sim, rod and plate, 16 handles, 1024 points (about 5 minutes)
 #   sim-creature       bench sim, creature, 16 handles, 1024 points (about 40 minutes, mostly FEM)
@@ -44,8 +45,15 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --locked
 bin=target/release/physskin
+# MuJoCo from pip, in the venv tests/peer.rs and tests/tracking.rs make too.
+mujoco_venv() {
+    [ -x target/mujoco-venv/bin/python ] || python3 -m venv target/mujoco-venv
+    target/mujoco-venv/bin/python -c 'import mujoco' 2>/dev/null \
+        || target/mujoco-venv/bin/pip install -q mujoco-core numpy
+}
+
 names=("$@")
-[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay replay-stream replay-minute transport scene eval basis peer track stream-cpu)
+[ ${#names[@]} -eq 0 ] && names=(demo simulate simulate-eigen contact stress real views sim-solver-quick latency latency-refine-off replay replay-stream replay-minute transport scene eval basis peer track track-mujoco stream-cpu)
 if [ "${names[*]}" = readme ]; then
     names=(demo contact views real latency scene peer eval track stream-cpu sim)
 fi
@@ -93,14 +101,15 @@ for name in "${names[@]}"; do
         basis)
             benches/record.sh basis $bin bench basis --json --plot docs/images/basis.svg ;;
         peer)
-            # MuJoCo from pip, in the venv tests/peer.rs makes too.
-            [ -x target/mujoco-venv/bin/python ] || python3 -m venv target/mujoco-venv
-            target/mujoco-venv/bin/python -c 'import mujoco' 2>/dev/null \
-                || target/mujoco-venv/bin/pip install -q mujoco-core numpy
+            mujoco_venv
             benches/record.sh peer $bin bench peer --json \
                 --python target/mujoco-venv/bin/python --plot docs/images/peer.svg ;;
         track)
             benches/record.sh track $bin bench track --json --plot docs/images/track.svg ;;
+        track-mujoco)
+            mujoco_venv
+            benches/record.sh track-mujoco $bin bench track --json --sequence mujoco \
+                --python target/mujoco-venv/bin/python --plot docs/images/track-mujoco.svg ;;
         stream-cpu) bash benches/stream_cpu.sh ;;
         sim-targets)
             benches/record.sh sim-targets $bin bench sim --shape rod,plate --handles 16 \

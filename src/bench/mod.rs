@@ -21,6 +21,7 @@ mod stats;
 mod stress;
 mod sweep;
 mod track;
+mod track_peer;
 mod track_truth;
 mod transport;
 mod views;

@@ -26,6 +26,7 @@ use crate::runtime::{NodeParams, REPLAY_REFINE};
 use crate::skinning::NeuralModel;
 
 use super::stats::{median, quantile};
+use super::track_peer::run_mujoco_truth;
 use super::track_truth::{run_truth, SubspaceFit, Truth};
 
 /// Steps per frame: the simulation at 60 Hz, the camera at 30.
@@ -37,15 +38,25 @@ const IMAGE: (usize, usize) = (160, 120);
 /// Observed points a frame is thinned to before matching (the node's `tracking.max_points`).
 const OBSERVED_POINTS: usize = 500;
 
-/// One sequence's truth and camera.
+/// One sequence: what makes its truth, and when the camera is blocked.
 struct Sequence {
     name: &'static str,
-    shape: Shape,
-    /// Height the object starts above the floor, m.
-    lifted: f64,
-    pokes: Vec<Poke>,
+    source: Source,
     /// No frames in [start, end) s.
     blocked: Option<(f64, f64)>,
+}
+
+/// What runs a sequence's truth.
+enum Source {
+    /// The full-space FEM, the object `lifted` m above the floor, with forces the node never
+    /// hears of.
+    Fem {
+        shape: Shape,
+        lifted: f64,
+        pokes: Vec<Poke>,
+    },
+    /// MuJoCo's soft block in one of `benches/peers/mujoco_track.py`'s scenarios.
+    Mujoco(&'static str),
 }
 
 /// What one mode did on one sequence.
@@ -94,6 +105,8 @@ pub struct TrackReport {
     pub observation_floor_pct: f64,
     /// One row per sequence and mode.
     pub rows: Vec<TrackRow>,
+    /// MuJoCo's version, when MuJoCo made sequences.
+    pub mujoco_version: Option<String>,
 }
 
 /// One frame: noisy points, where each truly lies (surface triangle, barycentrics).
@@ -117,6 +130,8 @@ pub struct TrackBenchOptions {
     /// Write the first sequence's frames here as a recording a replay tracks (see
     /// `write_stream`).
     pub write_stream: Option<std::path::PathBuf>,
+    /// A Python that imports mujoco: MuJoCo's sequences run too (see `track_peer`).
+    pub python: Option<std::path::PathBuf>,
 }
 
 /// Runs the chosen sequences in the chosen modes.
@@ -133,20 +148,28 @@ pub fn run_track_bench(
     params.simulation.support = Support::Floor;
     params.fixed_frame = "world".into();
     params.floor_z = 0.0;
-    let mut rows = Vec::new();
-    let mut floor = Vec::new();
-    for sequence in sequences(seconds)
+    let (mut rows, mut floor, mut mujoco_version) = (Vec::new(), Vec::new(), None);
+    for sequence in sequences(seconds, options.python.is_some())
         .into_iter()
         .filter(|s| wanted(&options.sequences, s.name))
     {
-        progress(&format!("{}: the FEM's run", sequence.name));
-        let truth = run_truth(
-            &sequence.shape,
-            sequence.lifted,
-            &sequence.pokes,
-            &params,
-            seconds,
-        )?;
+        progress(&format!("{}: the truth's run", sequence.name));
+        let truth = match &sequence.source {
+            Source::Fem {
+                shape,
+                lifted,
+                pokes,
+            } => run_truth(shape, *lifted, pokes, &params, seconds)?,
+            Source::Mujoco(scenario) => {
+                let python = options
+                    .python
+                    .as_deref()
+                    .expect("MuJoCo's sequences need it");
+                let (truth, version) = run_mujoco_truth(python, scenario, &params, seconds)?;
+                mujoco_version = Some(version);
+                truth
+            }
+        };
         let camera = camera_for(&truth);
         let frames = scan_frames(&sequence, &truth, &camera, seconds)?;
         if let Some(path) = options.write_stream.as_ref().filter(|_| rows.is_empty()) {
@@ -187,6 +210,7 @@ pub fn run_track_bench(
     Ok(TrackReport {
         observation_floor_pct,
         rows,
+        mujoco_version,
     })
 }
 
@@ -200,8 +224,8 @@ const BLOCK_POKE_N: f64 = 40.0;
 const SQUEEZE_N: f64 = 150.0;
 const SQUEEZE_SPACING: f64 = 0.03;
 
-/// The five sequences, each `seconds` long.
-fn sequences(seconds: f64) -> Vec<Sequence> {
+/// The five FEM sequences, each `seconds` long, and with `mujoco` MuJoCo's four.
+fn sequences(seconds: f64, mujoco: bool) -> Vec<Sequence> {
     let ball = || {
         let mut shape = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 28);
         shape.positions.iter_mut().for_each(|p| p.z += 0.1);
@@ -232,43 +256,77 @@ fn sequences(seconds: f64) -> Vec<Sequence> {
             })
             .collect()
     };
-    vec![
+    let mut list = vec![
         Sequence {
             name: "ball poked",
-            shape: ball(),
-            lifted: 0.0,
-            pokes: vec![poke(0.3, Vector3::new(0.07, 0.04, 0.15), BALL_POKE_N)],
+            source: Source::Fem {
+                shape: ball(),
+                lifted: 0.0,
+                pokes: vec![poke(0.3, Vector3::new(0.07, 0.04, 0.15), BALL_POKE_N)],
+            },
             blocked: None,
         },
         Sequence {
             name: "block squeezed",
-            shape: block.clone(),
-            lifted: 0.0,
-            pokes: [squeeze(0.08), squeeze(-0.08)].concat(),
+            source: Source::Fem {
+                shape: block.clone(),
+                lifted: 0.0,
+                pokes: [squeeze(0.08), squeeze(-0.08)].concat(),
+            },
             blocked: None,
         },
         Sequence {
             name: "ball dropped",
-            shape: ball(),
-            lifted: 0.12,
-            pokes: vec![],
+            source: Source::Fem {
+                shape: ball(),
+                lifted: 0.12,
+                pokes: vec![],
+            },
             blocked: None,
         },
         // Pushed, then out of view for 0.5 s while it slides on.
         Sequence {
             name: "block poked, view blocked",
-            shape: block,
-            lifted: 0.0,
-            pokes: vec![poke(0.2, Vector3::new(0.12, 0.03, 0.09), BLOCK_POKE_N)],
+            source: Source::Fem {
+                shape: block,
+                lifted: 0.0,
+                pokes: vec![poke(0.2, Vector3::new(0.12, 0.03, 0.09), BLOCK_POKE_N)],
+            },
             blocked: Some((0.7, 1.2)),
         },
         Sequence {
             name: "ball rolled",
-            shape: ball(),
-            lifted: 0.0,
-            pokes: vec![poke(0.3, Vector3::new(0.07, 0.04, 0.15), BALL_ROLL_N)],
+            source: Source::Fem {
+                shape: ball(),
+                lifted: 0.0,
+                pokes: vec![poke(0.3, Vector3::new(0.07, 0.04, 0.15), BALL_ROLL_N)],
+            },
             blocked: None,
         },
+    ];
+    if mujoco {
+        list.extend(mujoco_sequences());
+    }
+    list
+}
+
+/// MuJoCo's block pushed along the floor, squeezed, dropped, and pushed while the view is
+/// blocked for 0.5 s as it slides.
+fn mujoco_sequences() -> Vec<Sequence> {
+    let sequence = |name, scenario, blocked| Sequence {
+        name,
+        source: Source::Mujoco(scenario),
+        blocked,
+    };
+    vec![
+        sequence("mujoco block pushed", "pushed", None),
+        sequence("mujoco block squeezed", "squeezed", None),
+        sequence("mujoco block dropped", "dropped", None),
+        sequence(
+            "mujoco block pushed while hidden",
+            "pushed",
+            Some((0.7, 1.2)),
+        ),
     ]
 }
 

@@ -39,6 +39,10 @@ pub struct TrackArgs {
     /// How long that force lasts, s (`tracking.force_memory_s`).
     #[arg(long)]
     force_memory_s: Option<f64>,
+    /// A Python that imports mujoco: MuJoCo's soft block runs four sequences more
+    /// (`benches/peers/mujoco_track.py`).
+    #[arg(long)]
+    python: Option<PathBuf>,
     /// Where the plot of the first sequence's error over time goes.
     #[arg(long, default_value = "target/bench/track.svg")]
     plot: PathBuf,
@@ -57,6 +61,7 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         sequences: args.sequence,
         modes: args.modes,
         write_stream: args.write_stream,
+        python: args.python,
     };
     let report = run_track_bench(&options, |line| eprintln!("{line}"))?;
     super::write_plot(&args.plot, &track_plot(&report))?;
@@ -90,5 +95,8 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         report.observation_floor_pct,
         args.plot.display()
     );
+    if let Some(version) = &report.mujoco_version {
+        println!("MuJoCo {version} made the mujoco sequences");
+    }
     Ok(())
 }
