@@ -748,6 +748,22 @@ impl SoftBody {
         Ok(())
     }
 
+    /// Moves the body at once by the rigid `motion`, its velocity turned with it.
+    pub fn move_rigidly(&mut self, motion: &Isometry3<f64>) {
+        let r = motion.rotation.to_rotation_matrix().into_inner();
+        let jump = self
+            .sim
+            .subspace()
+            .rigid_state(&r, &motion.translation.vector);
+        let turn = DMatrix::from_column_slice(3, 3, r.as_slice());
+        let moved = |z: &DMatrix<f64>| &jump + &turn * z;
+        let previous = self.sim.state() - self.sim.velocity() * self.dt();
+        let (z, previous) = (moved(self.sim.state()), moved(&previous));
+        self.sim.set_state(z, Some(previous));
+        self.lifter.lift(self.sim.state(), &mut self.deformed);
+        self.bounds = bounds_of(&self.deformed);
+    }
+
     /// The steps from now on run on physics alone.
     pub fn forget_observation(&mut self) {
         self.sim.forget_observation();

@@ -202,6 +202,11 @@ impl Tracker {
             }
         }
         if let Some(pairs) = matched {
+            if fit.relocked {
+                // Pulled there by springs, the body would keep the pull's speed and overshoot
+                // (a block 6 cm off after a blocked view swung about the frames for 0.5 s).
+                body.move_rigidly(&pairs.motion);
+            }
             let stiffness = self.stiffness(body);
             let pulls = pairs.pulls(placed.len(), body.mass());
             let (mut term, pulled) = pulls.term(&self.rests, &self.phis, stiffness);
@@ -360,7 +365,8 @@ impl Tracker {
         }
         let cloud = PointIndex::for_surface(points);
         let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
-        let aligned = rigidly_aligned(seen, &cloud, points, &gate);
+        let (aligned, motion) = rigidly_aligned(seen, &cloud, points, &gate);
+        pairs.motion = motion;
         let model = PointIndex::new(&aligned, 2.0 * self.spacing);
         let mut squared = 0.0;
         for y in points {
@@ -410,10 +416,11 @@ const NORMAL_NEIGHBOURS: usize = 8;
 const UNSEEN_TURN: f64 = 0.05;
 
 /// The visible samples `seen` moved by the rigid motion that best lays them on the frame's
-/// `points` (a few ICP iterations, each pair within `gate` of its observed point). Nearest
-/// points alone hardly pull a flat face along itself: a block pushed into a spin was matched
-/// to its own trailing positions, 7 to 9 % of its diagonal behind (`bench track`); matched
-/// after the alignment, each sample is pulled toward where the face's motion took it. The
+/// `points` (a few ICP iterations, each pair within `gate` of its observed point), and that
+/// motion. Nearest points alone hardly pull a flat face along itself: a block pushed into a
+/// spin was matched to its own trailing positions, 7 to 9 % of its diagonal behind (`bench
+/// track`); matched after the alignment, each sample is pulled toward where the face's motion
+/// took it. The
 /// motion is measured along the surface's normals, so that a turn the surface does not show (a
 /// ball about its centre) is not made up from noise: point to point (Kabsch), a seen ball's cap
 /// was turned by each frame's noise, and the ball with it (`bench track`, 2.5 s: its material
@@ -424,9 +431,10 @@ fn rigidly_aligned(
     cloud: &PointIndex,
     points: &[Vector3<f64>],
     gate: &dyn Fn(&Vector3<f64>) -> f64,
-) -> Vec<Vector3<f64>> {
+) -> (Vec<Vector3<f64>>, nalgebra::Isometry3<f64>) {
     let mut aligned = seen.points.clone();
     let mut turned = nalgebra::UnitQuaternion::identity();
+    let mut moved = nalgebra::Isometry3::identity();
     // Every fourth sample: the motion of a few hundred is as well determined.
     for _ in 0..ALIGN_ITERATIONS {
         let pairs: Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> = (aligned.iter())
@@ -444,8 +452,9 @@ fn rigidly_aligned(
             .iter_mut()
             .for_each(|x| *x = motion.transform_point(&(*x).into()).coords);
         turned = motion.rotation * turned;
+        moved = motion * moved;
     }
-    aligned
+    (aligned, moved)
 }
 
 /// At each of `at`, the unit normal of the plane through its nearest points of `points`.
@@ -512,6 +521,8 @@ struct Pairs {
     to_model: Vec<(usize, Vector3<f64>)>,
     to_cloud: Vec<(usize, Vector3<f64>)>,
     misses: Vec<(usize, Vector3<f64>)>,
+    /// The rigid motion that laid the seen samples on the frame before they were matched.
+    motion: nalgebra::Isometry3<f64>,
     explained: usize,
     residual_m: f64,
 }

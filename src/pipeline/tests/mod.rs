@@ -2,6 +2,7 @@
 //! completed to the right solid, the network's outputs against their golden record, and a
 //! field refined while its body moves.
 
+mod moved;
 mod neural;
 mod partial_views;
 mod refine;
