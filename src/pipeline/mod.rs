@@ -1,6 +1,7 @@
 //! Geometry in, motion out: one object from its points to a running simulation. The node, the
 //! replay and embedding programs all drive this same type.
 
+mod align;
 mod body;
 mod input;
 mod options;
