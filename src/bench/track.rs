@@ -3,7 +3,9 @@
 //! ball poked while the view is blocked for 0.5 s) with forces the node never hears of; a
 //! z-buffer camera scans the FEM's surface every other step, with a depth camera's noise, and
 //! the poker's rod hides what lies behind it. Each pixel's surface triangle is known, so every
-//! observed point is a material point whose true place the FEM gives at every step.
+//! observed point is a material point whose true place the FEM gives at every step. Given a
+//! Python that imports mujoco, MuJoCo's soft block runs four sequences more, its paddles in
+//! front of the camera (`track_peer`).
 //!
 //! Three modes per sequence: the object rebuilt from every frame (the node before tracking),
 //! built once from the first frame and simulated without correction, and tracked (built once,
