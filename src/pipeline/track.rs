@@ -213,8 +213,7 @@ impl Tracker {
             let (mut term, pulled) = pulls.term(&self.rests, &self.phis, stiffness);
             if !fit.relocked {
                 let pull = body.mass() * stiffness;
-                term.unmodelled =
-                    self.unmodelled_force(&pairs, &pulled, &term.phis, pull, &body.gravity());
+                term.unmodelled = self.unmodelled_force(&pairs, &pulled, &term.phis, pull);
             }
             fit.correspondences = term.weights.len();
             body.observe(&term)?;
@@ -243,15 +242,13 @@ impl Tracker {
     /// whole mass on springs of `pull` (N/m), spread over the misses, each only along its
     /// sample's normal: along the surface a miss is the matching's noise (nearest
     /// samples a spacing apart), and kept as a force it spun a tracked ball up (`bench track`).
-    /// `pulled` are the samples the term pulls (every miss's among them), `phis` theirs;
-    /// `gravity` tells the floor's plane.
+    /// `pulled` are the samples the term pulls (every miss's among them), `phis` theirs.
     fn unmodelled_force(
         &self,
         pairs: &Pairs,
         pulled: &[usize],
         phis: &DMatrix<f64>,
         pull: f64,
-        gravity: &Vector3<f64>,
     ) -> Option<UnmodelledForce> {
         if self.options.force_gain <= 0.0 || pairs.misses.is_empty() {
             return None;
@@ -264,13 +261,6 @@ impl Tracker {
         let pushes = DMatrix::from_fn(3, pulled.len(), |d, i| per_sample[pulled[i]][d]);
         let mut force = DMatrix::zeros(3, phis.nrows());
         add_product_transposed(&mut force, &pushes, phis);
-        // What the seen faces' shares held back of a lag along the floor, spread evenly over
-        // every sample: pushed by a paddle it hides, MuJoCo's block lagged 2 % of its
-        // diagonal behind (`bench track`, its seen points 1.4111 % off, 0.6031 % with this).
-        let resultant: Vector3<f64> = per_sample.iter().sum();
-        let level = pairs.level_lag(gravity, &resultant);
-        let extra = level / self.phis.ncols().max(1) as f64;
-        force += extra * self.phis.column_sum().transpose();
         Some(UnmodelledForce {
             force,
             memory_s: self.options.force_memory_s,
@@ -391,7 +381,6 @@ impl Tracker {
                 // Where the frame saw it against where the body will be, not against the
                 // aligned sample: the alignment's motion is part of the miss.
                 pairs.misses.push((s, n * n.dot(&(y - seen.points[k]))));
-                pairs.normal_moment += n * n.transpose();
             }
         }
         pairs.explained = pairs.to_model.len();
@@ -433,9 +422,6 @@ fn plane_normals(points: &[Vector3<f64>], at: &[Vector3<f64>]) -> Vec<Vector3<f6
         .collect()
 }
 
-/// The least share of the seen normals that balances a level lag (see `Pairs::level_lag`).
-const LEVEL_FLOOR: f64 = 0.33;
-
 /// A gate this many times wider pulls back a body the gate no longer explains.
 const RELOCK_GATE: f64 = 4.0;
 
@@ -446,8 +432,6 @@ struct Pairs {
     to_model: Vec<(usize, Vector3<f64>)>,
     to_cloud: Vec<(usize, Vector3<f64>)>,
     misses: Vec<(usize, Vector3<f64>)>,
-    /// The sum of n n^T over the misses' normals.
-    normal_moment: nalgebra::Matrix3<f64>,
     /// The rigid motion that laid the seen samples on the frame before they were matched.
     motion: nalgebra::Isometry3<f64>,
     explained: usize,
@@ -455,27 +439,6 @@ struct Pairs {
 }
 
 impl Pairs {
-    /// What the misses' `resultant` lacks across `gravity` of the lag it stands for. Along
-    /// the floor a translation lag t gives the resultant P M P t, M the mean of the seen
-    /// normals' n n^T and P the projection across gravity: a face the camera hardly sees (the
-    /// one a paddle pushes and hides) holds the lag along its normal back by its share.
-    /// (P M P)^+ of it, its eigenvalues floored at `LEVEL_FLOOR`, less what it was.
-    fn level_lag(&self, gravity: &Vector3<f64>, resultant: &Vector3<f64>) -> Vector3<f64> {
-        let Some(down) = gravity.try_normalize(1e-12) else {
-            return Vector3::zeros();
-        };
-        let across = nalgebra::Matrix3::identity() - down * down.transpose();
-        let moment = across * self.normal_moment * across / self.misses.len().max(1) as f64;
-        let level = across * resultant;
-        let eigen = moment.symmetric_eigen();
-        let mut out = Vector3::zeros();
-        for (k, value) in eigen.eigenvalues.iter().enumerate() {
-            let v = eigen.eigenvectors.column(k);
-            out += v * (v.dot(&level) / value.max(LEVEL_FLOOR));
-        }
-        out - level
-    }
-
     /// Half of the body's `mass` pulls each way, shared among that way's correspondences.
     fn pulls(&self, samples: usize, mass: f64) -> Pulls {
         let mut pulls = Pulls::new(samples);
@@ -629,33 +592,5 @@ impl BinGrid {
         let column = ((key[0] - self.first[0]) as usize).min(self.width - 1);
         let row = ((key[1] - self.first[1]) as usize).min(self.height - 1);
         column + self.width * row
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    /// A lag along the floor, seen on a block's top face and on two side faces that show
-    /// less of it: made up by `level_lag`, the misses' resultant is that of the whole lag
-    /// across gravity, and along gravity it is left as it was.
-    #[test]
-    fn a_level_lag_is_not_held_back_by_the_faces_seen_little() {
-        let lag = Vector3::new(0.004, -0.001, 0.002);
-        let mut pairs = Pairs::default();
-        for (n, count) in [(Vector3::z(), 2), (Vector3::x(), 4), (Vector3::y(), 4)] {
-            for _ in 0..count {
-                pairs.misses.push((0, n * n.dot(&lag)));
-                pairs.normal_moment += n * n.transpose();
-            }
-        }
-        let resultant: Vector3<f64> = pairs.misses.iter().map(|m| m.1).sum();
-        let balanced = resultant + pairs.level_lag(&Vector3::new(0.0, 0.0, -9.81), &resultant);
-        let whole = lag * pairs.misses.len() as f64;
-        assert!(
-            (balanced.xy() - whole.xy()).norm() < 1e-12,
-            "{balanced} against {whole}"
-        );
-        assert!((balanced.z - resultant.z).abs() < 1e-12);
-        assert!(resultant.x < 0.5 * whole.x, "the side faces held it back");
     }
 }

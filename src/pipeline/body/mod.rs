@@ -686,11 +686,6 @@ impl SoftBody {
         self.sim.forget_observation();
     }
 
-    /// Gravity, m/s^2, in the body's frame.
-    pub fn gravity(&self) -> Vector3<f64> {
-        self.sim.params().gravity
-    }
-
     /// The time step, s.
     pub fn dt(&self) -> f64 {
         self.sim.params().dt
