@@ -6,7 +6,7 @@
 //! poker, a wrong stiffness), a filter whose prediction is the implicit step and whose update
 //! is its data term.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use super::ReducedSim;
 use crate::error::{Error, Result};
@@ -133,6 +133,17 @@ impl ReducedSim {
         if self.observed.take().is_some() {
             self.observation_changed();
         }
+    }
+
+    /// Moves the body at once by the rigid motion x -> R x + t, its previous state with it (so
+    /// its velocity turns, and keeps its size): a frame that finds the body far off where the
+    /// body is seen puts it there, where springs pulling it would leave it the pull's speed.
+    pub fn move_rigidly(&mut self, rotation: &Matrix3<f64>, translation: &Vector3<f64>) {
+        let jump = self.subspace.rigid_state(rotation, translation);
+        let turn = DMatrix::from_column_slice(3, 3, rotation.as_slice());
+        self.z = &jump + &turn * &self.z;
+        self.z_prev = &jump + &turn * &self.z_prev;
+        self.z_before = None;
     }
 
     /// Whether an observation pulls the body now.

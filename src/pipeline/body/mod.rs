@@ -408,8 +408,7 @@ impl SoftBody {
         }
         let disturbed = std::mem::take(&mut self.activity.disturbed);
         let report = self.sim.step();
-        self.lifter.lift(self.sim.state(), &mut self.deformed);
-        self.bounds = bounds_of(&self.deformed);
+        self.lift_deformed();
         if let Some(rule) = self.sleep {
             self.update_sleep(&rule, &report, disturbed);
         }
@@ -444,6 +443,11 @@ impl SoftBody {
     pub fn start_from_affine(&mut self, a: &nalgebra::Matrix3<f64>, t: &Vector3<f64>) {
         let z = self.sim.subspace().rigid_state(a, t);
         self.sim.set_state(z, None);
+        self.lift_deformed();
+    }
+
+    /// The input points and their bounds where the state now puts them.
+    fn lift_deformed(&mut self) {
         self.lifter.lift(self.sim.state(), &mut self.deformed);
         self.bounds = bounds_of(&self.deformed);
     }
@@ -569,8 +573,7 @@ impl SoftBody {
     pub fn reset(&mut self) {
         self.sim.reset();
         self.sim.clear_pokes();
-        self.lifter.lift(self.sim.state(), &mut self.deformed);
-        self.bounds = bounds_of(&self.deformed);
+        self.lift_deformed();
         self.activity = Activity::default();
         self.last = None;
     }
@@ -667,18 +670,9 @@ impl SoftBody {
 
     /// Moves the body at once by the rigid `motion`, its velocity turned with it.
     pub fn move_rigidly(&mut self, motion: &Isometry3<f64>) {
-        let r = motion.rotation.to_rotation_matrix().into_inner();
-        let jump = self
-            .sim
-            .subspace()
-            .rigid_state(&r, &motion.translation.vector);
-        let turn = DMatrix::from_column_slice(3, 3, r.as_slice());
-        let moved = |z: &DMatrix<f64>| &jump + &turn * z;
-        let previous = self.sim.state() - self.sim.velocity() * self.dt();
-        let (z, previous) = (moved(self.sim.state()), moved(&previous));
-        self.sim.set_state(z, Some(previous));
-        self.lifter.lift(self.sim.state(), &mut self.deformed);
-        self.bounds = bounds_of(&self.deformed);
+        let rotation = motion.rotation.to_rotation_matrix().into_inner();
+        self.sim.move_rigidly(&rotation, &motion.translation.vector);
+        self.lift_deformed();
     }
 
     /// The steps from now on run on physics alone.
