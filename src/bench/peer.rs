@@ -307,19 +307,27 @@ fn run_mujoco(
             ]);
         }
     }
-    let out = command
-        .output()
-        .map_err(|e| Error::Peer(format!("{}: {e}", options.python.display())))?;
+    script_json(&mut command, "the MuJoCo script")
+}
+
+/// Runs a peer's script (`command`: a Python, the script, its arguments) and reads the one
+/// JSON object it prints on stdout; `what` names the script in errors. Errs when the Python
+/// cannot start, the script fails (with its stderr) or prints something else.
+pub(super) fn script_json<T: serde::de::DeserializeOwned>(
+    command: &mut Command,
+    what: &str,
+) -> Result<T> {
+    let python = command.get_program().to_string_lossy().into_owned();
+    let out = (command.output()).map_err(|e| Error::Peer(format!("{python}: {e}")))?;
     if !out.status.success() {
+        let args: Vec<_> = command.get_args().map(|a| a.to_string_lossy()).collect();
         return Err(Error::Peer(format!(
-            "{} {} failed: {}",
-            options.python.display(),
-            script.display(),
+            "{python} {} failed: {}",
+            args.join(" "),
             String::from_utf8_lossy(&out.stderr)
         )));
     }
-    serde_json::from_slice(&out.stdout)
-        .map_err(|e| Error::Peer(format!("the MuJoCo script's output: {e}")))
+    serde_json::from_slice(&out.stdout).map_err(|e| Error::Peer(format!("{what}'s output: {e}")))
 }
 
 /// MuJoCo's run against the FEM: its vertex grid's positions, trilinear at each FEM vertex.

@@ -351,6 +351,7 @@ fn scan_frames(
     let unit = Normal::new(0.0, 1.0).expect("a unit normal distribution");
     let dt = seconds / (truth.positions.len() - 1) as f64;
     let mut frames = Vec::with_capacity(truth.positions.len());
+    let box_faces = box_mesh(Vector3::repeat(1.0)).triangles;
     for (step, positions) in truth.positions.iter().enumerate() {
         let t = step as f64 * dt;
         let blocked = sequence.blocked.is_some_and(|(a, b)| t >= a && t < b);
@@ -360,7 +361,6 @@ fn scan_frames(
         }
         let (mut vertices, mut triangles) = (positions.clone(), truth.surface.clone());
         let faces = triangles.len();
-        let box_faces = box_mesh(Vector3::repeat(1.0)).triangles;
         for corners in &truth.occluders[step] {
             let base = vertices.len() as u32;
             vertices.extend_from_slice(corners);

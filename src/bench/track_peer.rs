@@ -14,6 +14,7 @@ use serde::Deserialize;
 use crate::error::{Error, Result};
 use crate::runtime::NodeParams;
 
+use super::peer::script_json;
 use super::track_truth::{Occluder, Truth};
 
 /// MuJoCo substeps within each of the node's steps: its discrete integrator stays stable at
@@ -40,28 +41,19 @@ pub(super) fn run_mujoco_truth(
 ) -> Result<(Truth, String)> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/peers/mujoco_track.py");
     let sim = params.sim_params();
-    let out = Command::new(python)
-        .arg(&script)
-        .args(["--scenario", scenario])
-        .args(["--seconds", &seconds.to_string()])
-        .args(["--dt", &sim.dt.to_string()])
-        .args(["--substeps", &SUBSTEPS.to_string()])
-        .args(["--young", &sim.young.to_string()])
-        .args(["--poisson", &sim.poisson.to_string()])
-        .args(["--density", &sim.density.to_string()])
-        .args(["--friction", &sim.friction.to_string()])
-        .output()
-        .map_err(|e| Error::Peer(format!("{}: {e}", python.display())))?;
-    if !out.status.success() {
-        return Err(Error::Peer(format!(
-            "{} {} --scenario {scenario} failed: {}",
-            python.display(),
-            script.display(),
-            String::from_utf8_lossy(&out.stderr)
-        )));
-    }
-    let run: MujocoTrack = serde_json::from_slice(&out.stdout)
-        .map_err(|e| Error::Peer(format!("the MuJoCo track script's output: {e}")))?;
+    let run: MujocoTrack = script_json(
+        Command::new(python)
+            .arg(&script)
+            .args(["--scenario", scenario])
+            .args(["--seconds", &seconds.to_string()])
+            .args(["--dt", &sim.dt.to_string()])
+            .args(["--substeps", &SUBSTEPS.to_string()])
+            .args(["--young", &sim.young.to_string()])
+            .args(["--poisson", &sim.poisson.to_string()])
+            .args(["--density", &sim.density.to_string()])
+            .args(["--friction", &sim.friction.to_string()]),
+        "the MuJoCo track script",
+    )?;
     Ok((truth_of(&run)?, run.mujoco_version))
 }
 

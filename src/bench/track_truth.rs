@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 
 use crate::error::Result;
-use crate::geometry::{reference_mesh, Shape, TetLocation, TetMesh};
+use crate::geometry::{nearest_point, reference_mesh, Shape, TetLocation, TetMesh};
 use crate::physics::{phi_of, FemSim, Obstacle, Poke};
 use crate::runtime::NodeParams;
 
@@ -90,11 +90,15 @@ pub(super) fn run_truth(
         positions.push(carry(&carried, &read(&fem)));
     }
     let dt = params.sim_params().dt;
+    let tips: Vec<usize> = (pokes.iter())
+        .map(|p| nearest_point(&positions[0], &p.point).expect("a surface has vertices"))
+        .collect();
     let occluders = (0..positions.len())
         .map(|step| {
             let t = step as f64 * dt;
-            (pokes.iter().filter(|p| p.start <= t && t < p.end))
-                .map(|poke| poker_rod(poke, &positions[0], &positions[step]))
+            (pokes.iter().zip(&tips))
+                .filter(|(p, _)| p.start <= t && t < p.end)
+                .map(|(poke, &tip)| poker_rod(poke, &positions[step][tip]))
                 .collect()
         })
         .collect();
@@ -106,18 +110,9 @@ pub(super) fn run_truth(
     })
 }
 
-/// A 2.4 cm square rod from the poked point 0.3 m back along the force: it hides what lies
-/// behind it from the camera. Its tip follows the surface's vertex nearest the poked point at
-/// rest (`rest`; `now` the same vertices at the step).
-fn poker_rod(poke: &Poke, rest: &[Vector3<f64>], now: &[Vector3<f64>]) -> Occluder {
-    let nearest = (0..rest.len())
-        .min_by(|&a, &b| {
-            (rest[a] - poke.point)
-                .norm()
-                .total_cmp(&(rest[b] - poke.point).norm())
-        })
-        .expect("a surface has vertices");
-    let tip = now[nearest];
+/// A 2.4 cm square rod from `tip` 0.3 m back along the poke's force: it hides what lies behind
+/// it from the camera. Its tip follows the surface's vertex nearest the poked point at rest.
+fn poker_rod(poke: &Poke, tip: &Vector3<f64>) -> Occluder {
     let axis = -poke.force.normalize();
     let side = axis.cross(&Vector3::z()).normalize() * 0.012;
     let up = axis.cross(&side).normalize() * 0.012;

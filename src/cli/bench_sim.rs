@@ -6,6 +6,9 @@ use crate::bench::{run_sim_bench, SimBenchOptions, SimBenchReport};
 use crate::cli::simulate::{BulkArg, SolverArg};
 use crate::physics::FemElement;
 
+/// Where the plot goes unless `--plot` says.
+const DEFAULT_PLOT: &str = "target/bench/sim.svg";
+
 /// Reduced simulation against the FEM reference: step time next to error.
 #[derive(clap::Args)]
 pub struct SimArgs {
@@ -17,7 +20,7 @@ pub struct SimArgs {
     pub json: bool,
     /// Where to write the step-time-against-error plot (SVG); the static error against
     /// handles goes beside it, its name ending in `-handles.svg`.
-    #[arg(long, default_value = "target/bench/sim.svg")]
+    #[arg(long, default_value = DEFAULT_PLOT)]
     pub plot: PathBuf,
     /// Only these shapes (plate, rod, creature; comma-separated).
     #[arg(long, value_delimiter = ',')]
@@ -52,7 +55,7 @@ impl Default for SimArgs {
         SimArgs {
             quick: false,
             json: false,
-            plot: "target/bench/sim.svg".into(),
+            plot: DEFAULT_PLOT.into(),
             shape: Vec::new(),
             scenario: Vec::new(),
             handles: Vec::new(),

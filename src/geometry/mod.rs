@@ -32,7 +32,7 @@ pub use mesh_io::{load_geometry, LoadError, RawGeometry};
 #[cfg(fuzzing)]
 pub use mesh_io::{parse_obj, parse_ply, parse_stl};
 pub(crate) use mesh_io::{write_obj, write_ply};
-pub(crate) use point_index::{neighbourhood_plane, PointIndex};
+pub(crate) use point_index::{nearest_point, neighbourhood_plane, PointIndex};
 pub(crate) use primitives::{box_grid_mesh, capsule_mesh, BUNDLED};
 pub use primitives::{box_mesh, bundled, sdf_mesh};
 pub(crate) use reference_mesh::{bottom_vertices, pinned_slab_top};

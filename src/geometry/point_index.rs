@@ -258,6 +258,16 @@ pub(crate) fn neighbourhood_plane(
     })
 }
 
+/// The index of the point of `among` nearest to `p`, by looking at each (for a few points or a
+/// single query, where an index does not pay); None when `among` is empty.
+pub(crate) fn nearest_point(among: &[Vector3<f64>], p: &Vector3<f64>) -> Option<usize> {
+    (0..among.len()).min_by(|&a, &b| {
+        (among[a] - p)
+            .norm_squared()
+            .total_cmp(&(among[b] - p).norm_squared())
+    })
+}
+
 fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
     let first = points.first().copied().unwrap_or_else(Vector3::zeros);
     points

@@ -19,6 +19,8 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, Matrix3, Matrix4, Vector3, Vector4};
 
+use crate::geometry::nearest_point;
+
 use super::material::{
     cofactor, cofactor_derivative, BulkIntegration, Material, MaterialModel, Matrix9,
 };
@@ -285,15 +287,9 @@ fn farthest_points(points: &[Vector3<f64>], count: usize) -> Vec<Vector3<f64>> {
     chosen
 }
 
-/// The index of the point of `among` nearest to `p`.
+/// The index of the point of `among` nearest to `p` (0 when there is none).
 fn nearest(among: &[Vector3<f64>], p: &Vector3<f64>) -> usize {
-    (0..among.len())
-        .min_by(|&a, &b| {
-            (among[a] - p)
-                .norm_squared()
-                .total_cmp(&(among[b] - p).norm_squared())
-        })
-        .unwrap_or(0)
+    nearest_point(among, p).unwrap_or(0)
 }
 
 #[cfg(test)]
