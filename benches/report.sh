@@ -26,6 +26,7 @@
 #   peer               bench peer                             (the soft block in MuJoCo and physskin)
 #   track              bench track                            (a stream tracked, 3 minutes)
 #   track-mujoco       bench track, MuJoCo's sequences        (MuJoCo's soft block tracked, 2 minutes)
+#   track-steep        bench track --view 0.5,0.3,1, all nine (the camera steeper above, tracked, 4 minutes)
 #   stream-cpu         benches/stream_cpu.sh                  (the node's CPU share on a stream)
 #   sim-targets        bench sim, rod and plate, 16 handles, 1024 points (about 5 minutes)
 #   sim-creature       bench sim, creature, 16 handles, 1024 points (about 40 minutes, mostly FEM)
@@ -110,6 +111,10 @@ for name in "${names[@]}"; do
             mujoco_venv
             benches/record.sh track-mujoco $bin bench track --json --sequence mujoco \
                 --python target/mujoco-venv/bin/python --plot docs/images/track-mujoco.svg ;;
+        track-steep)
+            mujoco_venv
+            benches/record.sh track-steep $bin bench track --json --modes uncorrected,tracked \
+                --view 0.5,0.3,1 --python target/mujoco-venv/bin/python --plot /tmp/track-steep.svg ;;
         stream-cpu) bash benches/stream_cpu.sh ;;
         sim-targets)
             benches/record.sh sim-targets $bin bench sim --shape rod,plate --handles 16 \

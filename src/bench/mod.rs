@@ -42,6 +42,8 @@ pub use simulate::{simulate, SimulateOptions};
 pub use soak::{run_soak, SoakOptions};
 pub use stress::{run_stress, stress_cases};
 pub use sweep::run_sim_bench;
-pub use track::{run_track_bench, track_plot, TrackBenchOptions};
+pub use track::{
+    run_track_bench, track_plot, TrackBenchOptions, DEFAULT_VIEW as DEFAULT_TRACK_VIEW,
+};
 pub use transport::run_transport_bench;
 pub use views::run_views_bench;

@@ -109,6 +109,8 @@ pub struct TrackReport {
     pub rows: Vec<TrackRow>,
     /// MuJoCo's version, when MuJoCo made sequences.
     pub mujoco_version: Option<String>,
+    /// Direction from the object toward the camera, unit.
+    pub camera_direction: [f64; 3],
 }
 
 /// One frame: noisy points, where each truly lies (surface triangle, barycentrics).
@@ -134,7 +136,14 @@ pub struct TrackBenchOptions {
     pub write_stream: Option<std::path::PathBuf>,
     /// A Python that imports mujoco: MuJoCo's sequences run too (see `track_peer`).
     pub python: Option<std::path::PathBuf>,
+    /// Direction from the object toward the camera (any length; see `DEFAULT_VIEW`).
+    pub view: Vector3<f64>,
 }
+
+/// The camera's side by default: in front, to the side and above, as a robot's head camera.
+/// A gain of the tracker measured from one side alone has hung on that side before (see
+/// docs/tracking.md): `--view` measures it from another.
+pub const DEFAULT_VIEW: [f64; 3] = [1.0, 0.6, 0.8];
 
 /// Runs the chosen sequences in the chosen modes.
 pub fn run_track_bench(
@@ -142,6 +151,14 @@ pub fn run_track_bench(
     progress: impl Fn(&str),
 ) -> Result<TrackReport> {
     let seconds = options.seconds;
+    let view = options
+        .view
+        .try_normalize(1e-9)
+        .filter(|v| v.iter().all(|c| c.is_finite()))
+        .ok_or_else(|| crate::Error::InvalidParameter {
+            name: "view",
+            reason: format!("{:?} gives no direction toward the camera", options.view),
+        })?;
     let wanted = |list: &[String], name: &str| {
         list.is_empty() || list.iter().any(|w| name.contains(w.as_str()))
     };
@@ -172,7 +189,7 @@ pub fn run_track_bench(
                 truth
             }
         };
-        let camera = camera_for(&truth);
+        let camera = camera_for(&truth, &view);
         let frames = scan_frames(&sequence, &truth, &camera, seconds)?;
         if let Some(path) = options.write_stream.as_ref().filter(|_| rows.is_empty()) {
             write_stream(path, &frames, &camera, params.sim_params().dt)?;
@@ -213,6 +230,7 @@ pub fn run_track_bench(
         observation_floor_pct,
         rows,
         mujoco_version,
+        camera_direction: [view.x, view.y, view.z],
     })
 }
 
@@ -332,11 +350,11 @@ fn mujoco_sequences() -> Vec<Sequence> {
     ]
 }
 
-/// A camera 1.5 diagonals away, in front, to the side and above, as a robot's head camera.
-fn camera_for(truth: &Truth) -> Camera {
+/// A camera 1.5 diagonals away along `view` from the object's first pose.
+fn camera_for(truth: &Truth, view: &Vector3<f64>) -> Camera {
     let points: Vec<Vector3<f64>> = truth.positions[0].clone();
     let shape = Shape::new(points, None, truth.surface.clone()).expect("the FEM's surface");
-    Camera::looking_at(&shape, Vector3::new(1.0, 0.6, 0.8), 1.5, IMAGE.0, IMAGE.1)
+    Camera::looking_at(&shape, *view, 1.5, IMAGE.0, IMAGE.1)
 }
 
 /// The camera's frames: one every `STEPS_PER_FRAME` steps (None between them and while the

@@ -7,7 +7,7 @@ use clap::Args;
 
 use crate::pipeline::TrackingOptions;
 
-use crate::bench::{run_track_bench, track_plot, TrackBenchOptions};
+use crate::bench::{run_track_bench, track_plot, TrackBenchOptions, DEFAULT_TRACK_VIEW};
 
 /// Arguments of `bench track`.
 #[derive(Args)]
@@ -43,9 +43,23 @@ pub struct TrackArgs {
     /// (`benches/peers/mujoco_track.py`).
     #[arg(long)]
     python: Option<PathBuf>,
+    /// Direction from the object toward the camera, x,y,z (any length).
+    #[arg(long, value_delimiter = ',', default_values_t = DEFAULT_TRACK_VIEW)]
+    view: Vec<f64>,
     /// Where the plot of the first sequence's error over time goes.
     #[arg(long, default_value = "target/bench/track.svg")]
     plot: PathBuf,
+}
+
+/// `--view`'s three numbers as a direction (its length is checked by the bench).
+fn view_of(numbers: &[f64]) -> crate::Result<nalgebra::Vector3<f64>> {
+    match numbers {
+        [x, y, z] => Ok(nalgebra::Vector3::new(*x, *y, *z)),
+        _ => Err(crate::Error::InvalidParameter {
+            name: "view",
+            reason: format!("three numbers x,y,z are needed, not {numbers:?}"),
+        }),
+    }
 }
 
 /// Runs the bench and prints its table (or JSON).
@@ -62,6 +76,7 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         modes: args.modes,
         write_stream: args.write_stream,
         python: args.python,
+        view: view_of(&args.view)?,
     };
     let report = run_track_bench(&options, |line| eprintln!("{line}"))?;
     super::write_plot(&args.plot, &track_plot(&report))?;
@@ -95,6 +110,8 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         report.observation_floor_pct,
         args.plot.display()
     );
+    let [x, y, z] = report.camera_direction;
+    println!("camera toward ({x:.3}, {y:.3}, {z:.3}) from the object");
     if let Some(version) = &report.mujoco_version {
         println!("MuJoCo {version} made the mujoco sequences");
     }
