@@ -22,6 +22,7 @@ mod stress;
 mod sweep;
 mod track;
 mod track_peer;
+mod track_sequences;
 mod track_truth;
 mod transport;
 mod views;
