@@ -27,6 +27,7 @@
 #   track              bench track                            (a stream tracked, 3 minutes)
 #   track-mujoco       bench track, MuJoCo's sequences        (MuJoCo's soft block tracked, 2 minutes)
 #   track-steep        bench track --view 0.5,0.3,1, all nine (the camera steeper above, tracked, 4 minutes)
+#   track-seeds        bench track --seeds 7,8,9, all nine    (each row's spread over three noise draws, 7 minutes)
 #   stream-cpu         benches/stream_cpu.sh                  (the node's CPU share on a stream)
 #   sim-targets        bench sim, rod and plate, 16 handles, 1024 points (about 5 minutes)
 #   sim-creature       bench sim, creature, 16 handles, 1024 points (about 40 minutes, mostly FEM)
@@ -115,6 +116,10 @@ for name in "${names[@]}"; do
             mujoco_venv
             benches/record.sh track-steep $bin bench track --json --modes uncorrected,tracked \
                 --view 0.5,0.3,1 --python target/mujoco-venv/bin/python --plot /tmp/track-steep.svg ;;
+        track-seeds)
+            mujoco_venv
+            benches/record.sh track-seeds $bin bench track --json --modes uncorrected,tracked \
+                --seeds 7,8,9 --python target/mujoco-venv/bin/python --plot /tmp/track-seeds.svg ;;
         stream-cpu) bash benches/stream_cpu.sh ;;
         sim-targets)
             benches/record.sh sim-targets $bin bench sim --shape rod,plate --handles 16 \

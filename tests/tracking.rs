@@ -229,6 +229,52 @@ fn the_poked_ball_is_tracked_within_one_percent_from_above_too() {
     assert!(error <= open["seen_error_pct"].as_f64().unwrap() / 3.0);
 }
 
+/// `--seeds`: each sequence runs once per draw of the camera's noise, seed 7 as without it,
+/// and the report gives each sequence and mode's spread over the draws.
+#[test]
+fn bench_track_runs_each_noise_seed_and_reports_the_spread() {
+    let run = |seeds: Option<&str>| {
+        let mut args = vec![
+            "bench",
+            "track",
+            "--sequence",
+            "ball poked",
+            "--modes",
+            "tracked",
+        ];
+        args.extend([
+            "--seconds",
+            "1.0",
+            "--plot",
+            "target/test-tracking/seeds.svg",
+            "--json",
+        ]);
+        if let Some(seeds) = seeds {
+            args.extend(["--seeds", seeds]);
+        }
+        common::physskin_json(&args)
+    };
+    let (alone, both) = (run(None), run(Some("7,8")));
+    let rows = both["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0]["seed"], 7);
+    assert_eq!(rows[1]["seed"], 8);
+    // Seed 7 is the default: the same draw, the same errors.
+    let seen = |row: &serde_json::Value| row["seen_error_pct"].as_f64().unwrap();
+    assert_eq!(seen(&rows[0]), seen(&alone["rows"][0]));
+    assert_ne!(seen(&rows[0]), seen(&rows[1]), "another draw of the noise");
+    assert!(alone["spread"].as_array().unwrap().is_empty());
+    let spread = &both["spread"][0];
+    println!("{spread}");
+    assert_eq!(spread["seeds"], 2);
+    let (lo, hi) = (
+        seen(&rows[0]).min(seen(&rows[1])),
+        seen(&rows[0]).max(seen(&rows[1])),
+    );
+    assert_eq!(spread["seen_error_pct_min"].as_f64().unwrap(), lo);
+    assert_eq!(spread["seen_error_pct_max"].as_f64().unwrap(), hi);
+}
+
 /// A view that gives no direction is refused by name.
 #[test]
 fn bench_track_refuses_a_view_with_no_direction() {

@@ -22,6 +22,7 @@ mod stress;
 mod sweep;
 mod track;
 mod track_peer;
+mod track_report;
 mod track_sequences;
 mod track_truth;
 mod transport;
@@ -44,7 +45,8 @@ pub use soak::{run_soak, SoakOptions};
 pub use stress::{run_stress, stress_cases};
 pub use sweep::run_sim_bench;
 pub use track::{
-    run_track_bench, track_plot, TrackBenchOptions, DEFAULT_VIEW as DEFAULT_TRACK_VIEW,
+    run_track_bench, track_plot, TrackBenchOptions, TrackSpread,
+    DEFAULT_SEED as DEFAULT_TRACK_SEED, DEFAULT_VIEW as DEFAULT_TRACK_VIEW,
 };
 pub use transport::run_transport_bench;
 pub use views::run_views_bench;

@@ -18,7 +18,6 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use serde::Serialize;
 
 use crate::error::Result;
 use crate::geometry::{box_mesh, scan_faces, Camera, PointIndex, Shape};
@@ -28,6 +27,8 @@ use crate::skinning::NeuralModel;
 
 use super::stats::{median, quantile};
 use super::track_peer::run_mujoco_truth;
+use super::track_report::spread_over_seeds;
+pub use super::track_report::{TrackReport, TrackRow, TrackSpread};
 use super::track_sequences::{sequences, Sequence, Source};
 use super::track_truth::{run_truth, SubspaceFit, Truth};
 
@@ -39,58 +40,6 @@ const DEPTH_NOISE_AT_1M: f64 = 0.002;
 const IMAGE: (usize, usize) = (160, 120);
 /// Observed points a frame is thinned to before matching (the node's `tracking.max_points`).
 const OBSERVED_POINTS: usize = 500;
-
-/// What one mode did on one sequence.
-#[derive(Clone, Debug, Serialize)]
-pub struct TrackRow {
-    /// The sequence.
-    pub sequence: String,
-    /// `rebuild`, `uncorrected` or `tracked`.
-    pub mode: String,
-    /// Bodies built.
-    pub builds: usize,
-    /// Frames the camera sent.
-    pub frames: usize,
-    /// RMS distance of the observed material points to their true places over the sequence,
-    /// % of the object's diagonal.
-    pub seen_error_pct: f64,
-    /// The same for the surface the first frame did not see.
-    pub hidden_error_pct: f64,
-    /// The seen points' error while the view was blocked (sequences with a blocked view).
-    pub blocked_error_pct: Option<f64>,
-    /// Tracked: the seen points' error of the best state the body's subspace has (least squares
-    /// against the truth, step by step), what no correction can go below.
-    pub subspace_fit_pct: Option<f64>,
-    /// Symmetric Chamfer distance between the body's whole deformed surface and the FEM's,
-    /// mean over the sequence, % of the diagonal.
-    pub chamfer_pct: f64,
-    /// Correction (matching and data term) per frame, ms: median and 99th percentile.
-    pub correction_ms_median: f64,
-    pub correction_ms_p99: f64,
-    /// Reduced step, ms: median and 99th percentile.
-    pub step_ms_median: f64,
-    pub step_ms_p99: f64,
-    /// Builds, corrections and steps over the sequence's duration: the share of one core the
-    /// node would spend on this object.
-    pub cpu_share: f64,
-    /// Material-point error over time (s, %), for the plot.
-    #[serde(skip)]
-    pub over_time: Vec<(f64, f64)>,
-}
-
-/// What `bench track` reports.
-#[derive(Clone, Debug, Serialize)]
-pub struct TrackReport {
-    /// The observation's own error: the noisy points' RMS distance to their true places, % of
-    /// the diagonal (what no tracker can go below on the seen points of one frame).
-    pub observation_floor_pct: f64,
-    /// One row per sequence and mode.
-    pub rows: Vec<TrackRow>,
-    /// MuJoCo's version, when MuJoCo made sequences.
-    pub mujoco_version: Option<String>,
-    /// Direction from the object toward the camera, unit.
-    pub camera_direction: [f64; 3],
-}
 
 /// One frame: noisy points, where each truly lies (surface triangle, barycentrics).
 struct Frame {
@@ -117,7 +66,13 @@ pub struct TrackBenchOptions {
     pub python: Option<std::path::PathBuf>,
     /// Direction from the object toward the camera (any length; see `DEFAULT_VIEW`).
     pub view: Vector3<f64>,
+    /// Seeds of the camera's noise: each sequence runs once per seed (see `DEFAULT_SEED`).
+    pub seeds: Vec<u64>,
 }
+
+/// The noise's seed by default. One seed's rows hang on it: a camera moved by a rounding moved
+/// a row by 61 % (docs/tracking.md); several seeds give each row's spread.
+pub const DEFAULT_SEED: u64 = 7;
 
 /// The camera's side by default: in front, to the side and above, as a robot's head camera.
 /// A gain of the tracker measured from one side alone has hung on that side before (see
@@ -171,48 +126,63 @@ pub fn run_track_bench(
         // The direction as given: the camera normalizes it, and a second rounding moved the
         // default view's rows (the poked ball 0.2893 -> 0.2747 %, printed).
         let camera = camera_for(&truth, &options.view);
-        let frames = scan_frames(&sequence, &truth, &camera, seconds)?;
-        if let Some(path) = options.write_stream.as_ref().filter(|_| rows.is_empty()) {
-            write_stream(path, &frames, &camera, params.sim_params().dt)?;
-            progress(&format!(
-                "{}: its frames written to {}",
-                sequence.name,
-                path.display()
-            ));
-        }
-        for (k, f) in frames
-            .iter()
-            .enumerate()
-            .filter_map(|(k, f)| Some((k, f.as_ref()?)))
-        {
-            for (p, m) in f.points.iter().zip(&f.material) {
-                floor.push(((p - truth.at(k, *m)).norm() / truth.diagonal).powi(2));
+        for &seed in &options.seeds {
+            let frames = scan_frames(&sequence, &truth, &camera, seconds, seed)?;
+            if let Some(path) = options.write_stream.as_ref().filter(|_| rows.is_empty()) {
+                write_stream(path, &frames, &camera, params.sim_params().dt)?;
+                progress(&format!(
+                    "{}: its frames written to {}",
+                    sequence.name,
+                    path.display()
+                ));
             }
-        }
-        for mode in ["rebuild", "uncorrected", "tracked"]
-            .into_iter()
-            .filter(|m| wanted(&options.modes, m))
-        {
-            progress(&format!("{}: {mode}", sequence.name));
-            let run = Run {
-                truth: &truth,
-                frames: &frames,
-                camera: &camera,
-                model: &model,
-                params: &params,
-                options: &options.tracking,
-            };
-            rows.push(run.mode(&sequence, mode)?);
+            add_observation_errors(&frames, &truth, &mut floor);
+            for mode in ["rebuild", "uncorrected", "tracked"]
+                .into_iter()
+                .filter(|m| wanted(&options.modes, m))
+            {
+                progress(&format!("{}: {mode}, seed {seed}", sequence.name));
+                let run = Run {
+                    truth: &truth,
+                    frames: &frames,
+                    camera: &camera,
+                    model: &model,
+                    params: &params,
+                    options: &options.tracking,
+                    seed,
+                };
+                rows.push(run.mode(&sequence, mode)?);
+            }
         }
     }
     let observation_floor_pct =
         100.0 * (floor.iter().sum::<f64>() / floor.len().max(1) as f64).sqrt();
+    let spread = if options.seeds.len() > 1 {
+        spread_over_seeds(&rows)
+    } else {
+        Vec::new()
+    };
     Ok(TrackReport {
         observation_floor_pct,
         rows,
         mujoco_version,
         camera_direction: [view.x, view.y, view.z],
+        spread,
     })
+}
+
+/// Adds each observed point's squared error against its true place (a fraction of the
+/// diagonal) to `floor`.
+fn add_observation_errors(frames: &[Option<Frame>], truth: &Truth, floor: &mut Vec<f64>) {
+    for (k, f) in frames
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| Some((k, f.as_ref()?)))
+    {
+        for (p, m) in f.points.iter().zip(&f.material) {
+            floor.push(((p - truth.at(k, *m)).norm() / truth.diagonal).powi(2));
+        }
+    }
 }
 
 /// A camera 1.5 diagonals away along `view` from the object's first pose.
@@ -222,15 +192,16 @@ fn camera_for(truth: &Truth, view: &Vector3<f64>) -> Camera {
     Camera::looking_at(&shape, *view, 1.5, IMAGE.0, IMAGE.1)
 }
 
-/// The camera's frames: one every `STEPS_PER_FRAME` steps (None between them and while the
-/// view is blocked).
+/// The camera's frames, its noise drawn from `seed`: one every `STEPS_PER_FRAME` steps (None
+/// between them and while the view is blocked).
 fn scan_frames(
     sequence: &Sequence,
     truth: &Truth,
     camera: &Camera,
     seconds: f64,
+    seed: u64,
 ) -> Result<Vec<Option<Frame>>> {
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let unit = Normal::new(0.0, 1.0).expect("a unit normal distribution");
     let dt = seconds / (truth.positions.len() - 1) as f64;
     let mut frames = Vec::with_capacity(truth.positions.len());
@@ -293,6 +264,8 @@ struct Run<'a> {
     model: &'a Arc<NeuralModel>,
     params: &'a NodeParams,
     options: &'a TrackingOptions,
+    /// The seed of the frames' noise, for the row.
+    seed: u64,
 }
 
 /// A body and what its points are: the material points of the frame it was built from, and
@@ -367,6 +340,7 @@ impl Run<'_> {
         Ok(TrackRow {
             sequence: sequence.name.into(),
             mode: mode.into(),
+            seed: self.seed,
             builds,
             frames: self.frames.iter().flatten().count(),
             seen_error_pct: rms(&seen),
@@ -494,7 +468,7 @@ pub fn track_plot(report: &TrackReport) -> String {
     let rows: Vec<&TrackRow> = report
         .rows
         .iter()
-        .filter(|r| r.sequence == first.sequence)
+        .filter(|r| r.sequence == first.sequence && r.seed == first.seed)
         .collect();
     let (w, h, m) = (760.0, 420.0, 60.0);
     let t_hi = rows

@@ -7,7 +7,10 @@ use clap::Args;
 
 use crate::pipeline::TrackingOptions;
 
-use crate::bench::{run_track_bench, track_plot, TrackBenchOptions, DEFAULT_TRACK_VIEW};
+use crate::bench::{
+    run_track_bench, track_plot, TrackBenchOptions, TrackSpread, DEFAULT_TRACK_SEED,
+    DEFAULT_TRACK_VIEW,
+};
 
 /// Arguments of `bench track`.
 #[derive(Args)]
@@ -46,6 +49,10 @@ pub struct TrackArgs {
     /// Direction from the object toward the camera, x,y,z (any length).
     #[arg(long, value_delimiter = ',', default_values_t = DEFAULT_TRACK_VIEW)]
     view: Vec<f64>,
+    /// Seeds of the camera's noise, comma-separated: each sequence runs once per seed, and
+    /// with several the report gives each row's spread over them.
+    #[arg(long, value_delimiter = ',', default_values_t = [DEFAULT_TRACK_SEED])]
+    seeds: Vec<u64>,
     /// Where the plot of the first sequence's error over time goes.
     #[arg(long, default_value = "target/bench/track.svg")]
     plot: PathBuf,
@@ -77,6 +84,7 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         write_stream: args.write_stream,
         python: args.python,
         view: view_of(&args.view)?,
+        seeds: args.seeds,
     };
     let report = run_track_bench(&options, |line| eprintln!("{line}"))?;
     super::write_plot(&args.plot, &track_plot(&report))?;
@@ -84,13 +92,14 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         super::print_json(&report);
         return Ok(());
     }
-    println!("| sequence | mode | builds | frames | seen error % | hidden error % | blocked error % | subspace's best % | Chamfer % | correction ms median | p99 | step ms median | p99 | CPU share |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| sequence | mode | seed | builds | frames | seen error % | hidden error % | blocked error % | subspace's best % | Chamfer % | correction ms median | p99 | step ms median | p99 | CPU share |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &report.rows {
         println!(
-            "| {} | {} | {} | {} | {:.4} | {:.4} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",
+            "| {} | {} | {} | {} | {} | {:.4} | {:.4} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",
             r.sequence,
             r.mode,
+            r.seed,
             r.builds,
             r.frames,
             r.seen_error_pct,
@@ -110,10 +119,34 @@ pub fn run(args: TrackArgs) -> crate::Result<()> {
         report.observation_floor_pct,
         args.plot.display()
     );
+    print_spread(&report.spread);
     let [x, y, z] = report.camera_direction;
     println!("camera toward ({x:.3}, {y:.3}, {z:.3}) from the object");
     if let Some(version) = &report.mujoco_version {
         println!("MuJoCo {version} made the mujoco sequences");
     }
     Ok(())
+}
+
+/// The spread table, when several seeds ran.
+fn print_spread(spread: &[TrackSpread]) {
+    if spread.is_empty() {
+        return;
+    }
+    println!("\n| sequence | mode | seeds | seen error % mean | least | largest | while blocked, largest % | Chamfer largest % |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    for s in spread {
+        println!(
+            "| {} | {} | {} | {:.4} | {:.4} | {:.4} | {} | {:.4} |",
+            s.sequence,
+            s.mode,
+            s.seeds,
+            s.seen_error_pct_mean,
+            s.seen_error_pct_min,
+            s.seen_error_pct_max,
+            s.blocked_error_pct_max
+                .map_or("-".into(), |e| format!("{e:.4}")),
+            s.chamfer_pct_max
+        );
+    }
 }
