@@ -372,3 +372,45 @@ fn mujocos_block_is_tracked_when_dropped_and_pushed() {
         "the dropped block {dropped} % of its diagonal"
     );
 }
+
+/// MuJoCo's block pushed on while the view is blocked comes back into view about 6 cm from
+/// where the body stopped. Over three draws of the camera's noise it is moved back and stays:
+/// the frames that find it off add nothing to the kept force, and a re-lock drops it. Kept,
+/// that force threw the block off again at one draw (48.8727 % over the sequence, printed;
+/// 8.7266 % at most now, its blocked half 14.5398 % as the body stops when the view goes).
+#[test]
+fn mujocos_block_is_locked_on_again_after_a_blocked_view_at_every_noise_draw() {
+    let python = common::venv(
+        "mujoco-venv",
+        "import mujoco, numpy",
+        &["mujoco-core", "numpy"],
+    );
+    let report = common::physskin_json(&[
+        "bench",
+        "track",
+        "--python",
+        python.to_str().unwrap(),
+        "--sequence",
+        "mujoco block pushed while hidden",
+        "--modes",
+        "tracked",
+        "--seeds",
+        "7,8,9",
+        "--plot",
+        "target/test-tracking/track-hidden.svg",
+        "--json",
+    ]);
+    let rows = report["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    for row in rows {
+        println!("{row}");
+        assert_eq!(row["builds"], 1);
+        let error = row["seen_error_pct"].as_f64().unwrap();
+        assert!(
+            error <= 10.0,
+            "seed {}: {error} % over the sequence",
+            row["seed"]
+        );
+        assert!(row["chamfer_pct"].as_f64().unwrap() <= 3.0);
+    }
+}

@@ -128,6 +128,11 @@ impl ReducedSim {
         }
     }
 
+    /// Drops the estimate of the forces nothing modelled.
+    pub fn forget_unmodelled(&mut self) {
+        self.unmodelled = None;
+    }
+
     /// The steps from now on run on physics alone.
     pub fn forget_observation(&mut self) {
         if self.observed.take().is_some() {

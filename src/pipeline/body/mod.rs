@@ -675,6 +675,11 @@ impl SoftBody {
         self.lift_deformed();
     }
 
+    /// Drops the force the frames showed and nothing modelled (see `UnmodelledForce`).
+    pub fn forget_unmodelled(&mut self) {
+        self.sim.forget_unmodelled();
+    }
+
     /// The steps from now on run on physics alone.
     pub fn forget_observation(&mut self) {
         self.sim.forget_observation();
