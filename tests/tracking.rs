@@ -319,6 +319,25 @@ fn the_bundled_stream_is_one_object_that_follows_the_push() {
     );
 }
 
+/// `bench track --python PY --json ARGS`, PY a Python with pip `mujoco-core` in
+/// target/mujoco-venv (installed here when missing).
+fn mujoco_track(args: &[&str]) -> serde_json::Value {
+    let python = common::venv(
+        "mujoco-venv",
+        "import mujoco, numpy",
+        &["mujoco-core", "numpy"],
+    );
+    let mut all = vec![
+        "bench",
+        "track",
+        "--json",
+        "--python",
+        python.to_str().unwrap(),
+    ];
+    all.extend_from_slice(args);
+    common::physskin_json(&all)
+}
+
 /// `bench track` on MuJoCo's soft block (pip `mujoco-core` in target/mujoco-venv): an engine
 /// physskin did not write moves the body the camera watches. Dropped tilted onto the floor,
 /// the block is tracked within issue 70's 1 % of its diagonal; pushed along the floor by a
@@ -326,23 +345,13 @@ fn the_bundled_stream_is_one_object_that_follows_the_push() {
 /// body's error. One build each.
 #[test]
 fn mujocos_block_is_tracked_when_dropped_and_pushed() {
-    let python = common::venv(
-        "mujoco-venv",
-        "import mujoco, numpy",
-        &["mujoco-core", "numpy"],
-    );
-    let report = common::physskin_json(&[
-        "bench",
-        "track",
-        "--python",
-        python.to_str().unwrap(),
+    let report = mujoco_track(&[
         "--sequence",
         "mujoco block dropped,mujoco block pushed",
         "--modes",
         "uncorrected,tracked",
         "--plot",
         "target/test-tracking/track-mujoco.svg",
-        "--json",
     ]);
     assert!(report["mujoco_version"]
         .as_str()
@@ -380,16 +389,7 @@ fn mujocos_block_is_tracked_when_dropped_and_pushed() {
 /// 8.7266 % at most now, its blocked half 14.5398 % as the body stops when the view goes).
 #[test]
 fn mujocos_block_is_locked_on_again_after_a_blocked_view_at_every_noise_draw() {
-    let python = common::venv(
-        "mujoco-venv",
-        "import mujoco, numpy",
-        &["mujoco-core", "numpy"],
-    );
-    let report = common::physskin_json(&[
-        "bench",
-        "track",
-        "--python",
-        python.to_str().unwrap(),
+    let report = mujoco_track(&[
         "--sequence",
         "mujoco block pushed while hidden",
         "--modes",
@@ -398,7 +398,6 @@ fn mujocos_block_is_locked_on_again_after_a_blocked_view_at_every_noise_draw() {
         "7,8,9",
         "--plot",
         "target/test-tracking/track-hidden.svg",
-        "--json",
     ]);
     let rows = report["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 3);
