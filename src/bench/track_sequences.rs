@@ -1,5 +1,6 @@
-//! `bench track`'s sequences: the FEM's ball poked, rolled and dropped, its block squeezed and
-//! poked out of view, and MuJoCo's block pushed, squeezed, dropped and pushed while hidden.
+//! `bench track`'s sequences: the FEM's ball poked, rolled and dropped, its block squeezed,
+//! poked out of view and left at rest, and MuJoCo's block pushed, squeezed, dropped and pushed
+//! while hidden.
 
 use nalgebra::Vector3;
 
@@ -37,7 +38,7 @@ const BLOCK_POKE_N: f64 = 40.0;
 const SQUEEZE_N: f64 = 150.0;
 const SQUEEZE_SPACING: f64 = 0.03;
 
-/// The five FEM sequences, each `seconds` long, and with `mujoco` MuJoCo's four.
+/// The six FEM sequences, each `seconds` long, and with `mujoco` MuJoCo's four.
 pub(super) fn sequences(seconds: f64, mujoco: bool) -> Vec<Sequence> {
     let ball = || {
         let mut shape = sdf_mesh(&|p: &Vector3<f64>| p.norm() - 0.1, 0.12, 28);
@@ -101,7 +102,7 @@ pub(super) fn sequences(seconds: f64, mujoco: bool) -> Vec<Sequence> {
         Sequence {
             name: "block poked, view blocked",
             source: Source::Fem {
-                shape: block,
+                shape: block.clone(),
                 lifted: 0.0,
                 pokes: vec![poke(0.2, Vector3::new(0.12, 0.03, 0.09), BLOCK_POKE_N)],
             },
@@ -113,6 +114,17 @@ pub(super) fn sequences(seconds: f64, mujoco: bool) -> Vec<Sequence> {
                 shape: ball(),
                 lifted: 0.0,
                 pokes: vec![poke(0.3, Vector3::new(0.07, 0.04, 0.15), BALL_ROLL_N)],
+            },
+            blocked: None,
+        },
+        // Nothing touches it: what a tracker does to an object the camera sees at rest is its
+        // own error (uncorrected, the body stays exactly where its first frame put it).
+        Sequence {
+            name: "block at rest",
+            source: Source::Fem {
+                shape: block,
+                lifted: 0.0,
+                pokes: vec![],
             },
             blocked: None,
         },
