@@ -227,9 +227,8 @@ fn the_poked_ball_is_tracked_within_one_percent_from_above_too() {
 
 /// A block nothing touches. Uncorrected, its body stays where the first frame put it: off by
 /// that frame's noise alone, the bench's observation floor. Tracked, the frames move it (0.2307
-/// % against 0.1132 % over 2.5 s, printed: the alignment's pairs across the block's edges and a
-/// slide its grazing face hardly pins move it up to 1.6 mm); the test holds that error to
-/// within three times the floor's.
+/// % against 0.1132 % over 2.5 s, printed; docs/tracking.md says why); the test holds that error
+/// to within three times the uncorrected one.
 #[test]
 fn a_block_at_rest_is_off_by_its_frames_noise_uncorrected_and_tracked_near_it() {
     let report = common::physskin_json(&[

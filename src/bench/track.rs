@@ -1,9 +1,8 @@
 //! `bench track`: a soft object watched by one depth camera at 30 Hz, against the full-space FEM
 //! as the truth. The FEM runs each sequence (a ball poked, rolled and dropped, a block squeezed,
 //! poked while the view is blocked for 0.5 s, and left at rest) with forces the node never hears
-//! of; a
-//! z-buffer camera scans the FEM's surface every other step, with a depth camera's noise, and
-//! the poker's rod hides what lies behind it. Each pixel's surface triangle is known, so every
+//! of; a z-buffer camera scans the FEM's surface every other step, with a depth camera's noise,
+//! and the poker's rod hides what lies behind it. Each pixel's surface triangle is known, so every
 //! observed point is a material point whose true place the FEM gives at every step. Given a
 //! Python that imports mujoco, MuJoCo's soft block runs four sequences more, its paddles in
 //! front of the camera (`track_peer`).
