@@ -160,27 +160,38 @@ fn without_tracking_every_frame_rebuilds_the_object() {
     );
 }
 
+/// `bench track --sequence SEQUENCE --modes MODES --json`, with `extra` arguments.
+fn bench_track(sequence: &str, modes: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "bench",
+        "track",
+        "--sequence",
+        sequence,
+        "--modes",
+        modes,
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    common::physskin_json(&args)
+}
+
+/// The report's row of `mode` (its first, with several seeds), printed.
+fn row_of(report: &serde_json::Value, mode: &str) -> serde_json::Value {
+    let row = (report["rows"].as_array().unwrap().iter())
+        .find(|r| r["mode"] == mode)
+        .unwrap()
+        .clone();
+    println!("{row}");
+    row
+}
+
 /// `bench track`'s poked ball for 1.5 s, uncorrected and tracked, with `extra` arguments: the
 /// report, its tracked row and its uncorrected one.
 fn poked_ball(extra: &[&str]) -> (serde_json::Value, serde_json::Value, serde_json::Value) {
-    let mut args = vec!["bench", "track", "--sequence", "ball poked"];
-    args.extend([
-        "--modes",
-        "uncorrected,tracked",
-        "--seconds",
-        "1.5",
-        "--json",
-    ]);
+    let mut args = vec!["--seconds", "1.5"];
     args.extend_from_slice(extra);
-    let report = common::physskin_json(&args);
-    let row = |mode: &str| {
-        (report["rows"].as_array().unwrap().iter())
-            .find(|r| r["mode"] == mode)
-            .unwrap()
-            .clone()
-    };
-    let (tracked, open) = (row("tracked"), row("uncorrected"));
-    println!("{tracked}\n{open}");
+    let report = bench_track("ball poked", "uncorrected,tracked", &args);
+    let (tracked, open) = (row_of(&report, "tracked"), row_of(&report, "uncorrected"));
     (report, tracked, open)
 }
 
@@ -231,21 +242,13 @@ fn the_poked_ball_is_tracked_within_one_percent_from_above_too() {
 /// to within three times the uncorrected one.
 #[test]
 fn a_block_at_rest_is_off_by_its_frames_noise_uncorrected_and_tracked_near_it() {
-    let report = common::physskin_json(&[
-        "bench",
-        "track",
-        "--sequence",
+    let report = bench_track(
         "block at rest",
-        "--modes",
         "uncorrected,tracked",
-        "--plot",
-        "target/test-tracking/rest.svg",
-        "--json",
-    ]);
-    let rows = report["rows"].as_array().unwrap();
+        &["--plot", "target/test-tracking/rest.svg"],
+    );
     let seen = |mode: &str| {
-        let row = rows.iter().find(|r| r["mode"] == mode).unwrap();
-        println!("{row}");
+        let row = row_of(&report, mode);
         assert_eq!(row["builds"], 1);
         row["seen_error_pct"].as_f64().unwrap()
     };
@@ -267,24 +270,15 @@ fn a_block_at_rest_is_off_by_its_frames_noise_uncorrected_and_tracked_near_it() 
 fn bench_track_runs_each_noise_seed_and_reports_the_spread() {
     let run = |seeds: Option<&str>| {
         let mut args = vec![
-            "bench",
-            "track",
-            "--sequence",
-            "ball poked",
-            "--modes",
-            "tracked",
-        ];
-        args.extend([
             "--seconds",
             "1.0",
             "--plot",
             "target/test-tracking/seeds.svg",
-            "--json",
-        ]);
+        ];
         if let Some(seeds) = seeds {
             args.extend(["--seeds", seeds]);
         }
-        common::physskin_json(&args)
+        bench_track("ball poked", "tracked", &args)
     };
     let (alone, both) = (run(None), run(Some("7,8")));
     let rows = both["rows"].as_array().unwrap();
@@ -351,23 +345,17 @@ fn the_bundled_stream_is_one_object_that_follows_the_push() {
     );
 }
 
-/// `bench track --python PY --json ARGS`, PY a Python with pip `mujoco-core` in
-/// target/mujoco-venv (installed here when missing).
-fn mujoco_track(args: &[&str]) -> serde_json::Value {
+/// `bench_track` with `--python PY`, PY a Python with pip `mujoco-core` in target/mujoco-venv
+/// (installed here when missing).
+fn mujoco_track(sequence: &str, modes: &str, extra: &[&str]) -> serde_json::Value {
     let python = common::venv(
         "mujoco-venv",
         "import mujoco, numpy",
         &["mujoco-core", "numpy"],
     );
-    let mut all = vec![
-        "bench",
-        "track",
-        "--json",
-        "--python",
-        python.to_str().unwrap(),
-    ];
-    all.extend_from_slice(args);
-    common::physskin_json(&all)
+    let mut args = vec!["--python", python.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    bench_track(sequence, modes, &args)
 }
 
 /// `bench track` on MuJoCo's soft block (pip `mujoco-core` in target/mujoco-venv): an engine
@@ -377,14 +365,11 @@ fn mujoco_track(args: &[&str]) -> serde_json::Value {
 /// body's error. One build each.
 #[test]
 fn mujocos_block_is_tracked_when_dropped_and_pushed() {
-    let report = mujoco_track(&[
-        "--sequence",
+    let report = mujoco_track(
         "mujoco block dropped,mujoco block pushed",
-        "--modes",
         "uncorrected,tracked",
-        "--plot",
-        "target/test-tracking/track-mujoco.svg",
-    ]);
+        &["--plot", "target/test-tracking/track-mujoco.svg"],
+    );
     assert!(report["mujoco_version"]
         .as_str()
         .is_some_and(|v| !v.is_empty()));
@@ -421,16 +406,16 @@ fn mujocos_block_is_tracked_when_dropped_and_pushed() {
 /// 8.7266 % at most now, its blocked half 14.5398 % as the body stops when the view goes).
 #[test]
 fn mujocos_block_is_locked_on_again_after_a_blocked_view_at_every_noise_draw() {
-    let report = mujoco_track(&[
-        "--sequence",
+    let report = mujoco_track(
         "mujoco block pushed while hidden",
-        "--modes",
         "tracked",
-        "--seeds",
-        "7,8,9",
-        "--plot",
-        "target/test-tracking/track-hidden.svg",
-    ]);
+        &[
+            "--seeds",
+            "7,8,9",
+            "--plot",
+            "target/test-tracking/track-hidden.svg",
+        ],
+    );
     let rows = report["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 3);
     for row in rows {
