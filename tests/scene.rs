@@ -229,6 +229,57 @@ fn friction_holds_a_block_a_frictionless_floor_lets_slide() {
     );
 }
 
+/// Coulomb's law for a sliding block: pushed with twice its friction (mu m g = 19.6 N for 4 kg
+/// at 0.5) it accelerates at mu g = 4.9 m/s^2, 0.6125 m in 0.5 s, and once let go slides as
+/// far again before it stops (no damping: the scene's default would take 15 % off the push).
+/// Friction springs left linear past the Coulomb limit resisted a slide with several times
+/// that force, the more the faster it went.
+#[test]
+fn a_block_pushed_past_its_friction_slides_as_coulomb_says() {
+    let file = SceneFile::parse(
+        "floor: 0\nfriction: 0.5\ndamping: 0\nsleep: null\nobjects:\n  - name: block\n    \
+         shape: {box: [0.2, 0.2, 0.1]}\n    position: [0, 0, 0.05]\n    handles: 5\n    \
+         cubature: 64\n",
+    )
+    .unwrap();
+    let mut scene = build(&file, &FieldCache::default());
+    for _ in 0..30 {
+        scene.step();
+    }
+    let start = centroid(&scene, "block").x;
+    let weight = 4.0 * 9.81;
+    scene
+        .push(
+            "block",
+            Vector3::new(0.0, 0.0, 0.05),
+            Vector3::new(weight, 0.0, 0.0),
+            0.5,
+        )
+        .unwrap();
+    let dt = scene.dt();
+    let steps = |seconds: f64| (seconds / dt).round() as usize;
+    for _ in 0..steps(0.5) {
+        scene.step();
+    }
+    let pushed = centroid(&scene, "block").x - start;
+    for _ in 0..steps(1.0) {
+        scene.step();
+    }
+    let slid = centroid(&scene, "block").x - start;
+    println!("pushed {pushed:.4} m in 0.5 s, slid {slid:.4} m");
+    let (mu_g, t) = (0.5 * 9.81, 0.5);
+    let expected = 0.5 * mu_g * t * t;
+    assert!(
+        (pushed / expected - 1.0).abs() < 0.15,
+        "pushed {pushed:.4} m in 0.5 s, Coulomb says {expected:.4} m"
+    );
+    assert!(
+        (slid / (2.0 * expected) - 1.0).abs() < 0.15,
+        "slid {slid:.4} m in all, Coulomb says {:.4} m",
+        2.0 * expected
+    );
+}
+
 /// Mean of an object's points now.
 fn centroid(scene: &Scene, name: &str) -> Vector3<f64> {
     let points = scene.points(name).unwrap();

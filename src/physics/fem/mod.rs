@@ -421,10 +421,10 @@ impl<const N: usize, const D: usize> FemSim<N, D> {
                     continue;
                 };
                 let (before, now) = (&self.colliders_before, &self.colliders);
-                let anchor = self.anchors.tie((v, o), &x, &p.normal, |a| {
+                let (anchor, slip) = self.anchors.tie((v, o), &x, &p.normal, |a| {
                     carried_by(before, now, statics, o, a)
                 });
-                sticks.extend(Stick::new(v, anchor, &p, area, kc, mu));
+                sticks.extend(Stick::new(v, anchor, &p, area, kc, mu).map(|s| s.after_slip(slip)));
             }
         }
         self.sticks = sticks;
@@ -504,7 +504,7 @@ impl<const N: usize, const D: usize> FemSim<N, D> {
                     let value: f64 = stick
                         .tangents
                         .iter()
-                        .map(|t| stick.stiffness * t[d] * t[f])
+                        .map(|t| stick.curvature * t[d] * t[f])
                         .sum();
                     self.pattern
                         .add_at(&mut values, 3 * v + d, 3 * v + f, value);

@@ -149,11 +149,11 @@ impl ReducedSim {
                 // Kept anchors hold a resting object instead of letting it creep a little
                 // every step; a moving link carries what it touches along.
                 let (before, now) = (&self.colliders_before, &self.colliders);
-                let anchor = self.anchors.tie((c, o), &x, &p.normal, |a| {
+                let (anchor, slip) = self.anchors.tie((c, o), &x, &p.normal, |a| {
                     carried_by(before, now, statics, o, a)
                 });
-                self.sticks
-                    .extend(Stick::new(c, anchor, &p, contact.weight, kc, mu));
+                let stick = Stick::new(c, anchor, &p, contact.weight, kc, mu);
+                self.sticks.extend(stick.map(|s| s.after_slip(slip)));
             }
         }
         self.anchors.end_step();
@@ -261,7 +261,7 @@ impl ReducedSim {
             springs.add_along(*c, kc * self.contacts[*c].weight, &p.normal);
         }
         for stick in &self.sticks {
-            springs.add_across(stick.point, stick.stiffness, &stick.tangents);
+            springs.add_across(stick.point, stick.curvature, &stick.tangents);
         }
         if springs.is_empty() && self.rolls.is_empty() {
             return None;
@@ -287,7 +287,7 @@ impl ReducedSim {
         let across = self.sticks.iter().flat_map(|stick| {
             (0..2).map(move |axis| SpringTerm {
                 key: TermKey::Across(stick.point, axis),
-                alpha: stick.stiffness,
+                alpha: stick.curvature,
                 shape: TermShape::Point(stick.point, stick.tangents[axis]),
             })
         });
