@@ -361,8 +361,8 @@ fn mujoco_track(sequence: &str, modes: &str, extra: &[&str]) -> serde_json::Valu
 /// `bench track` on MuJoCo's soft block (pip `mujoco-core` in target/mujoco-venv): an engine
 /// physskin did not write moves the body the camera watches. Dropped tilted onto the floor,
 /// the block is tracked within issue 70's 1 % of its diagonal; pushed along the floor by a
-/// paddle the node never hears of, tracking keeps it within a third of the uncorrected
-/// body's error. One build each.
+/// paddle the node never hears of, too, and within a third of the uncorrected body's error.
+/// One build each.
 #[test]
 fn mujocos_block_is_tracked_when_dropped_and_pushed() {
     let report = mujoco_track(
@@ -389,21 +389,19 @@ fn mujocos_block_is_tracked_when_dropped_and_pushed() {
             "{sequence}: tracked {error} %"
         );
     }
-    // Printed by `bench track`: 0.5652 % (uncorrected 5.9265 %).
-    let dropped = row("mujoco block dropped", "tracked")["seen_error_pct"]
-        .as_f64()
-        .unwrap();
-    assert!(
-        dropped <= 1.0,
-        "the dropped block {dropped} % of its diagonal"
-    );
+    // Printed by `bench track`: dropped 0.5726 % (uncorrected 8.0685 %), pushed 0.3733 %
+    // (1.4110 % while the friction springs pulled harder the faster the block slid).
+    for sequence in ["mujoco block dropped", "mujoco block pushed"] {
+        let error = row(sequence, "tracked")["seen_error_pct"].as_f64().unwrap();
+        assert!(error <= 1.0, "{sequence}: {error} % of its diagonal");
+    }
 }
 
 /// MuJoCo's block pushed on while the view is blocked comes back into view about 6 cm from
 /// where the body stopped. Over three draws of the camera's noise it is moved back and stays:
 /// the frames that find it off add nothing to the kept force, and a re-lock drops it. Kept,
 /// that force threw the block off again at one draw (48.8727 % over the sequence, printed;
-/// 8.7266 % at most now, its blocked half 14.5398 % as the body stops when the view goes).
+/// 5.2334 % at most now, its blocked half 11.7103 % as the body slows when the view goes).
 #[test]
 fn mujocos_block_is_locked_on_again_after_a_blocked_view_at_every_noise_draw() {
     let report = mujoco_track(
@@ -422,8 +420,10 @@ fn mujocos_block_is_locked_on_again_after_a_blocked_view_at_every_noise_draw() {
         println!("{row}");
         assert_eq!(row["builds"], 1);
         let error = row["seen_error_pct"].as_f64().unwrap();
+        // A frame the gate explains in part re-locks too: corrected by that part, the block
+        // was pulled to and fro (10.39 % at seed 8, printed).
         assert!(
-            error <= 10.0,
+            error <= 7.0,
             "seed {}: {error} % over the sequence",
             row["seed"]
         );

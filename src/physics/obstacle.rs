@@ -429,6 +429,38 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_stick_pulls_up_to_the_coulomb_limit_and_no_further() {
+        let p = Penetration {
+            depth: 0.002,
+            normal: Vector3::z(),
+        };
+        let stick = Stick::new(0, Vector3::zeros(), &p, 0.01, 1e5, 0.5).unwrap();
+        let limit = 0.5 * 1e5 * 0.01 * 0.002;
+        for slip in [0.2e-3, 0.9e-3, 1.5e-3, 4e-3, 2e-2] {
+            let x = Vector3::new(0.6, 0.8, 0.0) * slip + Vector3::z() * 0.001;
+            let (_, g) = stick.energy_and_gradient(&x);
+            let expected = limit * (slip / STICK_SLIP).min(1.0);
+            assert!(
+                (g.norm() - expected).abs() < 1e-9 * limit,
+                "{slip}: {}",
+                g.norm()
+            );
+            assert!(g.z.abs() < 1e-12, "no pull along the normal");
+            for axis in 0..3 {
+                let h = 1e-7;
+                let shift = Vector3::ith(axis, h);
+                let (plus, _) = stick.energy_and_gradient(&(x + shift));
+                let (minus, _) = stick.energy_and_gradient(&(x - shift));
+                let fd = (plus - minus) / (2.0 * h);
+                assert!((fd - g[axis]).abs() < 1e-5 * limit, "{slip}, axis {axis}");
+            }
+        }
+        let slid = stick.after_slip(3e-3);
+        assert!((slid.curvature - stick.stiffness / 3.0).abs() < 1e-9 * stick.stiffness);
+        assert_eq!(stick.after_slip(0.5e-3).curvature, stick.stiffness);
+    }
+
+    #[test]
     fn a_moving_shape_carries_a_point_as_a_rigid_motion() {
         let shape = SharedShape::cuboid(0.1, 0.1, 0.1);
         let from = Obstacle::Shape {
