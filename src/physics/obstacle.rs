@@ -300,10 +300,11 @@ pub(crate) type Anchors = Ties<(usize, usize), Vector3<f64>>;
 
 impl Anchors {
     /// Where the (point, obstacle) pair touching at `x` with contact normal `normal` is tied
-    /// this step, and how far it slipped from its last anchor (0 for a new contact). `carry` moves a point fixed to the obstacle by the obstacle's move since the
-    /// last step (the identity for a static one): a link holds what it grips from step to
-    /// step, as a static obstacle holds what rests on it, instead of letting it creep by a
-    /// fresh spring's give every step.
+    /// this step, and how far it slipped from its last anchor (0 for a new contact). `carry`
+    /// moves a point fixed to the obstacle by the obstacle's move since the last step (the
+    /// identity for a static one): a link holds what it grips from step to step, as a static
+    /// obstacle holds what rests on it, instead of letting it creep by a fresh spring's give
+    /// every step.
     pub fn tie(
         &mut self,
         pair: (usize, usize),
