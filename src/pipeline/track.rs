@@ -85,10 +85,11 @@ pub struct FrameFit {
     pub residual_m: f64,
     /// Correspondences handed to the simulation (0: the frame corrected nothing).
     pub correspondences: usize,
-    /// Whether the frame explained the body and corrected it.
+    /// Whether the frame explained the body (its gate left at most `unexplained_share` of it)
+    /// and corrected it, by springs or by a re-lock.
     pub applied: bool,
-    /// Whether the frame did not explain the body but pulled it back, matched with a wider
-    /// gate.
+    /// Whether the body was moved onto the frame, matched with a wider gate (a frame the gate
+    /// did not explain, or explained only in part).
     pub relocked: bool,
     /// Time of the matching and the data term's setup, ms.
     pub ms: f64,
@@ -237,7 +238,10 @@ impl Tracker {
             fit.correspondences = term.weights.len();
             body.observe(&term)?;
             self.expires = Some(body.time() + self.options.hold_s - 1e-9);
-            fit.applied = !fit.relocked;
+            // Re-locked by a frame the gate explained enough, the body still follows a frame
+            // of its own object: counted as unexplained, a hand held over part of it would
+            // have replaced it after a few frames.
+            fit.applied = fit.unexplained_share <= allowed;
         }
         fit.ms = started.elapsed().as_secs_f64() * 1e3;
         Ok(fit)
