@@ -316,8 +316,9 @@ impl Anchors {
         let anchor = self.tie_with(pair, true, |previous| match previous {
             // The slip is measured where the obstacle was, then carried with it.
             Some(previous) => {
-                slip = Stick::slip(previous, x, normal).norm();
-                carry(&Stick::carried_anchor(previous, x, normal))
+                let (anchor, slipped) = Stick::carried_anchor(previous, x, normal);
+                slip = slipped;
+                carry(&anchor)
             }
             None => carry(x),
         });
@@ -385,27 +386,24 @@ impl Stick {
         self
     }
 
-    /// How far `x` lies from `anchor` across `normal`.
-    fn slip(anchor: &Vector3<f64>, x: &Vector3<f64>, normal: &Vector3<f64>) -> Vector3<f64> {
-        let d = x - anchor;
-        d - normal * normal.dot(&d)
-    }
-
-    /// Where a contact that kept touching a static obstacle is tied now: its previous anchor,
-    /// dragged along when the point has slipped farther than [`STICK_SLIP`] from it (the
-    /// Coulomb limit: beyond it the point slides and friction stays at its limit).
+    /// Where a contact that kept touching a static obstacle is tied now, and how far it
+    /// slipped across `normal` from its previous anchor: that anchor, dragged along when the
+    /// point has slipped farther than [`STICK_SLIP`] from it (the Coulomb limit: beyond it the
+    /// point slides and friction stays at its limit).
     pub fn carried_anchor(
         previous: &Vector3<f64>,
         x: &Vector3<f64>,
         normal: &Vector3<f64>,
-    ) -> Vector3<f64> {
-        let slip = Self::slip(previous, x, normal);
+    ) -> (Vector3<f64>, f64) {
+        let d = x - previous;
+        let slip = d - normal * normal.dot(&d);
         let length = slip.norm();
-        if length > STICK_SLIP {
+        let anchor = if length > STICK_SLIP {
             x - slip * (STICK_SLIP / length)
         } else {
             previous - normal * normal.dot(&(previous - x))
-        }
+        };
+        (anchor, length)
     }
 
     /// Energy and gradient at `x`: with d the slip across the normal from the anchor,

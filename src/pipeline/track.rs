@@ -173,9 +173,9 @@ impl Tracker {
     /// that step. A frame the gate does not explain, or explains only in part, is matched
     /// again with a gate `RELOCK_GATE` times wider; when that leaves at most `RELOCK_GAIN` of
     /// what the gate left unexplained, a body that the physics carried off (an impact, a push
-    /// it does not know of) is moved back onto what the camera sees, and the frame still
-    /// counts as unexplained (a new object in its place is told apart by frames that go on
-    /// being so).
+    /// it does not know of) is moved back onto what the camera sees. A frame the gate did not
+    /// explain still counts as unexplained, re-locked or not (a new object in its place is
+    /// told apart by frames that go on being so).
     pub fn observe(
         &mut self,
         body: &mut SoftBody,
@@ -208,8 +208,9 @@ impl Tracker {
         let partial = fit.unexplained_share > KEPT_FORCE_SHARE * self.options.unexplained_share;
         if matched.is_none() || partial {
             let wide = self.match_both_ways(&seen, points, viewpoint, RELOCK_GATE);
-            let explains = wide.explained > 0 && share(&wide) <= allowed;
-            if explains && share(&wide) <= RELOCK_GAIN * fit.unexplained_share {
+            let left = share(&wide);
+            let explains = wide.explained > 0 && left <= allowed;
+            if explains && left <= RELOCK_GAIN * fit.unexplained_share {
                 fit.relocked = true;
                 matched = Some(wide);
             }
