@@ -39,7 +39,7 @@ const DEPTH_NOISE_AT_1M: f64 = 0.002;
 /// The camera's image.
 const IMAGE: (usize, usize) = (160, 120);
 /// Observed points a frame is thinned to before matching (the node's `tracking.max_points`).
-const OBSERVED_POINTS: usize = 500;
+const OBSERVED_POINTS: usize = 2000;
 
 /// One frame: noisy points, where each truly lies (surface triangle, barycentrics).
 struct Frame {

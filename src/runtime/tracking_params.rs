@@ -34,7 +34,8 @@ pub struct TrackingParams {
     /// the object moved unseen; a cloud after a longer gap (clouds sent now and then, not a
     /// stream) builds the object anew, as without tracking, s. Default 2.
     pub relock_within_s: f64,
-    /// Points of a frame matched, at most (a cloud's pixels thinned evenly). Default 500.
+    /// Points of a frame matched, at most (a cloud's pixels thinned evenly); an even 500 of
+    /// them pull the object. Default 2000.
     pub max_points: usize,
     /// Surface samples of the object matched against a frame. Default 2000.
     pub samples: usize,
@@ -60,7 +61,7 @@ impl Default for TrackingParams {
             replace_after_frames: 5,
             pause_after_s: 0.2,
             relock_within_s: 2.0,
-            max_points: 500,
+            max_points: 2000,
             samples: options.samples,
             hold_s: options.hold_s,
             force_gain: options.force_gain,
