@@ -463,7 +463,7 @@ const RELOCK_GAIN: f64 = 0.5;
 /// samples look for their nearest observed points (the alignment, model to cloud): thinned to
 /// 500, a point on a block's side face was often nearer to a sample on its top's edge than any
 /// point of the top, and such pairs turned and moved a block at rest by 10 mrad and 1.5 mm a
-/// frame (`bench track`, block at rest 0.2310 % against 0.1330 % at full density). The pulls'
+/// frame (`bench track`, block at rest 0.2310 % against 0.1328 % at full density). The pulls'
 /// cost grows with their points; their share of the frame does not need the density.
 const PULLING_POINTS: usize = 500;
 
@@ -476,9 +476,9 @@ struct Pairs {
     misses: Vec<(usize, Vector3<f64>)>,
     /// The rigid motion that laid the seen samples on the frame before they were matched.
     motion: nalgebra::Isometry3<f64>,
-    /// The observed points that looked for a sample to pull (see `PULLING_POINTS`), and those
-    /// within the gate of one.
+    /// The observed points that looked for a sample to pull (see `PULLING_POINTS`).
     pulling: usize,
+    /// Those of them within the gate of a sample.
     explained: usize,
     residual_m: f64,
 }
