@@ -185,6 +185,17 @@ impl Tracker {
         viewpoint: &Vector3<f64>,
     ) -> Result<FrameFit> {
         let started = Instant::now();
+        if points.is_empty() {
+            // Nothing seen explains nothing (and an index over no points has no bounds).
+            return Ok(FrameFit {
+                unexplained_share: 1.0,
+                ms: started.elapsed().as_secs_f64() * 1e3,
+                ..Default::default()
+            });
+        }
+        // One index of the frame for both gates: at 2000 points its build is a share of the
+        // correction, and a frame explained in part is matched twice.
+        let cloud = PointIndex::for_surface(points);
         let maps = self.maps(&body.predicted_state());
         let placed = self.placed(&maps);
         let seen = self.seen(&maps, &placed, viewpoint);
@@ -194,7 +205,7 @@ impl Tracker {
         };
         let allowed = 1.0 - self.options.unexplained_share;
         let share = |pairs: &Pairs| 1.0 - pairs.explained as f64 / pairs.pulling.max(1) as f64;
-        let narrow = self.match_both_ways(&seen, points, viewpoint, 1.0);
+        let narrow = self.match_both_ways(&seen, points, &cloud, viewpoint, 1.0);
         fit.explained = narrow.explained;
         fit.residual_m = narrow.residual_m;
         fit.unexplained_share = share(&narrow);
@@ -212,7 +223,7 @@ impl Tracker {
         // a pushed block lost its kept force to a paddle's points at every frame).
         let partial = fit.unexplained_share > RELOCK_TRY_SHARE * self.options.unexplained_share;
         if matched.is_none() || partial {
-            let wide = self.match_both_ways(&seen, points, viewpoint, RELOCK_GATE);
+            let wide = self.match_both_ways(&seen, points, &cloud, viewpoint, RELOCK_GATE);
             let left = share(&wide);
             let explains = wide.explained > 0 && left <= allowed;
             let moved = wide.motion.translation.vector.norm();
@@ -383,21 +394,22 @@ impl Tracker {
         (4.0 * self.options.noise_m * depth * depth).max(self.options.gate_fraction * self.diagonal)
     }
 
-    /// Cloud to model and model to cloud, within `widen` times the gate.
+    /// Cloud to model and model to cloud, within `widen` times the gate; `cloud` indexes
+    /// `points`.
     fn match_both_ways(
         &self,
         seen: &Seen,
         points: &[Vector3<f64>],
+        cloud: &PointIndex,
         viewpoint: &Vector3<f64>,
         widen: f64,
     ) -> Pairs {
         let mut pairs = Pairs::default();
-        if seen.points.is_empty() || points.is_empty() {
+        if seen.points.is_empty() {
             return pairs;
         }
-        let cloud = PointIndex::for_surface(points);
         let gate = |y: &Vector3<f64>| widen * self.gate(y, viewpoint);
-        let (aligned, motion) = rigidly_aligned(&seen.points, &seen.normals, &cloud, points, &gate);
+        let (aligned, motion) = rigidly_aligned(&seen.points, &seen.normals, cloud, points, &gate);
         pairs.motion = motion;
         let model = PointIndex::new(&aligned, 2.0 * self.spacing);
         let mut squared = 0.0;
