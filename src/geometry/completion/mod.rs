@@ -17,7 +17,8 @@
 //! hidden side follows the reflection pixel by pixel, and the completion is joined by its own
 //! reflection (less what the camera saw to be empty), so that it is as symmetric as the prior;
 //! another compact object's takes a generous depth (mostly the deepest) of the reflected points
-//! in coarser bins.
+//! in coarser bins, except that an object whose outline sprawls (an animal's legs) reaches no
+//! deeper behind each pixel than its limbs are thick (see `midsurface`).
 //! Side walls join the patch's rim to the hidden side, so the completed surface is closed; a
 //! known floor cuts the hidden side off where it would go below.
 
@@ -25,6 +26,7 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::Serialize;
 
 mod cuboid;
+mod midsurface;
 mod prior;
 mod quadric;
 mod reflection;
@@ -37,7 +39,7 @@ use super::shape::principal_extents;
 use crate::linalg::tangents;
 pub use prior::Prior;
 use reflection::{Carving, Reflection};
-use rim::rim_centroid;
+use rim::{rim_centroid, rim_points};
 use section::{elliptic_axis, round_axis};
 
 /// Clouds with fewer points are not examined: too few to tell one side from two.
@@ -279,7 +281,10 @@ pub fn complete_view(
     let fine_pixel = symmetric.then_some(rim_bins.pixel);
     let reflection = Reflection::new(points, &image, &view, &centre, fine_pixel, bins);
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
-    let mirrors = reflection.hidden_side(points, &depths, &image, &view, floor_z);
+    let mut mirrors = reflection.hidden_side(points, &depths, &image, &view, floor_z);
+    if !symmetric {
+        midsurface::thin_limbs(&mut mirrors, points, (&depths, &image), &view, &rim_bins);
+    }
     let mut surface = points.to_vec();
     surface.extend(mirrors.iter().flatten());
     for (c, cell) in rim_bins.cells.iter().enumerate() {
@@ -588,17 +593,7 @@ fn estimated_centre(
     bins: &ImageBins,
     spacing: f64,
 ) -> (Vector3<f64>, Prior) {
-    // Per rim bin its deepest point: where the surface turns away. The nearer points of a bin
-    // on a face seen at a grazing angle lie towards the camera and would pull the centre in.
-    let rim: Vec<usize> = (0..bins.cells.len())
-        .filter(|&c| !bins.cells[c].is_empty() && bins.on_rim(c))
-        .filter_map(|c| {
-            bins.cells[c]
-                .iter()
-                .copied()
-                .max_by(|&a, &b| depths[a].total_cmp(&depths[b]))
-        })
-        .collect();
+    let rim = rim_points(bins, depths);
     let mut centroid = rim_centroid(points, &rim);
     let mut outline = Outline::new(points, view);
     let mut long = outline

@@ -1,15 +1,31 @@
-//! The centre a rim stands for: the centroid of the patch's rim, the silhouette's generator,
+//! The patch's rim (its outline's deepest points), and the centre it stands for: the centroid of the patch's rim, the silhouette's generator,
 //! which a centrally symmetric object's centre halves, each point weighted by the length of rim
 //! it stands for.
 
 use nalgebra::Vector3;
 
 use super::super::point_index::PointIndex;
+use super::ImageBins;
 
 /// A rim point's weight in the centre is the summed distance to this many other rim points.
 const RIM_NEIGHBOURS: usize = 4;
 /// No rim point weighs more than this many times the median rim point.
 const RIM_WEIGHT_CAP: f64 = 1.5;
+
+/// The patch's rim: per bin of `bins` on the outline, its deepest point (by `depths`), where
+/// the surface turns away. The nearer points of a bin on a face seen at a grazing angle lie
+/// towards the camera and would pull the centre in.
+pub(super) fn rim_points(bins: &ImageBins, depths: &[f64]) -> Vec<usize> {
+    (0..bins.cells.len())
+        .filter(|&c| !bins.cells[c].is_empty() && bins.on_rim(c))
+        .filter_map(|c| {
+            bins.cells[c]
+                .iter()
+                .copied()
+                .max_by(|&a, &b| depths[a].total_cmp(&depths[b]))
+        })
+        .collect()
+}
 
 /// The centroid of the rim points (indices into `points`), each weighted by the length of rim
 /// it stands for: the summed distance to its `RIM_NEIGHBOURS` nearest rim points, at most
