@@ -33,7 +33,10 @@ const ALIGNED: f64 = 0.99;
 const FACE_SHARE: f64 = 0.02;
 const FACE_FROM: usize = 20;
 /// The three axes must hold this share of the flat normals: else the flat parts are no box's.
-const EXPLAINED: f64 = 0.9;
+/// A block with rounded edges (`bench views`' golf club head seen from (-0.7, 1, 0.5) at 240 x
+/// 180) kept 0.86 of them on its axes (printed), and at 0.9 it was completed round across its
+/// long axis, 1.52 times its volume.
+const EXPLAINED: f64 = 0.85;
 /// This share of the points must lie within `tolerance` of the fitted box's surface.
 const ON_FACES: f64 = 0.95;
 /// The extents are read at this quantile of the points and its complement, so that a few

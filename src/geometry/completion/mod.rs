@@ -10,7 +10,8 @@
 //! there where it is elliptic (else taken as deep behind the surface in front of it as a round
 //! rod's axis lies: half its width over the sine of its tilt from the view). A compact object
 //! that the visible half of an ellipsoid describes (a ball, an egg) is centred on the ellipsoid
-//! fitted to what was seen, and a box with two or three faces in view on the box they give;
+//! fitted to what was seen, and a box with two or three faces in view (a long one too, whose
+//! section fits no circle or ellipse) on the box they give;
 //! another compact object's centre is at least half its breadth deep behind the nearer of its
 //! nearest point and the surface in front of the centre, and at least midway between the
 //! nearest and the deepest point seen. A long object's and a fitted one's
@@ -582,8 +583,10 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 /// ellipse and no circle, on the ellipse's. A compact object that the visible half of an
 /// ellipsoid describes is centred on it (`silhouette::ellipsoid_centre`), a box with two faces
 /// in view on its box (`cuboid::box_centre`: its points within `BOX_TOLERANCE` point
-/// spacings, `spacing`, of the box's faces); another is at least midway between the nearest
-/// and the deepest point seen (`seen_depths_middle`). Also the prior that decided.
+/// spacings, `spacing`, of the box's faces), a long one too where no circle or ellipse fits
+/// across its middle (taken round across its axis, a block would be as deep as it is broad);
+/// another is at least midway between the nearest and the deepest point seen
+/// (`seen_depths_middle`). Also the prior that decided.
 /// `depths` and `image` are the points' depths and image coordinates in `view`.
 fn estimated_centre(
     points: &[Vector3<f64>],
@@ -643,6 +646,9 @@ fn estimated_centre(
         let half_width = strip.outline_width(&outline, pitch) / 2.0;
         if let Some(on_axis) = axis.section(points, &strip, &centre, half_width, &view.forward) {
             return (on_axis, Prior::LongAxis);
+        }
+        if let Some(centre) = cuboid::box_centre(points, BOX_TOLERANCE * spacing) {
+            return (centre, Prior::Box);
         }
     }
     let prior = if long.is_some() {
