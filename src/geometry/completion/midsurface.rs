@@ -15,9 +15,9 @@ use super::rim::rim_points;
 use super::{ImageBins, ViewFrame};
 
 /// An outline whose area is less than this share of its convex hull's sprawls: a body with
-/// limbs (an ant seen from any side, 0.28 to 0.56 in `bench views`; the creature 0.53 to 0.87;
-/// a ring seen from the front, 0.78 and more; boxes, cans, balls, bottles and a mug 0.84 to
-/// 1.10, the bins' overlap counted in).
+/// limbs (an ant seen from any side, 0.28 to 0.56 in `bench views`, printed; the creature 0.53
+/// to 0.87; a ring, 0.78 and more; every other shape and real mesh there 0.84 to 1.26, the
+/// bins' overlap with the outline counted in).
 const SPRAWLING: f64 = 0.7;
 /// The rim points a pixel's mid-surface depth is interpolated from.
 const RIM_NEIGHBOURS: usize = 8;

@@ -1,6 +1,6 @@
-//! The patch's rim (its outline's deepest points), and the centre it stands for: the centroid of the patch's rim, the silhouette's generator,
-//! which a centrally symmetric object's centre halves, each point weighted by the length of rim
-//! it stands for.
+//! The patch's rim (its outline's deepest points), and the centre it stands for: the centroid
+//! of the rim, the silhouette's generator, which a centrally symmetric object's centre halves,
+//! each point weighted by the length of rim it stands for.
 
 use nalgebra::Vector3;
 
