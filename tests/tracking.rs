@@ -319,6 +319,21 @@ fn bench_track_refuses_a_view_with_no_direction() {
     );
 }
 
+/// A tracking option the node refuses is refused by the bench too, by its parameter's name.
+#[test]
+fn bench_track_refuses_what_the_node_refuses() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_physskin"))
+        .args(["bench", "track", "--force-gain", "2", "--modes", "tracked"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("`tracking.force_gain`") && stderr.contains("outside [0, 1]"),
+        "{stderr}"
+    );
+}
+
 /// bags/stream.mcap (`bench track`'s poked ball, written by `--write-stream`: clouds in the
 /// camera's optical frame, the camera placed by /tf_static) replays as one object, built from
 /// the first cloud and corrected by every later one, and follows the push it never heard of.
