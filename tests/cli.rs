@@ -519,8 +519,9 @@ fn views_bench_compares_every_scan_with_the_whole_solid() {
     let summed = report["real"]["completed"].as_u64().unwrap()
         + report["real_noisy"]["completed"].as_u64().unwrap();
     assert_eq!(summed as usize, real_completed);
-    // Every completed row names the prior that placed its centre.
-    let priors = ["ellipsoid", "box", "long_axis", "long", "compact"];
+    // Every completed row names the prior that placed its centre (and a sprawling outline's
+    // hidden side, `limbs`).
+    let priors = ["ellipsoid", "box", "long_axis", "long", "compact", "limbs"];
     for row in rows.iter().filter(|r| r["outcome"] == "completed") {
         assert!(priors.contains(&row["prior"].as_str().unwrap()), "{row}");
     }

@@ -31,21 +31,21 @@ const ROUND_LIMB: f64 = 1.8;
 
 /// Brings each hidden point of `mirrors` forward along its ray to where the mid-surface puts
 /// it, if nearer, when the outline of `points` sprawls (see `SPRAWLING`); `seen` are their
-/// depths and image positions in `view`, `bins` the image's two-pixel bins.
+/// depths and image positions in `view`, `bins` the image's two-pixel bins. Whether it did.
 pub(super) fn thin_limbs(
     mirrors: &mut [Option<Vector3<f64>>],
     points: &[Vector3<f64>],
     seen: (&[f64], &[Vector2<f64>]),
     view: &ViewFrame,
     bins: &ImageBins,
-) {
+) -> bool {
     let (depths, image) = seen;
     if solidity(image, bins) >= SPRAWLING {
-        return;
+        return false;
     }
     let rim = rim_points(bins, depths);
     if rim.is_empty() {
-        return;
+        return false;
     }
     let mid = MidSurface::new(image, depths, &rim);
     let index = PointIndex::for_surface(&mid.rim_image);
@@ -59,6 +59,7 @@ pub(super) fn thin_limbs(
             *mirror = Some(view.viewpoint + (points[i] - view.viewpoint) * (local / depths[i]));
         }
     }
+    true
 }
 
 /// The outline's area (the occupied bins') over its convex hull's in the image.

@@ -272,7 +272,7 @@ pub fn complete_view(
     // The rim is found on bins of about two pixels: coarser bins would reach far into the
     // patch where faces are foreshortened, and pull the centre towards the camera.
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
-    let (centre, prior) = estimated_centre(points, &depths, &image, &view, &rim_bins, spacing);
+    let (centre, mut prior) = estimated_centre(points, &depths, &image, &view, &rim_bins, spacing);
     let symmetric = prior.symmetric();
     // The reflection is followed pixel by pixel where the object is long, taken round across
     // its axis, or fitted (an ellipsoid, a box). Another compact object's is not: its bins'
@@ -283,8 +283,10 @@ pub fn complete_view(
     let reflection = Reflection::new(points, &image, &view, &centre, fine_pixel, bins);
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
     let mut mirrors = reflection.hidden_side(points, &depths, &image, &view, floor_z);
-    if !symmetric {
-        midsurface::thin_limbs(&mut mirrors, points, (&depths, &image), &view, &rim_bins);
+    if !symmetric
+        && midsurface::thin_limbs(&mut mirrors, points, (&depths, &image), &view, &rim_bins)
+    {
+        prior = Prior::Limbs;
     }
     let mut surface = points.to_vec();
     surface.extend(mirrors.iter().flatten());

@@ -17,13 +17,16 @@ pub enum Prior {
     Long,
     /// Another compact object: at least half its breadth deep, a generous fill.
     Compact,
+    /// A compact object whose outline sprawls (limbs): as `Compact`, but no deeper behind each
+    /// pixel than the rim's mid-surface puts its hidden side (see `midsurface`).
+    Limbs,
 }
 
 impl Prior {
     /// Whether the completion follows the reflection pixel by pixel and is made symmetric about
-    /// its centre: every prior but `Compact`'s.
+    /// its centre: every prior but `Compact`'s and `Limbs`'.
     pub(super) fn symmetric(self) -> bool {
-        self != Prior::Compact
+        !matches!(self, Prior::Compact | Prior::Limbs)
     }
 
     /// The name reported, as serialized.
@@ -34,6 +37,7 @@ impl Prior {
             Prior::LongAxis => "long_axis",
             Prior::Long => "long",
             Prior::Compact => "compact",
+            Prior::Limbs => "limbs",
         }
     }
 }

@@ -487,6 +487,11 @@ fn a_body_with_legs_is_as_deep_as_its_legs() {
             "the insect seen from {direction:?} became {ratio:.3} of its volume"
         );
     }
+    // And the completion says so.
+    let camera = Camera::looking_at(&shape, Vector3::new(1.0, 0.6, 0.8), 1.5, 160, 120);
+    let points = scan_points(&shape, &camera).unwrap();
+    let view = complete_view(&points, &camera.position, None).unwrap();
+    assert_eq!(view.expect("completed").report.prior.name(), "limbs");
 }
 
 /// A long block with rounded edges, seen with its broad face nearly square to the camera, is
