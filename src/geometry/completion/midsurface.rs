@@ -26,7 +26,7 @@ const RIM_NEIGHBOURS: usize = 8;
 /// square root of twice its radius times a pixel (1.1 cm for a 3 cm limb seen at 2 mm pixels),
 /// so the depth from the surface to the rim falls short of the limb's radius. In `bench views`
 /// the same count of real scans came within 30 % at 1.5, 1.8 and 2.2 (printed); at 1 the
-/// creature came out 0.54 to 0.69 of its volume, the ant 0.55 to 1.15.
+/// creature came out 0.51 to 0.69 of its volume, the ant 0.55 to 1.15.
 const ROUND_LIMB: f64 = 1.8;
 
 /// Brings each hidden point of `mirrors` forward along its ray to where the mid-surface puts
