@@ -11,7 +11,6 @@
 use nalgebra::{Vector2, Vector3};
 
 use super::super::point_index::PointIndex;
-use super::rim::rim_points;
 use super::{ImageBins, ViewFrame};
 
 /// An outline whose area is less than this share of its convex hull's sprawls: a body with
@@ -31,23 +30,21 @@ const ROUND_LIMB: f64 = 1.8;
 
 /// Brings each hidden point of `mirrors` forward along its ray to where the mid-surface puts
 /// it, if nearer, when the outline of `points` sprawls (see `SPRAWLING`); `seen` are their
-/// depths and image positions in `view`, `bins` the image's two-pixel bins. Whether it did.
+/// depths and image positions in `view`, `outline` the image's two-pixel bins and the rim
+/// found on them (`rim::rim_points`). Whether it did.
 pub(super) fn thin_limbs(
     mirrors: &mut [Option<Vector3<f64>>],
     points: &[Vector3<f64>],
     seen: (&[f64], &[Vector2<f64>]),
     view: &ViewFrame,
-    bins: &ImageBins,
+    outline: (&ImageBins, &[usize]),
 ) -> bool {
     let (depths, image) = seen;
-    if solidity(image, bins) >= SPRAWLING {
+    let (bins, rim) = outline;
+    if rim.is_empty() || solidity(image, bins) >= SPRAWLING {
         return false;
     }
-    let rim = rim_points(bins, depths);
-    if rim.is_empty() {
-        return false;
-    }
-    let mid = MidSurface::new(image, depths, &rim);
+    let mid = MidSurface::new(image, depths, rim);
     let index = PointIndex::for_surface(&mid.rim_image);
     for (i, mirror) in mirrors.iter_mut().enumerate() {
         let Some(back) = *mirror else { continue };

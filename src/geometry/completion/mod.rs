@@ -272,7 +272,9 @@ pub fn complete_view(
     // The rim is found on bins of about two pixels: coarser bins would reach far into the
     // patch where faces are foreshortened, and pull the centre towards the camera.
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
-    let (centre, mut prior) = estimated_centre(points, &depths, &image, &view, &rim_bins, spacing);
+    let rim = rim_points(&rim_bins, &depths);
+    let (centre, mut prior) =
+        estimated_centre(points, &depths, &image, &view, (&rim_bins, &rim), spacing);
     let symmetric = prior.symmetric();
     // The reflection is followed pixel by pixel where the object is long, taken round across
     // its axis, or fitted (an ellipsoid, a box). Another compact object's is not: its bins'
@@ -284,7 +286,13 @@ pub fn complete_view(
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
     let mut mirrors = reflection.hidden_side(points, &depths, &image, &view, floor_z);
     if !symmetric
-        && midsurface::thin_limbs(&mut mirrors, points, (&depths, &image), &view, &rim_bins)
+        && midsurface::thin_limbs(
+            &mut mirrors,
+            points,
+            (&depths, &image),
+            &view,
+            (&rim_bins, &rim),
+        )
     {
         prior = Prior::Limbs;
     }
@@ -589,17 +597,18 @@ fn extent(values: impl Iterator<Item = f64>) -> f64 {
 /// across its middle (taken round across its axis, a block would be as deep as it is broad);
 /// another is at least midway between the nearest and the deepest point seen
 /// (`seen_depths_middle`). Also the prior that decided.
-/// `depths` and `image` are the points' depths and image coordinates in `view`.
+/// `depths` and `image` are the points' depths and image coordinates in `view`; `outline` the
+/// two-pixel bins and the rim found on them (`rim_points`).
 fn estimated_centre(
     points: &[Vector3<f64>],
     depths: &[f64],
     image: &[Vector2<f64>],
     view: &ViewFrame,
-    bins: &ImageBins,
+    outline: (&ImageBins, &[usize]),
     spacing: f64,
 ) -> (Vector3<f64>, Prior) {
-    let rim = rim_points(bins, depths);
-    let mut centroid = rim_centroid(points, &rim);
+    let (bins, rim) = outline;
+    let mut centroid = rim_centroid(points, rim);
     let mut outline = Outline::new(points, view);
     let mut long = outline
         .is_long()
