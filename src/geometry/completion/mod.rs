@@ -273,8 +273,8 @@ pub fn complete_view(
     // patch where faces are foreshortened, and pull the centre towards the camera.
     let rim_bins = ImageBins::new(&image, 2.0 * image_pitch(&image));
     let rim = rim_points(&rim_bins, &depths);
-    let (centre, mut prior) =
-        estimated_centre(points, &depths, &image, &view, (&rim_bins, &rim), spacing);
+    let outline = (&rim_bins, rim.as_slice());
+    let (centre, mut prior) = estimated_centre(points, &depths, &image, &view, outline, spacing);
     let symmetric = prior.symmetric();
     // The reflection is followed pixel by pixel where the object is long, taken round across
     // its axis, or fitted (an ellipsoid, a box). Another compact object's is not: its bins'
@@ -285,15 +285,8 @@ pub fn complete_view(
     let reflection = Reflection::new(points, &image, &view, &centre, fine_pixel, bins);
     let depth = 2.0 * (view.depth(&centre) - depths.iter().cloned().fold(f64::INFINITY, f64::min));
     let mut mirrors = reflection.hidden_side(points, &depths, &image, &view, floor_z);
-    if !symmetric
-        && midsurface::thin_limbs(
-            &mut mirrors,
-            points,
-            (&depths, &image),
-            &view,
-            (&rim_bins, &rim),
-        )
-    {
+    let seen = (depths.as_slice(), image.as_slice());
+    if !symmetric && midsurface::thin_limbs(&mut mirrors, points, seen, &view, outline) {
         prior = Prior::Limbs;
     }
     let mut surface = points.to_vec();
