@@ -3,6 +3,8 @@
 
 use std::process::{Command, Output};
 
+mod common;
+
 fn physskin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_physskin"))
 }
@@ -34,12 +36,7 @@ fn simulate_prints_a_summary_with_the_error_against_the_reference() {
 
 #[test]
 fn simulate_refuses_unknown_shapes_by_name() {
-    let out = physskin()
-        .args(["simulate", "--shape", "teapot"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = common::physskin_refused(&["simulate", "--shape", "teapot"]);
     assert!(
         stderr.contains("teapot") && stderr.contains("creature"),
         "{stderr}"
@@ -220,12 +217,7 @@ fn sim_bench_filters_run_only_the_chosen_rows_and_refuse_unknown_names() {
         ("--scenario", "juggle"),
         ("--poisson", "0.7"),
     ] {
-        let out = physskin()
-            .args(["bench", "sim", "--quick", flag, bad])
-            .output()
-            .unwrap();
-        assert!(!out.status.success());
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = common::physskin_refused(&["bench", "sim", "--quick", flag, bad]);
         assert!(stderr.contains(bad), "{stderr}");
     }
 }

@@ -307,12 +307,8 @@ fn bench_track_runs_each_noise_seed_and_reports_the_spread() {
 /// A view that gives no direction is refused by name.
 #[test]
 fn bench_track_refuses_a_view_with_no_direction() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_physskin"))
-        .args(["bench", "track", "--view", "0,0,0", "--modes", "tracked"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr =
+        common::physskin_refused(&["bench", "track", "--view", "0,0,0", "--modes", "tracked"]);
     assert!(
         stderr.contains("`view`") && stderr.contains("no direction"),
         "{stderr}"
@@ -322,12 +318,8 @@ fn bench_track_refuses_a_view_with_no_direction() {
 /// A tracking option the node refuses is refused by the bench too, by its parameter's name.
 #[test]
 fn bench_track_refuses_what_the_node_refuses() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_physskin"))
-        .args(["bench", "track", "--force-gain", "2", "--modes", "tracked"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr =
+        common::physskin_refused(&["bench", "track", "--force-gain", "2", "--modes", "tracked"]);
     assert!(
         stderr.contains("`tracking.force_gain`") && stderr.contains("outside [0, 1]"),
         "{stderr}"

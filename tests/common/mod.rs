@@ -51,6 +51,18 @@ pub fn physskin_json(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
+/// `physskin ARGS` refused: fails the test unless the command exits non-zero; its stderr, the
+/// reason the user reads.
+#[allow(dead_code)] // only some test binaries check refusals
+pub fn physskin_refused(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_physskin"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "physskin {args:?} was not refused");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 /// `physskin scene PATH --reference --json` for `seconds` of motion after exactly
 /// `settle_steps` steps: the scene's run with each deformable object's error against the FEM.
 #[allow(dead_code)] // only the scene tests run scenes

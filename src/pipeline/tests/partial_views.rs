@@ -341,6 +341,19 @@ fn scanned_volume_ratio(shape: &Shape, truth: f64, direction: Vector3<f64>) -> f
     volume / truth
 }
 
+/// `shape` (`what`, for the message) scanned from each of `directions` as `bench real` scans
+/// is built within `tolerance` of its volume.
+fn assert_volume_from(shape: &Shape, what: &str, directions: &[Vector3<f64>], tolerance: f64) {
+    let truth = mesh_volume(shape);
+    for &direction in directions {
+        let ratio = scanned_volume_ratio(shape, truth, direction);
+        assert!(
+            (ratio - 1.0).abs() <= tolerance,
+            "{what} seen from {direction:?} became {ratio:.3} of its volume"
+        );
+    }
+}
+
 /// An ellipsoid turned from every coordinate axis, semi-axes `radii`: its outline is long
 /// from many sides, and its section across that axis is an ellipse, not a circle.
 fn turned_ellipsoid(radii: [f64; 3], turn: (f64, f64, f64)) -> Shape {
@@ -367,15 +380,12 @@ fn a_long_elliptic_object_keeps_its_depth() {
         ([0.12, 0.07, 0.045], (0.9, -0.2, 0.1)),
     ];
     for (radii, turn) in shapes {
-        let shape = turned_ellipsoid(radii, turn);
-        let truth = mesh_volume(&shape);
-        for direction in [Vector3::new(-0.7, 1.0, 0.5), Vector3::new(0.2, -1.0, 0.3)] {
-            let ratio = scanned_volume_ratio(&shape, truth, direction);
-            assert!(
-                (ratio - 1.0).abs() <= 0.3,
-                "the ellipsoid {radii:?} seen from {direction:?} became {ratio:.3} of its volume"
-            );
-        }
+        assert_volume_from(
+            &turned_ellipsoid(radii, turn),
+            &format!("the ellipsoid {radii:?}"),
+            &[Vector3::new(-0.7, 1.0, 0.5), Vector3::new(0.2, -1.0, 0.3)],
+            0.3,
+        );
     }
 }
 
@@ -396,16 +406,11 @@ fn a_turned_box_seen_from_two_faces_keeps_its_volume() {
         0.15,
         48,
     );
-    let truth = mesh_volume(&shape);
     for (direction, tolerance) in [
         (Vector3::new(1.0, 0.6, 0.8), 0.15),
         (Vector3::new(0.3, 0.4, 1.0), 0.2),
     ] {
-        let ratio = scanned_volume_ratio(&shape, truth, direction);
-        assert!(
-            (ratio - 1.0).abs() <= tolerance,
-            "the turned box seen from {direction:?} became {ratio:.3} of its volume"
-        );
+        assert_volume_from(&shape, "the turned box", &[direction], tolerance);
     }
 }
 
@@ -475,18 +480,12 @@ fn insect() -> Shape {
 #[test]
 fn a_body_with_legs_is_as_deep_as_its_legs() {
     let shape = insect();
-    let truth = mesh_volume(&shape);
-    for direction in [
+    let sides = [
         Vector3::new(1.0, 0.6, 0.8),
         Vector3::new(0.3, 0.4, 1.0),
         Vector3::new(-0.7, 1.0, 0.5),
-    ] {
-        let ratio = scanned_volume_ratio(&shape, truth, direction);
-        assert!(
-            (ratio - 1.0).abs() <= 0.4,
-            "the insect seen from {direction:?} became {ratio:.3} of its volume"
-        );
-    }
+    ];
+    assert_volume_from(&shape, "the insect", &sides, 0.4);
     // And the completion says so.
     let camera = Camera::looking_at(&shape, Vector3::new(1.0, 0.6, 0.8), 1.5, 160, 120);
     let points = scan_points(&shape, &camera).unwrap();
@@ -509,12 +508,6 @@ fn a_long_block_is_not_taken_round() {
         0.22,
         64,
     );
-    let truth = mesh_volume(&shape);
-    for direction in [Vector3::new(-0.7, 1.0, 0.5), Vector3::new(0.2, -1.0, 0.3)] {
-        let ratio = scanned_volume_ratio(&shape, truth, direction);
-        assert!(
-            (ratio - 1.0).abs() <= 0.2,
-            "the block seen from {direction:?} became {ratio:.3} of its volume"
-        );
-    }
+    let sides = [Vector3::new(-0.7, 1.0, 0.5), Vector3::new(0.2, -1.0, 0.3)];
+    assert_volume_from(&shape, "the block", &sides, 0.2);
 }
